@@ -1,0 +1,105 @@
+"""`abb-sim`: the command line of abb_ros (design.md).
+
+Each subcommand lives in ``abb_ros/commands/<name>.py`` and provides
+``add_arguments(parser)`` and ``run(args) -> dict``. The dict is the summary: printed as
+one JSON object with ``--json``, as ``key: value`` lines otherwise. Bad input
+(:class:`~abb_ros.model.params.ParamError`, :class:`UsageError`) exits with code 2 and a
+message naming the parameter and its valid range.
+"""
+
+from __future__ import annotations
+
+import argparse
+import importlib
+import json
+import sys
+
+from abb_ros.model.params import ParamError, parse_value
+
+SUBCOMMANDS = {
+    'run': 'headless simulation (no DDS) written to a rosbag2 MCAP directory',
+    'stability': 'in-plane and out-of-plane max |Floquet multiplier| at an operating point',
+    'freqs': 'natural frequencies of Eqs. (27)-(32) with m = omega = 0',
+    'map': 'stability map over two parameters (PNG + data file)',
+    'plot': 'time-response figures (PNG) from a recorded bag',
+}
+
+
+class UsageError(Exception):
+    """Bad command-line input that is not a single parameter (exit code 2)."""
+
+
+def parse_settings(items) -> dict:
+    """``['k=4000', 'wbar=2.7']`` -> ``{'k': 4000.0, 'wbar': 2.7}`` (values checked later)."""
+    settings = {}
+    for item in items or []:
+        if '=' not in item:
+            raise UsageError(f'--set expects key=value, got {item!r}')
+        key, text = item.split('=', 1)
+        key = key.strip()
+        settings[key] = parse_value(key, text.strip())
+    return settings
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog='abb-sim', description='Optical disk drive with an automatic ball balancer.')
+    sub = parser.add_subparsers(dest='command', required=True)
+    for name, help_text in SUBCOMMANDS.items():
+        p = sub.add_parser(name, help=help_text, description=help_text)
+        p.add_argument('--json', action='store_true', help='print one JSON object on stdout')
+        module = _load(name)
+        if module is not None:
+            module.add_arguments(p)
+    return parser
+
+
+def _load(name):
+    try:
+        return importlib.import_module(f'abb_ros.commands.{name}')
+    except ModuleNotFoundError as exc:
+        if exc.name == f'abb_ros.commands.{name}':
+            return None
+        raise
+
+
+def _print_human(summary: dict) -> None:
+    for key, value in summary.items():
+        print(f'{key}: {value}')
+
+
+def main(argv=None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    module = _load(args.command)
+    if module is None:
+        parser.error(f'subcommand {args.command!r} is not available in this build')
+    try:
+        summary = module.run(args)
+    except (ParamError, UsageError) as exc:
+        print(f'abb-sim {args.command}: error: {exc}', file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print(f'abb-sim {args.command}: interrupted', file=sys.stderr)
+        return 130
+    if args.json:
+        print(json.dumps(summary, default=_jsonable))
+    else:
+        _print_human(summary)
+    return 0
+
+
+def _jsonable(obj):
+    try:
+        import numpy as np
+        if isinstance(obj, np.generic):
+            return obj.item()
+        if isinstance(obj, np.ndarray):
+            return obj.tolist()
+    except ImportError:  # pragma: no cover
+        pass
+    raise TypeError(f'not JSON serialisable: {type(obj).__name__}')
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,1 @@
+"""Files: MCAP bags, scenario files and plots."""

@@ -1,0 +1,331 @@
+"""Physical parameters of the drive (Table 1 of Kim, Lee & Chung 2005) and Eq. (39).
+
+All values are SI (m, kg, s, rad). ``DriveParams`` is immutable and validated on
+construction; an invalid value raises :class:`ParamError`, which names the parameter
+and its valid range.
+
+Dimensionless parameters, Eq. (39)::
+
+    wbar = omega / omega0      zeta = 2 c / (omega0 (M + M_P))      Dbar = D / (m R^2 omega0)
+    epsbar = eps / R           mbar = m / M
+
+with omega0 the translational natural frequency for m = omega = 0 (Section 4): the Y
+equation (28) then reads (M + M_P) Y'' + 4 k Y = 0, so omega0 = sqrt(4 k / (M + M_P)).
+It is computed from the parameters, never typed in.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from dataclasses import dataclass
+from typing import Any, Mapping
+
+__all__ = [
+    'ParamError', 'DriveParams', 'PARAM_SPECS', 'DIMENSIONLESS_NAMES', 'METAL_C', 'RUBBER_C',
+    'apply_settings', 'parse_value', 'omega_from_wbar',
+]
+
+RUBBER_C = 2.53
+"""Washer damping c of rubber suspension washers [kg/s] (Table 1)."""
+METAL_C = 0.66
+"""Washer damping c of metal suspension washers [kg/s] (Table 1)."""
+
+MAX_BALLS = 64
+"""Largest ball count accepted (the race of a real drive holds about 10)."""
+
+
+class ParamError(ValueError):
+    """A parameter value outside its valid range.
+
+    Attributes ``name`` (the parameter), ``value`` and ``valid`` (the range, as text).
+    """
+
+    def __init__(self, name: str, value: Any, valid: str, why: str = ''):
+        self.name = name
+        self.value = value
+        self.valid = valid
+        msg = f'parameter {name!r} = {value!r} is invalid: valid range is {valid}'
+        if why:
+            msg += f' ({why})'
+        super().__init__(msg)
+
+
+@dataclass(frozen=True)
+class _Spec:
+    unit: str
+    description: str
+    low: float          # bound
+    low_open: bool      # True: value must be > low, False: >= low
+    high: float = math.inf
+
+    def valid_text(self) -> str:
+        lo = f'({self.low:g}' if self.low_open else f'[{self.low:g}'
+        hi = 'inf)' if math.isinf(self.high) else f'{self.high:g}]'
+        return f'{lo}, {hi} {self.unit}'.rstrip()
+
+    def check(self, name: str, value: Any) -> None:
+        if isinstance(value, bool) or not isinstance(value, (int, float)):
+            raise ParamError(name, value, self.valid_text(), 'not a number')
+        if not math.isfinite(value):
+            raise ParamError(name, value, self.valid_text(), 'not finite')
+        if value < self.low or (self.low_open and value == self.low) or value > self.high:
+            raise ParamError(name, value, self.valid_text())
+
+
+_POS = dict(low=0.0, low_open=True)
+_NONNEG = dict(low=0.0, low_open=False)
+
+PARAM_SPECS: dict[str, _Spec] = {
+    'a': _Spec('m', 'width of the feeding deck, a', **_POS),
+    'b': _Spec('m', 'length of the feeding deck, b', **_POS),
+    'd': _Spec('m', 'distance between C (spindle axis) and P (deck mass centre), d',
+               low=-1.0, low_open=False, high=1.0),
+    'R': _Spec('m', 'mean (pitch) radius of the ball race, R', **_POS),
+    'M_P': _Spec('kg', 'mass of the feeding-deck assembly, M_P', **_POS),
+    'M': _Spec('kg', 'mass of the equivalent rotor, M', **_POS),
+    'm': _Spec('kg', 'mass of one balancing ball, m', **_POS),
+    'J_Px': _Spec('kg m^2', 'deck moment of inertia about x through P, J_Px', **_POS),
+    'J_Py': _Spec('kg m^2', 'deck moment of inertia about y through P, J_Py', **_POS),
+    'J_Pz': _Spec('kg m^2', 'deck moment of inertia about z through P, J_Pz', **_POS),
+    'J_x': _Spec('kg m^2', 'rotor moment of inertia about x, J_x', **_POS),
+    'J_y': _Spec('kg m^2', 'rotor moment of inertia about y, J_y', **_POS),
+    'J_z': _Spec('kg m^2', 'rotor moment of inertia about the spin axis z, J_z', **_POS),
+    'k': _Spec('N/m', 'stiffness of one suspension washer, k', **_POS),
+    'c': _Spec('kg/s', 'damping of one suspension washer, c (rubber 2.53, metal 0.66)',
+               **_NONNEG),
+    'D': _Spec('kg m^2/s', 'viscous drag coefficient of one ball in the race fluid, D',
+               **_NONNEG),
+    'eps': _Spec('m', 'mass eccentricity of the rotor, epsilon', **_NONNEG),
+    'n': _Spec('', 'number of balancing balls, n (0 = drive without ABB)',
+               low=0, low_open=False, high=MAX_BALLS),
+}
+
+DIMENSIONLESS_NAMES = ('mbar', 'epsbar', 'zeta', 'Dbar', 'wbar')
+"""Eq. (39) names accepted by :func:`apply_settings`, applied in this order."""
+
+
+@dataclass(frozen=True)
+class DriveParams:
+    """Physical parameters of the optical disk drive with ABB. All values are SI.
+
+    Defaults are Table 1 of the paper with rubber washers, eps = 0.25 mm and n = 2.
+    """
+
+    a: float = 0.070
+    b: float = 0.110
+    d: float = 0.030
+    R: float = 0.015
+    M_P: float = 0.150
+    M: float = 0.026
+    m: float = 0.43e-3
+    J_Px: float = 1.43e-4
+    J_Py: float = 0.31e-4
+    J_Pz: float = 1.74e-4
+    J_x: float = 1.46e-6
+    J_y: float = 1.46e-6
+    J_z: float = 2.93e-6
+    k: float = 3972.0
+    c: float = RUBBER_C
+    D: float = 5e-6
+    eps: float = 0.25e-3
+    n: int = 2
+
+    def __post_init__(self):
+        for f in dataclasses.fields(self):
+            PARAM_SPECS[f.name].check(f.name, getattr(self, f.name))
+        if isinstance(self.n, float):
+            if not self.n.is_integer():
+                raise ParamError('n', self.n, PARAM_SPECS['n'].valid_text(), 'not an integer')
+            object.__setattr__(self, 'n', int(self.n))
+
+    # ---- derived quantities -------------------------------------------------------------
+    @property
+    def omega0(self) -> float:
+        """Translational natural frequency sqrt(4k/(M+M_P)) [rad/s] (Section 4, m = omega = 0)."""
+        return math.sqrt(4.0 * self.k / (self.M + self.M_P))
+
+    @property
+    def zeta(self) -> float:
+        """Damping factor 2c/(omega0 (M+M_P)), Eq. (39)."""
+        return 2.0 * self.c / (self.omega0 * (self.M + self.M_P))
+
+    @property
+    def Dbar(self) -> float:
+        """Dimensionless drag D/(m R^2 omega0), Eq. (39)."""
+        return self.D / (self.m * self.R ** 2 * self.omega0)
+
+    @property
+    def epsbar(self) -> float:
+        """Dimensionless eccentricity eps/R, Eq. (39)."""
+        return self.eps / self.R
+
+    @property
+    def mbar(self) -> float:
+        """Dimensionless ball mass m/M, Eq. (39)."""
+        return self.m / self.M
+
+    @property
+    def total_mass(self) -> float:
+        """M + M_P + n m [kg], the translational mass of Eqs. (18)-(20)."""
+        return self.M + self.M_P + self.n * self.m
+
+    @property
+    def can_balance(self) -> bool:
+        """True when the balls can cancel the imbalance: n m R >= M eps (Eq. 26 solvable)."""
+        return self.n * self.m * self.R >= self.M * self.eps
+
+    def wbar(self, omega: float) -> float:
+        """Dimensionless spindle speed omega/omega0, Eq. (39)."""
+        return omega / self.omega0
+
+    def dimensionless(self) -> dict[str, float]:
+        """The Eq. (39) parameters that do not depend on the speed."""
+        return {'zeta': self.zeta, 'Dbar': self.Dbar, 'epsbar': self.epsbar,
+                'mbar': self.mbar, 'n': self.n}
+
+    def replace(self, **changes) -> 'DriveParams':
+        """A validated copy with ``changes`` applied (SI names)."""
+        unknown = set(changes) - set(PARAM_SPECS)
+        if unknown:
+            name = sorted(unknown)[0]
+            raise ParamError(name, changes[name], 'one of ' + ', '.join(PARAM_SPECS),
+                             'unknown parameter')
+        return dataclasses.replace(self, **changes)
+
+    def as_dict(self) -> dict[str, float]:
+        return dataclasses.asdict(self)
+
+    # ---- ROS 2 parameter YAML --------------------------------------------------------------
+    @classmethod
+    def from_mapping(cls, values: Mapping[str, Any], base: 'DriveParams | None' = None
+                     ) -> 'DriveParams':
+        """Parameters from a flat SI mapping (unknown keys are an error)."""
+        return (base or cls()).replace(**dict(values))
+
+    @classmethod
+    def from_yaml(cls, path, node: str | None = None) -> 'DriveParams':
+        """Load the ``drive.*`` parameters from a ROS 2 parameter file.
+
+        The file has the form ``<node or /**>: ros__parameters: drive: {a: ..., ...}``.
+        With ``node`` given, that node's section is used (falling back to ``/**``);
+        otherwise the first section that has ``drive``.
+        """
+        import yaml
+        with open(path, encoding='utf-8') as f:
+            doc = yaml.safe_load(f) or {}
+        section = _find_drive_section(doc, node)
+        if section is None:
+            raise ParamError('drive', None, 'a mapping under <node>: ros__parameters: drive:',
+                             f'no drive parameters in {path}')
+        return cls.from_mapping(section)
+
+    def to_yaml(self, path, node: str = '/**') -> None:
+        """Write the parameters as a ROS 2 parameter file (``drive.*`` names)."""
+        import yaml
+        doc = {node: {'ros__parameters': {'drive': self.as_dict()}}}
+        with open(path, 'w', encoding='utf-8') as f:
+            f.write('# abb_ros drive parameters, SI units (see abb_ros/model/params.py)\n')
+            yaml.safe_dump(doc, f, sort_keys=False)
+
+
+def _find_drive_section(doc: Mapping, node: str | None):
+    candidates = []
+    if node is not None:
+        candidates += [node, '/' + node.lstrip('/')]
+    candidates += ['/**']
+    for key in candidates:
+        sec = doc.get(key, {}) or {}
+        drive = (sec.get('ros__parameters') or {}).get('drive')
+        if isinstance(drive, Mapping):
+            return drive
+    if node is None:
+        for sec in doc.values():
+            if isinstance(sec, Mapping):
+                drive = (sec.get('ros__parameters') or {}).get('drive')
+                if isinstance(drive, Mapping):
+                    return drive
+    return None
+
+
+def omega_from_wbar(params: DriveParams, wbar: float) -> float:
+    """Spindle speed [rad/s] for the dimensionless speed wbar, Eq. (39)."""
+    return wbar * params.omega0
+
+
+def parse_value(name: str, text: str) -> float:
+    """Parse the text of a ``--set name=value`` into a number, naming the parameter on error."""
+    try:
+        value = float(text)
+    except (TypeError, ValueError):
+        spec = PARAM_SPECS.get(name)
+        valid = spec.valid_text() if spec else 'a finite number'
+        raise ParamError(name, text, valid, 'not a number') from None
+    if name == 'n':
+        if not value.is_integer():
+            raise ParamError('n', text, PARAM_SPECS['n'].valid_text(), 'not an integer')
+        return int(value)
+    return value
+
+
+_DIMLESS_RANGES = {
+    'wbar': '[0, inf)', 'zeta': '[0, inf)', 'Dbar': '[0, inf)', 'epsbar': '[0, inf)',
+    'mbar': '(0, inf)',
+}
+
+
+def apply_settings(params: DriveParams, settings: Mapping[str, Any],
+                   omega: float | None = None) -> tuple[DriveParams, float | None]:
+    """Apply SI and Eq. (39) settings; return the new parameters and spindle speed.
+
+    SI names (``k``, ``c``, ``eps``, ..., and ``omega`` for the spindle speed) are applied
+    first, all at once; then the dimensionless ones in the order mbar, epsbar, zeta, Dbar,
+    wbar, each converted with the parameters as they stand at that point (so ``mbar``
+    changes m and leaves the SI drag D alone, while ``Dbar`` sets D for the final m).
+    """
+    si = {}
+    dimless = {}
+    for key, value in settings.items():
+        if key in PARAM_SPECS:
+            si[key] = value
+        elif key == 'omega':
+            omega = _checked_nonneg('omega', value, 'rad/s')
+        elif key in DIMENSIONLESS_NAMES:
+            dimless[key] = value
+        else:
+            valid = ', '.join(list(PARAM_SPECS) + ['omega'] + list(DIMENSIONLESS_NAMES))
+            raise ParamError(key, value, 'a known name: ' + valid, 'unknown parameter')
+    if si:
+        params = params.replace(**si)
+    for key in DIMENSIONLESS_NAMES:
+        if key not in dimless:
+            continue
+        value = dimless[key]
+        if key == 'mbar':
+            _checked_positive('mbar', value)
+            params = params.replace(m=value * params.M)
+        elif key == 'epsbar':
+            params = params.replace(eps=_checked_nonneg('epsbar', value) * params.R)
+        elif key == 'zeta':
+            z = _checked_nonneg('zeta', value)
+            params = params.replace(c=z * params.omega0 * (params.M + params.M_P) / 2.0)
+        elif key == 'Dbar':
+            Dbar = _checked_nonneg('Dbar', value)
+            params = params.replace(D=Dbar * params.m * params.R ** 2 * params.omega0)
+        elif key == 'wbar':
+            omega = _checked_nonneg('wbar', value) * params.omega0
+    return params, omega
+
+
+def _checked_nonneg(name, value, unit=''):
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+            or value < 0:
+        raise ParamError(name, value, f'[0, inf) {unit}'.rstrip())
+    return float(value)
+
+
+def _checked_positive(name, value):
+    if isinstance(value, bool) or not isinstance(value, (int, float)) or not math.isfinite(value) \
+            or value <= 0:
+        raise ParamError(name, value, _DIMLESS_RANGES[name])
+    return float(value)

@@ -1,0 +1,33 @@
+"""ament_python package abb_ros (installed by colcon, or with pip into a virtual environment)."""
+from glob import glob
+
+from setuptools import find_packages, setup
+
+package_name = 'abb_ros'
+
+setup(
+    name=package_name,
+    version='0.1.0',
+    packages=find_packages(exclude=['test', 'test.*', 'benchmarks']),
+    data_files=[
+        ('share/ament_index/resource_index/packages', ['resource/' + package_name]),
+        ('share/' + package_name, ['package.xml']),
+        ('share/' + package_name + '/config', glob('config/*.yaml')),
+        ('share/' + package_name + '/config/scenarios', glob('config/scenarios/*.yaml')),
+    ],
+    install_requires=['setuptools'],
+    zip_safe=True,
+    maintainer='abb_ros developers',
+    maintainer_email='abb_ros@example.com',
+    description='Simulated optical disk drive with an automatic ball balancer (ROS 2 Jazzy).',
+    license='Apache-2.0',
+    tests_require=['pytest'],
+    entry_points={
+        'console_scripts': [
+            'simulator = abb_ros.nodes.simulator:main',
+            'analysis = abb_ros.nodes.analysis:main',
+            'recorder = abb_ros.nodes.recorder:main',
+            'abb-sim = abb_ros.cli:main',
+        ],
+    },
+)
