@@ -1,0 +1,336 @@
+"""Time integration of the nonlinear model: a fixed-step RK4 for real time, and a reference.
+
+:class:`Simulation` advances the state of :mod:`abb_ros.model.dynamics` with the compiled
+classical RK4 of :mod:`abb_ros.model.kernels`, many steps per call; time is the integer
+step count times ``dt`` (no drift). :func:`reference_solution` integrates the same
+right-hand side with scipy's adaptive DOP853 at tight tolerances.
+
+The spindle speed is an input: :class:`ConstantSpeed` (the paper's case), :class:`Ramp`
+(constant angular acceleration over an interval) or :class:`SpindleMotor` (tracks a
+commanded speed as a first-order lag with an acceleration limit, as a speed-controlled
+spindle motor does).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from abb_ros.model import kernels
+from abb_ros.model.dynamics import n_coords, rbar
+from abb_ros.model.params import DriveParams, ParamError
+
+__all__ = ['DEFAULT_DT', 'ConstantSpeed', 'Ramp', 'SpindleMotor', 'StateError', 'Simulation',
+           'initial_state', 'reference_solution', 'Trajectory', 'simulate']
+
+DEFAULT_DT = 1.0 / 20000.0
+"""Default fixed step [s] (20 kHz); see README 'Physics and verification' for the accuracy
+study that chose it."""
+
+INITIAL_DECK = (0.3e-3, 0.3e-3, 0.3e-3, 0.0, 0.0, 0.0)
+"""Section 5 initial conditions: X = Y = Z = 0.3 mm, alpha = beta = gamma = 0."""
+
+INITIAL_PHI_DEG = 60.0
+"""Section 5: phi_1(0) = -phi_2(0) = 60 deg."""
+
+
+@dataclass(frozen=True)
+class ConstantSpeed:
+    """theta'' = 0: the paper's constant omega."""
+
+    def pack(self, omega_cmd: float = 0.0) -> np.ndarray:
+        return np.array([kernels.SPINDLE_CONSTANT, omega_cmd, 0, 1, 0, 0, 0], dtype=float)
+
+
+@dataclass(frozen=True)
+class Ramp:
+    """theta'' = accel [rad/s^2] for t0 <= t < t1 [s], zero otherwise."""
+
+    t0: float
+    t1: float
+    accel: float
+
+    def pack(self, omega_cmd: float = 0.0) -> np.ndarray:
+        return np.array([kernels.SPINDLE_RAMP, omega_cmd, 0, 1, self.t0, self.t1, self.accel],
+                        dtype=float)
+
+
+@dataclass(frozen=True)
+class SpindleMotor:
+    """Speed-controlled spindle: theta'' = clip((omega_cmd - omega)/tau, +-max_accel).
+
+    max_accel [rad/s^2] > 0, tau [s] > 0.
+    """
+
+    max_accel: float = 1000.0
+    tau: float = 0.05
+
+    def __post_init__(self):
+        for name, value in (('max_accel', self.max_accel), ('tau', self.tau)):
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ParamError(f'spindle.{name}', value, '(0, inf)')
+
+    def pack(self, omega_cmd: float = 0.0) -> np.ndarray:
+        return np.array([kernels.SPINDLE_MOTOR, omega_cmd, self.max_accel, self.tau, 0, 0, 0],
+                        dtype=float)
+
+
+class StateError(RuntimeError):
+    """The state became non-finite or left the sane envelope; integration stopped.
+
+    ``status`` is kernels.NONFINITE or kernels.ENVELOPE; ``t`` the time of the last good state.
+    """
+
+    def __init__(self, status: int, t: float):
+        self.status = status
+        self.t = t
+        what = ('became non-finite' if status == kernels.NONFINITE else
+                'left the sane envelope (|X|,|Y|,|Z| <= %g m, |alpha|,|beta|,|gamma| <= %g rad, '
+                '|phi_i\'| <= %g rad/s)' % (kernels.MAX_TRANSLATION, kernels.MAX_ANGLE,
+                                             kernels.MAX_BALL_RATE))
+        super().__init__(f'state {what} after t = {t:.6f} s; integration stopped')
+
+
+def default_phi0(n: int) -> np.ndarray:
+    """Initial ball angles [rad]: Section 5's +-60 deg; for n > 2 the balls alternate
+    between the two groups, each group spread by 1 deg steps (identical balls started at the
+    same angle would move as one)."""
+    phi = np.empty(n)
+    for i in range(n):
+        group, rank = i % 2, i // 2
+        sign = 1.0 if group == 0 else -1.0
+        phi[i] = sign * (INITIAL_PHI_DEG + rank)
+    return np.radians(phi)
+
+
+def initial_state(params: DriveParams, omega: float, phi0=None, deck0=INITIAL_DECK,
+                  theta0: float = 0.0) -> np.ndarray:
+    """The state y0 of Section 5 at spindle speed omega [rad/s]; shape (2N,)."""
+    n = params.n
+    N = n_coords(n)
+    y = np.zeros(2 * N)
+    y[0] = theta0
+    y[1:7] = deck0
+    phi = default_phi0(n) if phi0 is None else np.asarray(phi0, dtype=float)
+    if phi.shape != (n,):
+        raise ParamError('phi0', list(np.degrees(phi)), f'{n} ball angles (n = {n})')
+    y[7:N] = phi
+    y[N] = omega
+    return y
+
+
+class Simulation:
+    """The drive's state advanced by fixed RK4 steps of ``dt`` in a compiled kernel.
+
+    Parameters
+    ----------
+    params : DriveParams
+    omega : float
+        Initial spindle speed [rad/s] (also the initial speed command).
+    dt : float
+        Step [s].
+    spindle : ConstantSpeed | Ramp | SpindleMotor
+        Spindle-speed profile; default a :class:`SpindleMotor` holding ``omega``.
+    y0 : ndarray, optional
+        Initial state (default :func:`initial_state`).
+    """
+
+    def __init__(self, params: DriveParams, omega: float, dt: float = DEFAULT_DT,
+                 spindle=None, y0=None, t0: float = 0.0, kern=None):
+        if not (math.isfinite(dt) and dt > 0):
+            raise ParamError('dt', dt, '(0, inf) s')
+        self.kern = kern or kernels.JIT
+        self.dt = float(dt)
+        self.t0 = float(t0)
+        self.steps = 0
+        self.spindle = SpindleMotor() if spindle is None else spindle
+        self.omega_cmd = float(omega)
+        self._set_params(params)
+        self._y0 = initial_state(params, omega) if y0 is None else np.array(y0, dtype=float)
+        self.reset(self._y0)
+
+    def _set_params(self, params: DriveParams):
+        self.params = params
+        self._P = kernels.pack_params(params)
+        self._work = kernels.make_work(params.n)
+        self._S = self.spindle.pack(self.omega_cmd)
+
+    # ---- inputs -------------------------------------------------------------------------
+    def set_speed_command(self, omega_cmd: float) -> None:
+        """New commanded spindle speed [rad/s], taken at the next step boundary."""
+        self.omega_cmd = float(omega_cmd)
+        self._S = self.spindle.pack(self.omega_cmd)
+
+    def set_spindle(self, spindle) -> None:
+        self.spindle = spindle
+        self._S = spindle.pack(self.omega_cmd)
+
+    def set_params(self, params: DriveParams) -> None:
+        """Apply new physical parameters at the current step boundary (same n)."""
+        if params.n != self.params.n:
+            raise ParamError('n', params.n, f'{self.params.n} until reset (a change of n '
+                             'needs a new state: use reset(params=...))')
+        self._set_params(params)
+
+    def reset(self, y0=None, params: DriveParams | None = None) -> None:
+        """Back to the initial state (or y0), optionally with new parameters (any n).
+
+        Time keeps running (the step counter is not reset), so clocks never go backwards.
+        """
+        if params is not None:
+            old_n = self.params.n
+            self._set_params(params)
+            if params.n != old_n:
+                self._y0 = initial_state(params, float(self._y0[n_coords(old_n)]))
+        y0 = self._y0 if y0 is None else np.asarray(y0, dtype=float)
+        if y0.shape != (2 * n_coords(self.params.n),):
+            raise ParamError('y0', y0.shape, f'shape ({2 * n_coords(self.params.n)},)')
+        self.y = np.array(y0, dtype=float)
+
+    # ---- stepping -----------------------------------------------------------------------
+    @property
+    def t(self) -> float:
+        """Simulated time [s] = t0 + steps * dt."""
+        return self.t0 + self.steps * self.dt
+
+    def advance(self, nsteps: int) -> None:
+        """Advance by nsteps steps; raises :class:`StateError` on a bad state (the last good
+        state is kept and time stops there)."""
+        done, status = self.kern.rk4_advance(self.y, self.t0, self.dt, self.steps, int(nsteps),
+                                             self.params.n, self._P, self._S, self._work)
+        self.steps += int(done)
+        if status != kernels.OK:
+            raise StateError(int(status), self.t)
+
+    def trajectory(self, nsteps: int, every: int) -> np.ndarray:
+        """Advance nsteps, returning the states after every ``every`` steps, shape
+        (nsteps // every, 2N). Raises :class:`StateError` like :meth:`advance`."""
+        rows = int(nsteps) // int(every)
+        out = np.empty((rows, self.y.size))
+        done, got, status = self.kern.rk4_trajectory(
+            self.y, self.t0, self.dt, self.steps, int(nsteps), int(every), self.params.n,
+            self._P, self._S, self._work, out)
+        self.steps += int(done)
+        if status != kernels.OK:
+            raise StateError(int(status), self.t)
+        return out[:got]
+
+    # ---- outputs ------------------------------------------------------------------------
+    def accelerations(self) -> np.ndarray:
+        """q'' at the current state, shape (N,)."""
+        from abb_ros.model.dynamics import accelerations
+        return accelerations(self.params, self.y, self.t, self._S, kern=self.kern)
+
+    @property
+    def N(self) -> int:
+        return n_coords(self.params.n)
+
+    @property
+    def theta(self) -> float:
+        return float(self.y[0])
+
+    @property
+    def omega(self) -> float:
+        return float(self.y[self.N])
+
+    @property
+    def deck(self) -> np.ndarray:
+        """[X, Y, Z, alpha, beta, gamma] (m, rad)."""
+        return self.y[1:7].copy()
+
+    @property
+    def deck_rates(self) -> np.ndarray:
+        return self.y[self.N + 1:self.N + 7].copy()
+
+    @property
+    def phi(self) -> np.ndarray:
+        return self.y[7:self.N].copy()
+
+    @property
+    def phi_rates(self) -> np.ndarray:
+        return self.y[self.N + 7:].copy()
+
+    @property
+    def rbar(self) -> float:
+        return float(rbar(self.y, self.params))
+
+
+@dataclass
+class Trajectory:
+    """States sampled at times ``t`` [s]; ``y`` shape (len(t), 2N)."""
+
+    params: DriveParams
+    t: np.ndarray
+    y: np.ndarray
+
+    @property
+    def n(self) -> int:
+        return self.params.n
+
+    @property
+    def rbar(self) -> np.ndarray:
+        return rbar(self.y, self.params)
+
+    @property
+    def phi(self) -> np.ndarray:
+        """Ball angles [rad], shape (len(t), n)."""
+        return self.y[:, 7:n_coords(self.n)]
+
+    @property
+    def deck(self) -> np.ndarray:
+        return self.y[:, 1:7]
+
+    @property
+    def omega(self) -> np.ndarray:
+        return self.y[:, n_coords(self.n)]
+
+
+def simulate(params: DriveParams, omega: float, duration: float, dt: float = DEFAULT_DT,
+             sample_dt: float = 1e-3, spindle=None, y0=None, progress=None) -> Trajectory:
+    """Integrate for ``duration`` s with fixed steps, sampling every ``sample_dt`` s.
+
+    ``spindle`` default :class:`ConstantSpeed` (the paper's runs). ``progress`` is an
+    optional callable receiving the number of samples done (for a progress bar).
+    """
+    every = max(1, int(round(sample_dt / dt)))
+    if abs(every * dt - sample_dt) > 1e-9 * sample_dt:
+        raise ParamError('sample_dt', sample_dt, f'a multiple of dt = {dt:g} s')
+    sim = Simulation(params, omega, dt, spindle=spindle or ConstantSpeed(), y0=y0)
+    total = int(round(duration / dt)) // every
+    chunk = max(1, min(total, 1000))
+    rows = [sim.y[None, :].copy()]
+    done = 0
+    while done < total:
+        m = min(chunk, total - done)
+        rows.append(sim.trajectory(m * every, every))
+        done += m
+        if progress is not None:
+            progress(m)
+    y = np.concatenate(rows)
+    t = sim.t0 + np.arange(len(y)) * every * dt
+    return Trajectory(params, t, y)
+
+
+def reference_solution(params: DriveParams, y0, t_span, spindle=None, t_eval=None,
+                       rtol: float = 1e-10, atol: float = 1e-13, method: str = 'DOP853'):
+    """The same equations by scipy's adaptive ``solve_ivp`` (default DOP853, tight
+    tolerances). Returns scipy's OdeResult."""
+    from scipy.integrate import solve_ivp
+    n = params.n
+    P = kernels.pack_params(params)
+    S = (spindle or ConstantSpeed()).pack(float(y0[n_coords(n)]))
+    kern = kernels.JIT
+    N = n_coords(n)
+    qdd = np.empty(N)
+    bufs = (np.empty((6, 6)), np.empty((6, max(n, 1))), np.empty(6), np.empty((max(n, 1), 6)),
+            np.empty(max(n, 1)), np.empty(6))
+
+    def fun(t, y):
+        dy = np.empty(2 * N)
+        kern.deriv(t, np.ascontiguousarray(y), n, P, S, dy, qdd, *bufs)
+        return dy
+
+    return solve_ivp(fun, t_span, np.asarray(y0, dtype=float), method=method, rtol=rtol,
+                     atol=atol, t_eval=t_eval)

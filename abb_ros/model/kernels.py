@@ -1,0 +1,373 @@
+"""Compiled kernels of the nonlinear model, each with a pure-Python twin.
+
+One source, two builds: :func:`_make_kernels` is called once with ``numba.njit`` (the
+fast path, ``JIT``) and once with the identity (``PY``, plain Python on numpy arrays).
+Both run the same statements, so they agree to round-off (``test_kernels`` checks it);
+``PY`` is the fallback where numba is unavailable (set ``ABB_ROS_NO_JIT=1`` to force it).
+
+Packed inputs (plain float arrays, so the kernels stay free of Python objects):
+
+``P`` : ndarray, shape (N_PARAMS,)
+    Drive parameters in the order of :data:`PARAM_ORDER` (SI).
+``S`` : ndarray, shape (N_SPINDLE,)
+    Spindle profile: ``[mode, omega_cmd, max_accel, tau, t0, t1, ramp_accel]`` with mode
+    0 = constant speed (theta'' = 0, the paper's case), 1 = motor tracking omega_cmd as a
+    first-order lag of time constant tau limited to +-max_accel, 2 = ramp: theta'' =
+    ramp_accel for t0 <= t < t1, else 0.
+
+State ``y = [q, q']`` with ``q = [theta, X, Y, Z, alpha, beta, gamma, phi_1..phi_n]``.
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+PARAM_ORDER = ('a', 'b', 'd', 'R', 'M_P', 'M', 'm', 'J_Px', 'J_Py', 'J_Pz', 'J_x', 'J_y', 'J_z',
+               'k', 'c', 'D', 'eps', 'n')
+N_PARAMS = len(PARAM_ORDER)
+N_SPINDLE = 7
+SPINDLE_CONSTANT, SPINDLE_MOTOR, SPINDLE_RAMP = 0, 1, 2
+
+# Envelope of sane states; outside it the small-angle model is meaningless and the
+# integration stops (design.md, Errors). Deck translations in m, angles in rad, rates in rad/s.
+MAX_TRANSLATION = 0.02
+MAX_ANGLE = 0.3
+MAX_BALL_RATE = 1.0e5
+
+OK, NONFINITE, ENVELOPE = 0, 1, 2
+
+
+def _make_kernels(jit):
+    """Build the kernel set with the decorator ``jit`` (numba.njit or the identity)."""
+
+    @jit
+    def spindle_accel(t, omega, S):
+        """theta'' of the spindle profile S at time t and speed omega [rad/s^2]."""
+        mode = S[0]
+        if mode == SPINDLE_MOTOR:
+            acc = (S[1] - omega) / S[3]
+            if acc > S[2]:
+                acc = S[2]
+            elif acc < -S[2]:
+                acc = -S[2]
+            return acc
+        if mode == SPINDLE_RAMP:
+            if S[4] <= t < S[5]:
+                return S[6]
+            return 0.0
+        return 0.0
+
+    @jit
+    def assemble(y, n, P, thdd, A, W, f, B, fb):
+        """Eqs. (18)-(24) generalised to theta(t): the (6+n) system before elimination.
+
+        Deck rows (X, Y, Z, alpha, beta, gamma): A @ u + W @ phi'' = f, with u the deck
+        accelerations; ball rows: B @ u + m R^2 phi'' = fb. The rotor's mass centre G is
+        treated like a ball of mass M at radius eps and angle theta whose angle has a known
+        second derivative theta''; every phi_i'' of the paper is the ball's acceleration
+        relative to the rotor, and the inertial angle psi_i = phi_i + theta has psi_i'' =
+        phi_i'' + theta''.
+        """
+        a, b, d, R = P[0], P[1], P[2], P[3]
+        M_P, M, m = P[4], P[5], P[6]
+        J_Px, J_Py, J_Pz, J_x, J_y, J_z = P[7], P[8], P[9], P[10], P[11], P[12]
+        k, c, D, eps = P[13], P[14], P[15], P[16]
+        N = 7 + n
+        X, Y, Z, al, be, ga = y[1], y[2], y[3], y[4], y[5], y[6]
+        om = y[N]
+        Xd, Yd, Zd, ald, bed, gad = y[N + 1], y[N + 2], y[N + 3], y[N + 4], y[N + 5], y[N + 6]
+        Mt = M + M_P + n * m
+
+        # Sums over the rotating point masses j = G (M, eps, theta) and balls (m, R, phi_i + theta),
+        # with the known part psi'' = theta'' of their angular accelerations.
+        S1 = 0.0   # sum mu r sin(psi)
+        C1 = 0.0   # sum mu r cos(psi)
+        Sss = 0.0  # sum mu r^2 sin^2
+        Scc = 0.0  # sum mu r^2 cos^2
+        Ssc = 0.0  # sum mu r^2 sin cos
+        Wsc = 0.0  # sum mu r^2 psi' sin cos
+        Wss = 0.0  # sum mu r^2 psi' sin^2
+        Wcc = 0.0  # sum mu r^2 psi' cos^2
+        FX = 0.0   # known inertial terms moved to the right of the X, Y, Z rows
+        FY = 0.0
+        FZ = 0.0
+        for j in range(n + 1):
+            if j == 0:
+                mu = M
+                r = eps
+                psi = y[0]
+                psid = om
+            else:
+                mu = m
+                r = R
+                psi = y[0] + y[6 + j]
+                psid = om + y[N + 6 + j]
+            s = math.sin(psi)
+            co = math.cos(psi)
+            mr = mu * r
+            mr2 = mr * r
+            S1 += mr * s
+            C1 += mr * co
+            Sss += mr2 * s * s
+            Scc += mr2 * co * co
+            Ssc += mr2 * s * co
+            Wsc += mr2 * psid * s * co
+            Wss += mr2 * psid * s * s
+            Wcc += mr2 * psid * co * co
+            # Eq. (18): -mu r {[g'' + psi'' - psi'^2 g] sin + [g psi'' + psi'(2 g' + psi')] cos}
+            tX = (thdd - psid * psid * ga) * s + (ga * thdd + psid * (2.0 * gad + psid)) * co
+            # Eq. (19): +mu r {[g'' + psi'' - psi'^2 g] cos - [g psi'' + psi'(2 g' + psi')] sin}
+            tY = (thdd - psid * psid * ga) * co - (ga * thdd + psid * (2.0 * gad + psid)) * s
+            # Eq. (20): +mu r {[-b'' + a psi'' + 2 psi' a' + psi'^2 b] cos
+            #                  + [a'' + b psi'' + 2 psi' b' - psi'^2 a] sin}
+            tZ = ((al * thdd + 2.0 * psid * ald + psid * psid * be) * co
+                  + (be * thdd + 2.0 * psid * bed - psid * psid * al) * s)
+            FX += mr * tX
+            FY -= mr * tY
+            FZ -= mr * tZ
+        Ir = M * eps * eps + n * m * R * R
+        kb = b * b + 4.0 * d * d
+        kab = a * a + b * b + 4.0 * d * d
+
+        for i in range(6):
+            for j in range(6):
+                A[i, j] = 0.0
+            for j in range(n):
+                W[i, j] = 0.0
+        # Eq. (18), X
+        A[0, 0] = Mt
+        A[0, 5] = M_P * d - S1
+        f[0] = -4.0 * c * Xd - 4.0 * k * X - 4.0 * d * c * gad - 4.0 * d * k * ga + FX
+        # Eq. (19), Y
+        A[1, 1] = Mt
+        A[1, 5] = C1
+        f[1] = -4.0 * c * Yd - 4.0 * k * Y + FY
+        # Eq. (20), Z
+        A[2, 2] = Mt
+        A[2, 3] = -M_P * d + S1
+        A[2, 4] = -C1
+        f[2] = -4.0 * c * Zd - 4.0 * k * Z + 4.0 * d * c * ald + 4.0 * d * k * al + FZ
+        # Eq. (21), alpha
+        A[3, 3] = J_x + J_Px + M_P * d * d + Sss
+        A[3, 4] = -Ssc
+        A[3, 2] = -M_P * d + S1
+        f[3] = (-(kb * c + 2.0 * Wsc) * ald - kb * k * al - (J_z * om + 2.0 * Wss) * bed
+                + 4.0 * d * c * Zd + 4.0 * d * k * Z - be * (Ir + J_z) * thdd)
+        # Eq. (22), beta
+        A[4, 4] = J_y + J_Py + Scc
+        A[4, 3] = -Ssc
+        A[4, 2] = -C1
+        f[4] = -(a * a * c - 2.0 * Wsc) * bed - a * a * k * be + (J_z * om + 2.0 * Wcc) * ald
+        # Eq. (23), gamma
+        A[5, 5] = J_z + J_Pz + M_P * d * d + Ir
+        A[5, 0] = M_P * d - S1
+        A[5, 1] = C1
+        f[5] = (-kab * (c * gad + k * ga) - 4.0 * d * c * Xd - 4.0 * d * k * X
+                - (Ir + J_z) * thdd)
+        # Ball terms of the deck rows and Eq. (24) for each ball
+        mR = m * R
+        mR2 = mR * R
+        for i in range(n):
+            psi = y[0] + y[7 + i]
+            s = math.sin(psi)
+            co = math.cos(psi)
+            W[0, i] = -mR * (s + ga * co)
+            W[1, i] = mR * (co - ga * s)
+            W[2, i] = mR * (al * co + be * s)
+            W[3, i] = mR2 * be
+            W[5, i] = mR2
+            B[i, 0] = -mR * s
+            B[i, 1] = mR * co
+            B[i, 2] = 0.0
+            B[i, 3] = 0.0
+            B[i, 4] = 0.0
+            B[i, 5] = mR2
+            fb[i] = -D * y[N + 7 + i] - mR2 * thdd
+
+    @jit
+    def solve6(A, f, u):
+        """u = A^-1 f for a 6x6 system, Gaussian elimination with partial pivoting (A, f destroyed)."""
+        for col in range(6):
+            piv = col
+            big = abs(A[col, col])
+            for r in range(col + 1, 6):
+                v = abs(A[r, col])
+                if v > big:
+                    big = v
+                    piv = r
+            if piv != col:
+                for j in range(6):
+                    tmp = A[col, j]
+                    A[col, j] = A[piv, j]
+                    A[piv, j] = tmp
+                tmp = f[col]
+                f[col] = f[piv]
+                f[piv] = tmp
+            inv = 1.0 / A[col, col]
+            for r in range(col + 1, 6):
+                fac = A[r, col] * inv
+                if fac != 0.0:
+                    for j in range(col + 1, 6):
+                        A[r, j] -= fac * A[col, j]
+                    f[r] -= fac * f[col]
+        for r in range(5, -1, -1):
+            acc = f[r]
+            for j in range(r + 1, 6):
+                acc -= A[r, j] * u[j]
+            u[r] = acc / A[r, r]
+
+    @jit
+    def accel(t, y, n, P, S, qdd, A, W, f, B, fb, u):
+        """q'' at (t, y): eliminate the ball accelerations (their block is m R^2 I), then a
+        6x6 solve for the deck (Schur complement), then back-substitute the balls."""
+        N = 7 + n
+        thdd = spindle_accel(t, y[N], S)
+        assemble(y, n, P, thdd, A, W, f, B, fb)
+        mR2 = P[6] * P[3] * P[3]
+        inv = 1.0 / mR2
+        for i in range(6):
+            for b in range(n):
+                w = W[i, b] * inv
+                if w != 0.0:
+                    for j in range(6):
+                        A[i, j] -= w * B[b, j]
+                    f[i] -= w * fb[b]
+        solve6(A, f, u)
+        qdd[0] = thdd
+        for i in range(6):
+            qdd[1 + i] = u[i]
+        for b in range(n):
+            acc = fb[b]
+            for j in range(6):
+                acc -= B[b, j] * u[j]
+            qdd[7 + b] = acc * inv
+
+    @jit
+    def deriv(t, y, n, P, S, dy, qdd, A, W, f, B, fb, u):
+        N = 7 + n
+        accel(t, y, n, P, S, qdd, A, W, f, B, fb, u)
+        for i in range(N):
+            dy[i] = y[N + i]
+            dy[N + i] = qdd[i]
+
+    @jit
+    def check_state(y, n):
+        """OK, NONFINITE or ENVELOPE for the state y."""
+        N = 7 + n
+        for i in range(2 * N):
+            if not math.isfinite(y[i]):
+                return NONFINITE
+        for i in range(1, 4):
+            if abs(y[i]) > MAX_TRANSLATION:
+                return ENVELOPE
+        for i in range(4, 7):
+            if abs(y[i]) > MAX_ANGLE:
+                return ENVELOPE
+        for i in range(n):
+            if abs(y[N + 7 + i]) > MAX_BALL_RATE:
+                return ENVELOPE
+        return OK
+
+    @jit
+    def rk4_advance(y, t0, dt, step0, nsteps, n, P, S, work):
+        """Advance y in place by nsteps classical RK4 steps of dt from t = (step0) dt + t0.
+
+        Time is recomputed from the integer step count at every step (no accumulated drift).
+        ``work`` : ndarray, shape (6, 2N) of stage buffers, plus the solver scratch that
+        :func:`make_work` allocates. Returns (steps_done, status); on a bad state the
+        state of the last good step is kept.
+        """
+        N = 7 + n
+        n2 = 2 * N
+        k1, k2, k3, k4, yt, ysave = work[0], work[1], work[2], work[3], work[4], work[5]
+        qdd = np.empty(N)
+        A = np.empty((6, 6))
+        W = np.empty((6, max(n, 1)))
+        f = np.empty(6)
+        B = np.empty((max(n, 1), 6))
+        fb = np.empty(max(n, 1))
+        u = np.empty(6)
+        for s in range(nsteps):
+            t = t0 + (step0 + s) * dt
+            for i in range(n2):
+                ysave[i] = y[i]
+            deriv(t, y, n, P, S, k1, qdd, A, W, f, B, fb, u)
+            for i in range(n2):
+                yt[i] = y[i] + 0.5 * dt * k1[i]
+            deriv(t + 0.5 * dt, yt, n, P, S, k2, qdd, A, W, f, B, fb, u)
+            for i in range(n2):
+                yt[i] = y[i] + 0.5 * dt * k2[i]
+            deriv(t + 0.5 * dt, yt, n, P, S, k3, qdd, A, W, f, B, fb, u)
+            for i in range(n2):
+                yt[i] = y[i] + dt * k3[i]
+            deriv(t + dt, yt, n, P, S, k4, qdd, A, W, f, B, fb, u)
+            h6 = dt / 6.0
+            for i in range(n2):
+                y[i] = y[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+            status = check_state(y, n)
+            if status != OK:
+                for i in range(n2):
+                    y[i] = ysave[i]
+                return s, status
+        return nsteps, OK
+
+    @jit
+    def rk4_trajectory(y, t0, dt, step0, nsteps, every, n, P, S, work, out):
+        """Like rk4_advance, storing y after every ``every`` steps into ``out`` rows.
+
+        Returns (steps_done, rows_written, status).
+        """
+        rows = 0
+        done = 0
+        while done < nsteps:
+            chunk = min(every, nsteps - done)
+            got, status = rk4_advance(y, t0, dt, step0 + done, chunk, n, P, S, work)
+            done += got
+            if status != OK:
+                return done, rows, status
+            if chunk == every:
+                for i in range(y.shape[0]):
+                    out[rows, i] = y[i]
+                rows += 1
+        return done, rows, OK
+
+    return dict(spindle_accel=spindle_accel, assemble=assemble, solve6=solve6, accel=accel,
+                deriv=deriv, check_state=check_state, rk4_advance=rk4_advance,
+                rk4_trajectory=rk4_trajectory)
+
+
+class _Kernels:
+    def __init__(self, funcs, compiled):
+        self.__dict__.update(funcs)
+        self.compiled = compiled
+
+
+PY = _Kernels(_make_kernels(lambda func: func), compiled=False)
+"""Pure-Python twin of every kernel."""
+
+
+def _build_jit():
+    if os.environ.get('ABB_ROS_NO_JIT'):
+        return PY
+    try:
+        import numba
+    except ImportError:  # pragma: no cover - numba is pinned in requirements.txt
+        return PY
+    return _Kernels(_make_kernels(numba.njit(cache=False, nogil=True)), compiled=True)
+
+
+JIT = _build_jit()
+"""Compiled kernels (numba), or the Python twin where numba is unavailable."""
+
+
+def make_work(n: int) -> np.ndarray:
+    """Stage buffers for :func:`rk4_advance`: shape (6, 2 (7 + n))."""
+    return np.zeros((6, 2 * (7 + n)))
+
+
+def pack_params(params) -> np.ndarray:
+    """DriveParams -> P array in :data:`PARAM_ORDER`."""
+    return np.array([float(getattr(params, name)) for name in PARAM_ORDER])
