@@ -1,0 +1,146 @@
+"""Balanced equilibrium of the balls, Eq. (26), and the balancing limits of Figs. 6 and 7.
+
+At the balanced equilibrium (X* = Y* = Z* = alpha* = beta* = gamma* = 0) the balls cancel
+the imbalance M eps of the rotor, Eq. (26)::
+
+    M eps / (m R) + sum_i cos(phi_i*) = 0,        sum_i sin(phi_i*) = 0.
+
+For n = 2 the solution is phi_1* = -phi_2* with cos(phi_1*) = -M eps / (2 m R). The paper's
+printed closed form, Eq. (34), ``-atan(sqrt((2mR/(M eps))^2 - 1))``, has the right magnitude of
+tan but the wrong quadrant: it gives |phi*| < 90 deg, where Eq. (26) needs cos(phi*) < 0, i.e. the
+balls on the far side of the imbalance G (|phi*| = 106.1 deg at P3, mbar = 0.03). The corrected
+form used here is phi_1* = -(pi - atan(sqrt((2mR/(M eps))^2 - 1))) = -acos(-M eps / (2 m R)).
+
+For n > 2 the equilibria form a family. The documented choice here is the *symmetric fan*: the
+balls evenly spaced by delta, centred on the side opposite G::
+
+    phi_i* = pi + (i - (n + 1) / 2) delta,   i = 1..n,
+
+with delta in [0, 2 pi / n] solving sin(n delta / 2) / sin(delta / 2) = M eps / (m R) (the
+Dirichlet kernel, monotone on that interval). For n = 2 this is exactly the corrected Eq. (34).
+Any other configuration may be passed explicitly as ``phi_star`` and is checked against Eq. (26).
+
+No balanced equilibrium exists when n m R < M eps (the balls cannot cancel the imbalance) or
+when n = 1 and m R != M eps; the result then says so (``exists = False`` and a reason),
+never NaN.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from abb_ros.model.params import DriveParams, ParamError
+
+__all__ = ['BalancedEquilibrium', 'balanced_equilibrium', 'phi_star_two_balls', 'fan_phi_star',
+           'eq26_residual', 'epsbar_lim', 'mbar_lim', 'EQ26_TOL']
+
+EQ26_TOL = 1e-9
+"""Largest |Eq. (26) residual| (dimensionless, relative to n) accepted for a given phi_star."""
+
+
+@dataclass(frozen=True)
+class BalancedEquilibrium:
+    """Ball angles of the balanced equilibrium, Eq. (26).
+
+    ``phi_star`` : ndarray, shape (n,) [rad], empty when ``exists`` is False.
+    ``reason`` : why no balanced equilibrium exists ('' when it does).
+    """
+
+    exists: bool
+    phi_star: np.ndarray
+    reason: str = ''
+
+    @property
+    def phi_star_deg(self) -> list:
+        return [math.degrees(p) for p in self.phi_star]
+
+
+def eq26_residual(params: DriveParams, phi_star) -> float:
+    """Largest |left-hand side| of the two Eq. (26) sums (dimensionless)."""
+    phi = np.asarray(phi_star, dtype=float)
+    ratio = params.M * params.eps / (params.m * params.R)
+    return max(abs(ratio + np.cos(phi).sum()), abs(np.sin(phi).sum()))
+
+
+def phi_star_two_balls(ratio: float) -> tuple[float, float]:
+    """Eq. (34) in the corrected quadrant, for n = 2 and ratio = M eps / (m R) <= 2.
+
+    Returns (phi_1*, phi_2*) = (-(pi - atan(sqrt((2/ratio)^2 - 1))), +...) [rad]; for ratio = 0
+    the balls sit opposite each other at -+90 deg.
+    """
+    if ratio > 2.0:
+        raise ValueError('no balanced equilibrium: 2 m R < M eps')
+    if ratio == 0.0:
+        return -math.pi / 2, math.pi / 2
+    phi = math.pi - math.atan(math.sqrt((2.0 / ratio) ** 2 - 1.0))
+    return -phi, phi
+
+
+def fan_phi_star(n: int, ratio: float) -> np.ndarray:
+    """Symmetric-fan solution of Eq. (26) for n >= 2 balls and ratio = M eps / (m R) <= n."""
+    if n == 2:
+        return np.array(phi_star_two_balls(ratio))
+    if ratio > n:
+        raise ValueError('no balanced equilibrium: n m R < M eps')
+    # sin(n x) / sin(x) with x = delta / 2 falls monotonically from n (x = 0) to 0 (x = pi / n).
+    lo, hi = 0.0, math.pi / n
+    for _ in range(200):
+        mid = 0.5 * (lo + hi)
+        if math.sin(n * mid) / math.sin(mid) > ratio:
+            lo = mid
+        else:
+            hi = mid
+        if hi - lo < 1e-15:
+            break
+    delta = lo + hi  # 2 * midpoint
+    i = np.arange(1, n + 1)
+    return math.pi + (i - (n + 1) / 2.0) * delta
+
+
+def balanced_equilibrium(params: DriveParams, phi_star=None) -> BalancedEquilibrium:
+    """The balanced equilibrium of Eq. (26) (symmetric fan, or the given ``phi_star`` [rad]).
+
+    A given ``phi_star`` must have n entries and satisfy Eq. (26) to :data:`EQ26_TOL`;
+    otherwise :class:`ParamError` is raised naming ``phi_star``.
+    """
+    n = params.n
+    ratio = params.M * params.eps / (params.m * params.R) if n > 0 else math.inf
+    if phi_star is not None:
+        phi = np.asarray(phi_star, dtype=float).reshape(-1)
+        if phi.size != n or not np.all(np.isfinite(phi)):
+            raise ParamError('phi_star', list(phi), f'{n} finite angles [rad]')
+        res = eq26_residual(params, phi)
+        if res > EQ26_TOL * max(n, 1):
+            raise ParamError('phi_star', list(phi), 'a solution of Eq. (26)',
+                             f'residual {res:.3g}')
+        return BalancedEquilibrium(True, phi)
+    if n == 0:
+        if params.eps == 0.0:
+            return BalancedEquilibrium(True, np.zeros(0))
+        return BalancedEquilibrium(False, np.zeros(0), 'no balls (n = 0) and eps > 0')
+    if n == 1:
+        if abs(ratio - 1.0) <= EQ26_TOL:
+            return BalancedEquilibrium(True, np.array([math.pi]))
+        return BalancedEquilibrium(False, np.zeros(0),
+                                   'one ball balances only when m R = M eps exactly')
+    if ratio > n:
+        return BalancedEquilibrium(
+            False, np.zeros(0),
+            f'imbalance beyond the balls\' capacity: n m R = {n * params.m * params.R:.4g} '
+            f'< M eps = {params.M * params.eps:.4g} kg m')
+    return BalancedEquilibrium(True, fan_phi_star(n, ratio))
+
+
+def epsbar_lim(params: DriveParams) -> float:
+    """Largest balanceable eccentricity eps/R = n m / M (Fig. 6; n = 2: 2 m R = M eps)."""
+    return params.n * params.m / params.M
+
+
+def mbar_lim(params: DriveParams) -> float:
+    """Smallest ball mass m/M that can balance: eps / (n R) (Fig. 7; n = 2: 2 m R = M eps)."""
+    if params.n == 0:
+        return math.inf
+    return params.eps / (params.n * params.R)
