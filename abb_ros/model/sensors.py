@@ -1,0 +1,192 @@
+"""Deck kinematics and the IMU model (accelerometer + gyro on the feeding deck).
+
+Pure numpy, no rclpy. Frames as in design.md: ``base`` is the inertial XYZ of the paper,
+``deck`` the deck body frame xyz with origin at C. The Euler sequence of Eqs. (1)-(2),
+``x = T_beta T_alpha T_gamma X``, makes the deck-to-base rotation
+
+    R = (T_beta T_alpha T_gamma)^T = Rz(gamma) Rx(alpha) Ry(beta)
+
+(each R* an active right-handed rotation). The deck's angular velocity in deck axes is
+Eq. (10); its time derivative (deck axes, equal in both frames since w x w = 0) is
+:func:`deck_angular_acceleration`.
+
+An IMU mounted at ``r`` (deck axes, from C) measures
+
+    specific force  f = a_C + w' x r + w x (w x r) - g      (all in deck axes)
+    angular rate    w                                          (Eq. 10)
+
+with a_C the inertial acceleration of C and g gravity (off by default, as in the paper,
+which neglects it). Each channel adds white noise of density ``*_noise_density``
+(discrete standard deviation density * sqrt(rate)) and a bias that starts at a draw of
+standard deviation ``*_bias`` and random-walks with density ``*_bias_random_walk``
+(increment standard deviation rw * sqrt(1 / rate)). The noise comes from a numpy
+Generator seeded with ``seed``: same seed, same readings.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+
+import numpy as np
+
+__all__ = ['GRAVITY', 'euler_rotation', 'euler_quaternion', 'deck_angular_velocity',
+           'deck_angular_acceleration', 'point_specific_force', 'ImuConfig', 'ImuReading',
+           'ImuModel', 'deck_velocity']
+
+GRAVITY = 9.80665
+"""Standard gravity [m/s^2], acting along -Z of the base frame when enabled."""
+
+
+def euler_rotation(alpha: float, beta: float, gamma: float) -> np.ndarray:
+    """Deck-to-base rotation R = Rz(gamma) Rx(alpha) Ry(beta) = (T_beta T_alpha T_gamma)^T,
+    Eqs. (1)-(2); shape (3, 3). ``R @ v_deck = v_base``."""
+    ca, sa = math.cos(alpha), math.sin(alpha)
+    cb, sb = math.cos(beta), math.sin(beta)
+    cg, sg = math.cos(gamma), math.sin(gamma)
+    # Rows of T_beta T_alpha T_gamma are the deck axes i, j, k in base components (Eq. 6).
+    t = np.array([
+        [cb * cg - sa * sb * sg, cb * sg + sa * sb * cg, -ca * sb],
+        [-ca * sg, ca * cg, sa],
+        [sb * cg + sa * cb * sg, sb * sg - sa * cb * cg, ca * cb],
+    ])
+    return t.T
+
+
+def euler_quaternion(alpha: float, beta: float, gamma: float) -> tuple[float, float, float,
+                                                                         float]:
+    """Unit quaternion (x, y, z, w) of R = Rz(gamma) Rx(alpha) Ry(beta) (Hamilton product
+    qz * qx * qy), as geometry_msgs/Quaternion orders it."""
+    cg, sg = math.cos(gamma / 2), math.sin(gamma / 2)
+    ca, sa = math.cos(alpha / 2), math.sin(alpha / 2)
+    cb, sb = math.cos(beta / 2), math.sin(beta / 2)
+    # qz * qx = (w, x, y, z) = (cg ca, cg sa, sg sa, sg ca); then * qy = (cb, 0, sb, 0).
+    w0, x0, y0, z0 = cg * ca, cg * sa, sg * sa, sg * ca
+    w = w0 * cb - y0 * sb
+    x = x0 * cb - z0 * sb
+    y = w0 * sb + y0 * cb
+    z = z0 * cb + x0 * sb
+    return x, y, z, w
+
+
+def deck_angular_velocity(alpha, beta, gamma, dalpha, dbeta, dgamma) -> np.ndarray:
+    """omega_P of Eq. (10) in deck axes [rad/s], shape (3,)."""
+    ca, sa = math.cos(alpha), math.sin(alpha)
+    cb, sb = math.cos(beta), math.sin(beta)
+    return np.array([dalpha * cb - dgamma * ca * sb,
+                     dbeta + dgamma * sa,
+                     dalpha * sb + dgamma * ca * cb])
+
+
+def deck_angular_acceleration(alpha, beta, gamma, dalpha, dbeta, dgamma,
+                              ddalpha, ddbeta, ddgamma) -> np.ndarray:
+    """Time derivative of Eq. (10) in deck axes [rad/s^2], shape (3,)."""
+    ca, sa = math.cos(alpha), math.sin(alpha)
+    cb, sb = math.cos(beta), math.sin(beta)
+    return np.array([
+        ddalpha * cb - dalpha * dbeta * sb - ddgamma * ca * sb
+        + dgamma * dalpha * sa * sb - dgamma * dbeta * ca * cb,
+        ddbeta + ddgamma * sa + dgamma * dalpha * ca,
+        ddalpha * sb + dalpha * dbeta * cb + ddgamma * ca * cb
+        - dgamma * dalpha * sa * cb - dgamma * dbeta * ca * sb,
+    ])
+
+
+def deck_velocity(q, qd) -> tuple[np.ndarray, np.ndarray]:
+    """(velocity of C, angular velocity Eq. 10), both in deck axes [m/s], [rad/s].
+
+    ``q``, ``qd``: generalised coordinates and rates, [theta, X, Y, Z, alpha, beta, gamma, ...].
+    """
+    rot = euler_rotation(q[4], q[5], q[6])
+    v = rot.T @ np.asarray(qd[1:4], dtype=float)
+    return v, deck_angular_velocity(*q[4:7], *qd[4:7])
+
+
+def point_specific_force(q, qd, qdd, r, gravity: bool = False) -> np.ndarray:
+    """Specific force at point r (deck axes, from C) [m/s^2], deck axes, shape (3,).
+
+    a_C + w' x r + w x (w x r) - g, with a_C = R^T (X'', Y'', Z'').
+    """
+    rot = euler_rotation(q[4], q[5], q[6])
+    r = np.asarray(r, dtype=float)
+    w = deck_angular_velocity(*q[4:7], *qd[4:7])
+    wd = deck_angular_acceleration(*q[4:7], *qd[4:7], *qdd[4:7])
+    a = rot.T @ np.asarray(qdd[1:4], dtype=float) + np.cross(wd, r) + np.cross(w, np.cross(w, r))
+    if gravity:
+        a = a + rot.T @ np.array([0.0, 0.0, GRAVITY])
+    return a
+
+
+@dataclass(frozen=True)
+class ImuConfig:
+    """IMU mounting and noise, SI. Densities are per sqrt(Hz); ``rate`` the output rate [Hz].
+
+    accel: noise density [m/s^2/sqrt(Hz)], turn-on bias std [m/s^2], bias random walk
+    [m/s^3/sqrt(Hz)]; gyro: [rad/s/sqrt(Hz)], [rad/s], [rad/s^2/sqrt(Hz)].
+    """
+
+    position: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    rate: float = 1000.0
+    gravity: bool = False
+    accel_noise_density: float = 0.0
+    accel_bias: float = 0.0
+    accel_bias_random_walk: float = 0.0
+    gyro_noise_density: float = 0.0
+    gyro_bias: float = 0.0
+    gyro_bias_random_walk: float = 0.0
+
+    @property
+    def accel_variance(self) -> float:
+        """Variance of one accelerometer sample's white noise, density^2 * rate [(m/s^2)^2]."""
+        return self.accel_noise_density ** 2 * self.rate
+
+    @property
+    def gyro_variance(self) -> float:
+        """Variance of one gyro sample's white noise, density^2 * rate [(rad/s)^2]."""
+        return self.gyro_noise_density ** 2 * self.rate
+
+
+@dataclass(frozen=True)
+class ImuReading:
+    """One IMU sample, deck axes: specific force [m/s^2] and angular rate [rad/s]."""
+
+    accel: np.ndarray
+    gyro: np.ndarray
+
+
+@dataclass
+class ImuModel:
+    """IMU readings with seeded noise and bias (see the module docstring)."""
+
+    config: ImuConfig
+    seed: int = 0
+    rng: np.random.Generator = field(init=False, repr=False)
+
+    def __post_init__(self):
+        self.reset()
+
+    def reset(self) -> None:
+        """Re-seed: the readings repeat from the start."""
+        self.rng = np.random.default_rng(self.seed)
+        c = self.config
+        self.accel_bias = self.rng.normal(0.0, 1.0, 3) * c.accel_bias
+        self.gyro_bias = self.rng.normal(0.0, 1.0, 3) * c.gyro_bias
+
+    def reconfigure(self, config: ImuConfig) -> None:
+        """New mounting/noise parameters; the generator and the bias state carry on."""
+        self.config = config
+
+    def read(self, q, qd, qdd) -> ImuReading:
+        """The reading at the state (q, q', q''); advances the noise generator."""
+        c = self.config
+        accel = point_specific_force(q, qd, qdd, c.position, c.gravity)
+        gyro = deck_angular_velocity(*q[4:7], *qd[4:7])
+        # One draw of 12 normals per sample whatever the settings, so that the sequence of
+        # the generator (and so every later reading) does not depend on which terms are on.
+        z = self.rng.standard_normal(12)
+        sqrt_dt = math.sqrt(1.0 / c.rate)
+        self.accel_bias = self.accel_bias + z[0:3] * (c.accel_bias_random_walk * sqrt_dt)
+        self.gyro_bias = self.gyro_bias + z[3:6] * (c.gyro_bias_random_walk * sqrt_dt)
+        accel = accel + self.accel_bias + z[6:9] * math.sqrt(c.accel_variance)
+        gyro = gyro + self.gyro_bias + z[9:12] * math.sqrt(c.gyro_variance)
+        return ImuReading(accel, gyro)
