@@ -1,0 +1,518 @@
+"""rosbag2-compatible MCAP bags (ROS 2 Jazzy, metadata version 9): writer and reader.
+
+A bag is a directory holding ``metadata.yaml`` and ``<dirname>_0.mcap``, laid out as Jazzy's
+``rosbag2_storage_mcap`` writes it: profile ``ros2``; one schema per message type, encoding
+``ros2msg`` with the full definition text (:mod:`abb_ros.io.msgdefs`); one channel per topic,
+encoding ``cdr``, with channel metadata ``offered_qos_profiles`` (YAML text, metadata v9 policy
+names) and ``topic_type_hash`` (RIHS01); at close a metadata record ``rosbag2`` whose key
+``serialized_metadata`` is the bag metadata as YAML (``ros_distro: jazzy``). The drive
+parameters go into a metadata record ``abb_ros`` (key ``drive_params``, JSON, SI) and into
+``custom_data`` of ``metadata.yaml``.
+
+Crash safety: messages are grouped into zstd-compressed chunks written whole to the OS when a
+chunk is full and at least every ``flush_period`` seconds; ``metadata.yaml`` is written at open
+and whenever a topic is added, so a killed recording is a readable bag (without summary) up to
+its last complete chunk. A write that the disk refuses (``ENOSPC``) cuts the file back to its
+last whole record and raises :class:`BagWriteError`.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import errno
+import functools
+import json
+import os
+import shutil
+import time
+from pathlib import Path
+
+import yaml
+from mcap.exceptions import EndOfFile, McapError
+from mcap.records import Channel, Message, Metadata, Schema
+from mcap.stream_reader import StreamReader
+from mcap.writer import CompressionType, Writer
+
+from abb_ros.io import msgdefs
+
+METADATA_VERSION = 9
+ROS_DISTRO = 'jazzy'
+STORAGE_ID = 'mcap'
+PROFILE = 'ros2'
+LIBRARY = 'abb_ros rosbag2-compatible writer (mcap python)'
+DEFAULT_CHUNK_SIZE = 768 * 1024  # the MCAP C++ writer's default, as rosbag2 uses it [bytes]
+DEFAULT_FLUSH_PERIOD = 1.0  # a chunk in progress is written at least this often [s]
+DRIVE_METADATA = 'abb_ros'
+_COMPRESSION = {'zstd': CompressionType.ZSTD, 'lz4': CompressionType.LZ4,
+                'none': CompressionType.NONE}
+# rmw's RMW_DURATION_INFINITE as the graph reports it (INT64_MAX ns).
+_INFINITE = {'sec': 9223372036, 'nsec': 854775807}
+
+
+class BagError(Exception):
+    """Bad use of a bag: the path exists, an unknown topic, not a bag, a closed writer."""
+
+
+class BagWriteError(OSError):
+    """The disk refused a write (e.g. ENOSPC). The bag is closed and readable up to there."""
+
+
+def default_qos() -> dict:
+    """What an rclpy publisher with depth 10 offers, as the ROS graph reports it (Fast DDS)."""
+    return {'history': 'unknown', 'depth': 0, 'reliability': 'reliable',
+            'durability': 'volatile', 'deadline': dict(_INFINITE),
+            'lifespan': dict(_INFINITE), 'liveliness': 'automatic',
+            'liveliness_lease_duration': dict(_INFINITE),
+            'avoid_ros_namespace_conventions': False}
+
+
+def qos_dict(profile) -> dict:
+    """One offered QoS profile in rosbag2's metadata v9 form, from an rclpy ``QoSProfile``."""
+    if isinstance(profile, dict):
+        return dict(profile)
+
+    def duration(d):
+        sec, nsec = divmod(int(d.nanoseconds), 1_000_000_000)
+        return {'sec': sec, 'nsec': nsec}
+
+    return {'history': profile.history.name.lower(), 'depth': int(profile.depth),
+            'reliability': profile.reliability.name.lower(),
+            'durability': profile.durability.name.lower(),
+            'deadline': duration(profile.deadline), 'lifespan': duration(profile.lifespan),
+            'liveliness': profile.liveliness.name.lower(),
+            'liveliness_lease_duration': duration(profile.liveliness_lease_duration),
+            'avoid_ros_namespace_conventions': bool(profile.avoid_ros_namespace_conventions)}
+
+
+class _Dumper(yaml.SafeDumper):
+    """yaml-cpp's layout: block style, sequences indented under their key, '' as ""."""
+
+    def increase_indent(self, flow=False, indentless=False):
+        return super().increase_indent(flow, False)
+
+
+def _str(dumper, value):
+    return dumper.represent_scalar('tag:yaml.org,2002:str', value, style='"' if not value else None)
+
+
+_Dumper.add_representer(str, _str)
+
+
+def dump_yaml(data) -> str:
+    """YAML text in the layout rosbag2 (yaml-cpp) writes, without the final newline."""
+    text = yaml.dump(data, Dumper=_Dumper, default_flow_style=False, sort_keys=False, width=4096)
+    return text.replace(': null\n', ': ~\n').rstrip('\n')
+
+
+def topic_name(name: str) -> str:
+    """Topic names are stored fully qualified, as rosbag2 records them."""
+    if not name:
+        raise BagError('empty topic name')
+    return name if name.startswith('/') else '/' + name
+
+
+class _FileSink:
+    """An unbuffered file for the MCAP writer.
+
+    Every write reaches the OS whole or raises; ``good`` is the end of the last whole write,
+    which is a record boundary, so :meth:`cut` drops a record that was half written.
+    """
+
+    def __init__(self, path: Path, opener=None):
+        self._raw = (opener or _open_new)(path)
+        self.good = 0
+
+    def write(self, data) -> int:
+        view = memoryview(data)
+        done = 0
+        while done < len(view):
+            n = self._raw.write(view[done:])
+            if not n:
+                raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+            done += n
+        self.good += done
+        return done
+
+    def tell(self) -> int:
+        return self.good
+
+    def flush(self) -> None:
+        """Writes are unbuffered: nothing to do."""
+
+    def cut(self) -> None:
+        try:
+            self._raw.truncate(self.good)
+        except OSError:
+            pass
+
+    def close(self) -> None:
+        self._raw.close()
+
+
+def _open_new(path: Path):
+    return open(path, 'xb', buffering=0)
+
+
+@dataclasses.dataclass
+class _Topic:
+    name: str
+    type: str
+    channel_id: int
+    qos: list
+    type_hash: str
+    count: int = 0
+
+
+def _prepare_directory(path: Path, overwrite: bool) -> None:
+    if path.exists() or path.is_symlink():
+        if not overwrite:
+            raise BagError(f'{path} exists; choose another output or pass overwrite=True')
+        if not path.is_dir():
+            raise BagError(f'{path} exists and is not a bag directory; not overwriting it')
+        strangers = [p.name for p in path.iterdir()
+                     if p.name != 'metadata.yaml' and p.suffix not in ('.mcap', '.tmp')]
+        if strangers:
+            raise BagError(f'{path} holds files that are not part of a bag ({strangers[0]}); '
+                           'not overwriting it')
+        shutil.rmtree(path)
+    path.mkdir(parents=True)
+
+
+class BagWriter:
+    """Write a rosbag2 (Jazzy) MCAP bag directory.
+
+    ``with BagWriter(path) as bag: bag.add_topic('joint_states', 'sensor_msgs/msg/JointState');
+    bag.write('joint_states', msg_or_cdr_bytes, log_time_ns)``. Messages are rclpy message
+    objects (serialised by :func:`cdr_bytes`) or CDR bytes as a raw subscription delivers
+    them; both give the same bytes in the bag.
+    """
+
+    def __init__(self, path, overwrite: bool = False, chunk_size: int = DEFAULT_CHUNK_SIZE,
+                 compression: str = 'zstd', flush_period: float = DEFAULT_FLUSH_PERIOD,
+                 opener=None):
+        if compression not in _COMPRESSION:
+            raise BagError(f'compression must be one of {", ".join(_COMPRESSION)}, '
+                           f'got {compression!r}')
+        if not chunk_size > 0:
+            raise BagError(f'chunk_size must be > 0 bytes, got {chunk_size!r}')
+        self.path = Path(path)
+        _prepare_directory(self.path, overwrite)
+        self.mcap_path = self.path / f'{self.path.name}_0.mcap'
+        self._sink = _FileSink(self.mcap_path, opener)
+        self._mcap = Writer(self._sink, chunk_size=int(chunk_size),
+                            compression=_COMPRESSION[compression])
+        self._flush_period = float(flush_period)
+        self._next_flush = time.monotonic() + self._flush_period
+        self._topics: dict[str, _Topic] = {}
+        self._schemas: dict[str, int] = {}
+        self._custom: dict[str, str] = {}
+        self._start_ns: int | None = None
+        self._end_ns = 0
+        self.message_count = 0
+        self.closed = False
+        self.error: OSError | None = None
+        self._guard(self._mcap.start, profile=PROFILE, library=LIBRARY)
+        self._write_metadata_yaml()
+
+    def __enter__(self) -> 'BagWriter':
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+    @property
+    def topics(self) -> dict[str, str]:
+        """Topic name -> message type of the topics added so far."""
+        return {t.name: t.type for t in self._topics.values()}
+
+    def add_topic(self, name: str, type_name: str, qos=None, type_hash: str | None = None
+                  ) -> None:
+        """Add a topic. ``qos``: rclpy QoSProfile(s) or dicts offered by its publishers."""
+        self._check_open()
+        name = topic_name(name)
+        type_name = msgdefs.normalize_type(type_name)
+        if name in self._topics:
+            if self._topics[name].type != type_name:
+                raise BagError(f'topic {name} was added as {self._topics[name].type}, '
+                               f'not {type_name}')
+            return
+        profiles = [default_qos()] if qos is None else (
+            [qos] if not isinstance(qos, (list, tuple)) else list(qos))
+        profiles = [qos_dict(p) for p in profiles]
+        digest = msgdefs.type_hash(type_name) if type_hash is None else type_hash
+        schema_id = self._schemas.get(type_name)
+        if schema_id is None:
+            text = msgdefs.full_text(type_name)
+            schema_id = self._guard(self._mcap.register_schema, name=type_name,
+                                    encoding='ros2msg', data=text.encode())
+            self._schemas[type_name] = schema_id
+        channel_id = self._guard(
+            self._mcap.register_channel, topic=name, message_encoding='cdr',
+            schema_id=schema_id, metadata={'offered_qos_profiles': dump_yaml(profiles),
+                                           'topic_type_hash': digest})
+        self._topics[name] = _Topic(name, type_name, channel_id, profiles, digest)
+        self._write_metadata_yaml()
+
+    def write(self, topic: str, message, log_time_ns: int, publish_time_ns: int | None = None
+              ) -> None:
+        """Append one message (rclpy message or CDR bytes) received at ``log_time_ns``."""
+        self._check_open()
+        entry = self._topics.get(topic) or self._topics.get(topic_name(topic))
+        if entry is None:
+            raise BagError(f'topic {topic!r} was not added to the bag (call add_topic first)')
+        if isinstance(message, (bytes, bytearray, memoryview)):
+            data = bytes(message)
+        else:
+            if msgdefs.type_name_of(message) != entry.type:
+                raise BagError(f'topic {entry.name} carries {entry.type}, got a '
+                               f'{msgdefs.type_name_of(message)}')
+            data = cdr_bytes(message)
+        log_time_ns = int(log_time_ns)
+        self._guard(self._mcap.add_message, channel_id=entry.channel_id, log_time=log_time_ns,
+                    data=data, sequence=entry.count,
+                    publish_time=log_time_ns if publish_time_ns is None else int(publish_time_ns))
+        entry.count += 1
+        self.message_count += 1
+        self._start_ns = log_time_ns if self._start_ns is None else min(self._start_ns,
+                                                                         log_time_ns)
+        self._end_ns = max(self._end_ns, log_time_ns)
+        if time.monotonic() >= self._next_flush:
+            self.flush()
+
+    def flush(self) -> None:
+        """Write the chunk in progress (if any) to the OS now."""
+        self._check_open()
+        self._guard(self._mcap.flush)
+        self._next_flush = time.monotonic() + self._flush_period
+
+    def add_metadata(self, name: str, data: dict) -> None:
+        """An MCAP metadata record (string -> string)."""
+        self._check_open()
+        self._guard(self._mcap.add_metadata, name, {str(k): str(v) for k, v in data.items()})
+
+    def set_drive_params(self, params) -> None:
+        """Store the drive parameters (a DriveParams or SI mapping) for plots and analysis."""
+        values = params.as_dict() if hasattr(params, 'as_dict') else dict(params)
+        text = json.dumps(values, sort_keys=True)
+        self.add_metadata(DRIVE_METADATA, {'drive_params': text})
+        self._custom[f'{DRIVE_METADATA}.drive_params'] = text
+        self._write_metadata_yaml()
+
+    def close(self) -> None:
+        """Finish the MCAP (summary, rosbag2 metadata record) and write ``metadata.yaml``."""
+        if self.closed:
+            return
+        self._guard(self._mcap.add_metadata, 'rosbag2',
+                    {'serialized_metadata': dump_yaml(self.metadata())})
+        self._guard(self._mcap.finish)
+        self.closed = True
+        self._sink.close()
+        self._write_metadata_yaml()
+
+    def metadata(self) -> dict:
+        """The bag metadata (rosbag2's BagMetadata, version 9) as a dict."""
+        start = self._start_ns or 0
+        duration = self._end_ns - start if self.message_count else 0
+        file_name = self.mcap_path.name
+        topics = [{'topic_metadata': {'name': t.name, 'type': t.type,
+                                      'serialization_format': 'cdr',
+                                      'offered_qos_profiles': t.qos,
+                                      'type_description_hash': t.type_hash},
+                   'message_count': t.count} for t in self._topics.values()]
+        return {'version': METADATA_VERSION, 'storage_identifier': STORAGE_ID,
+                'duration': {'nanoseconds': duration},
+                'starting_time': {'nanoseconds_since_epoch': start},
+                'message_count': self.message_count, 'topics_with_message_count': topics,
+                'compression_format': '', 'compression_mode': '',
+                'relative_file_paths': [file_name],
+                'files': [{'path': file_name,
+                           'starting_time': {'nanoseconds_since_epoch': start},
+                           'duration': {'nanoseconds': duration},
+                           'message_count': self.message_count}],
+                'custom_data': dict(self._custom) or None, 'ros_distro': ROS_DISTRO}
+
+    def _write_metadata_yaml(self) -> None:
+        text = dump_yaml({'rosbag2_bagfile_information': self.metadata()}) + '\n'
+        target = self.path / 'metadata.yaml'
+        tmp = target.with_suffix('.yaml.tmp')
+        try:
+            tmp.write_text(text, encoding='utf-8')
+            os.replace(tmp, target)
+        except OSError as exc:
+            tmp.unlink(missing_ok=True)
+            if self.error is None:
+                self._fail(exc)
+
+    def _guard(self, fn, *args, **kwargs):
+        try:
+            return fn(*args, **kwargs)
+        except OSError as exc:
+            self._fail(exc)
+
+    def _fail(self, exc: OSError):
+        """The disk refused a write: cut the half-written record, close, keep the bag readable."""
+        self.error = exc
+        self.closed = True
+        self._sink.cut()
+        try:
+            self._sink.close()
+        except OSError:
+            pass
+        self._write_metadata_yaml()
+        raise BagWriteError(exc.errno, f'writing {self.mcap_path} failed ({exc.strerror or exc}); '
+                            f'the bag is closed, readable up to its last complete chunk')
+
+    def _check_open(self) -> None:
+        if self.closed:
+            raise BagError(f'bag {self.path} is closed' + (
+                f' after a write error: {self.error}' if self.error else ''))
+
+
+# ---- reading -------------------------------------------------------------------------------
+
+def bag_files(path) -> list[Path]:
+    """The MCAP files of a bag directory (per its metadata.yaml) or of a single .mcap path."""
+    path = Path(path)
+    if path.is_file():
+        return [path]
+    if not path.is_dir():
+        raise BagError(f'{path} does not exist')
+    meta = path / 'metadata.yaml'
+    if meta.exists():
+        try:
+            info = yaml.safe_load(meta.read_text())['rosbag2_bagfile_information']
+            storage = info.get('storage_identifier', STORAGE_ID)
+            names = [Path(p).name for p in info['relative_file_paths']]
+        except (yaml.YAMLError, KeyError, TypeError) as exc:
+            raise BagError(f'{meta} is not rosbag2 metadata: {exc}') from None
+        if storage != STORAGE_ID:
+            raise BagError(f'{path} is a {storage!r} bag; only MCAP bags can be read')
+        files = [path / n for n in names]
+    else:
+        files = sorted(path.glob('*.mcap'))
+    missing = [str(f) for f in files if not f.exists()]
+    if missing or not files:
+        raise BagError(f'{path}: no MCAP file found' + (f' ({missing[0]})' if missing else ''))
+    return files
+
+
+def iter_records(path, emit_chunks: bool = False):
+    """MCAP records of a bag in file order; a truncated last chunk (crash) ends the stream."""
+    for file in bag_files(path):
+        with open(file, 'rb') as stream:
+            reader = StreamReader(stream, emit_chunks=emit_chunks, validate_crcs=True)
+            try:
+                yield from reader.records
+            except EndOfFile:
+                pass
+            except McapError as exc:
+                raise BagError(f'{file}: {exc}') from exc
+
+
+def iter_raw(path, topics=None):
+    """Yield (topic, type_name, cdr_bytes, log_time_ns) for the messages of a bag."""
+    wanted = None if topics is None else {topic_name(t) for t in topics}
+    schemas: dict[int, str] = {}
+    channels: dict[int, tuple[str, str]] = {}
+    for record in iter_records(path):
+        if isinstance(record, Message):
+            topic, type_name = channels.get(record.channel_id, (None, None))
+            if topic is not None and (wanted is None or topic in wanted):
+                yield topic, type_name, record.data, record.log_time
+        elif isinstance(record, Channel):
+            channels[record.id] = (record.topic, schemas.get(record.schema_id, ''))
+        elif isinstance(record, Schema):
+            schemas[record.id] = record.name
+
+
+def read_bag(path, topics=None):
+    """Yield (topic, rclpy message, log_time_ns) for the messages of a bag, in file order."""
+    from rclpy.serialization import deserialize_message
+    for topic, type_name, data, log_time in iter_raw(path, topics):
+        yield topic, deserialize_message(data, msgdefs.message_class(type_name)), log_time
+
+
+def read_metadata(path) -> dict[str, dict[str, str]]:
+    """The MCAP metadata records of a bag by name (the last record of a name wins)."""
+    found: dict[str, dict[str, str]] = {}
+    for record in iter_records(path, emit_chunks=True):
+        if isinstance(record, Metadata):
+            found[record.name] = dict(record.metadata)
+    return found
+
+
+def read_drive_params(path) -> dict | None:
+    """The drive parameters (SI) that the writer stored, or None."""
+    record = read_metadata(path).get(DRIVE_METADATA)
+    if not record or 'drive_params' not in record:
+        return None
+    return json.loads(record['drive_params'])
+
+
+# ---- CDR -----------------------------------------------------------------------------------
+
+@functools.lru_cache(maxsize=1)
+def _typestore():
+    from rosbags.typesys import Stores, get_typestore
+    return get_typestore(Stores.ROS2_JAZZY)
+
+
+_DTYPES = {'bool': 'bool', 'byte': 'uint8', 'octet': 'uint8', 'char': 'uint8', 'uint8': 'uint8',
+           'int8': 'int8', 'int16': 'int16', 'uint16': 'uint16', 'int32': 'int32',
+           'uint32': 'uint32', 'int64': 'int64', 'uint64': 'uint64', 'float32': 'float32',
+           'float64': 'float64'}
+
+
+def _scalar(value):
+    return value[0] if isinstance(value, bytes) else value
+
+
+def _field_converter(desc):
+    import numpy as np
+    from rosbags.interfaces import Nodetype
+    kind, detail = desc
+    if kind == Nodetype.NAME:
+        return _converter(detail)
+    if kind == Nodetype.BASE:
+        return (lambda v: v) if detail[0] == 'string' else _scalar
+    (sub_kind, sub_detail), _ = detail
+    if sub_kind == Nodetype.BASE and sub_detail[0] != 'string':
+        dtype = np.dtype(_DTYPES[sub_detail[0]])
+        if dtype == np.uint8:
+            return _uint8_array
+        return lambda v: np.asarray(v, dtype=dtype)
+    element = _field_converter((sub_kind, sub_detail))
+    return lambda v: [element(x) for x in v]
+
+
+def _uint8_array(value):
+    import numpy as np
+    if isinstance(value, (bytes, bytearray)):
+        return np.frombuffer(bytes(value), dtype=np.uint8)
+    return np.asarray([_scalar(x) for x in value], dtype=np.uint8)
+
+
+@functools.lru_cache(maxsize=None)
+def _converter(type_name: str):
+    """rclpy message -> rosbags message object of the same type, field by field."""
+    store = _typestore()
+    msgdef = store.get_msgdef(type_name)
+    fields = [(name, _field_converter(desc)) for name, desc in msgdef.fields]
+    cls = msgdef.cls
+
+    def convert(msg):
+        return cls(**{name: conv(getattr(msg, name)) for name, conv in fields})
+    return convert
+
+
+def cdr_bytes(message) -> bytes:
+    """The CDR bytes of an rclpy message, as a Fast DDS publisher puts them on the wire.
+
+    ``rclpy.serialization.serialize_message`` sizes its buffer by Fast CDR's estimate, so its
+    output can end in stray bytes and leaves padding uninitialised (not reproducible). The
+    message is serialised instead with rosbags' CDR (exact length, zero padding), which gives
+    the bytes that a raw subscription receives (test_bag checks this over DDS).
+    """
+    type_name = msgdefs.type_name_of(message)
+    obj = _converter(type_name)(message)
+    return bytes(_typestore().serialize_cdr(obj, type_name, little_endian=True))
