@@ -25,8 +25,8 @@ from abb_ros.model.params import DriveParams, ParamError
 __all__ = ['DEFAULT_DT', 'ConstantSpeed', 'Ramp', 'SpindleMotor', 'StateError', 'Simulation',
            'initial_state', 'reference_solution', 'Trajectory', 'simulate']
 
-DEFAULT_DT = 1.0 / 20000.0
-"""Default fixed step [s] (20 kHz); see README 'Physics and verification' for the accuracy
+DEFAULT_DT = 1.0 / 10000.0
+"""Default fixed step [s] (10 kHz); see README 'Physics and verification' for the accuracy
 study that chose it."""
 
 INITIAL_DECK = (0.3e-3, 0.3e-3, 0.3e-3, 0.0, 0.0, 0.0)

@@ -128,6 +128,22 @@ def _make_kernels(jit):
             FX += mr * tX
             FY -= mr * tY
             FZ -= mr * tZ
+            if j > 0:
+                # ball i = j - 1: its accelerations' coefficients in the deck rows, and Eq. (24)
+                i = j - 1
+                W[0, i] = -mr * (s + ga * co)
+                W[1, i] = mr * (co - ga * s)
+                W[2, i] = mr * (al * co + be * s)
+                W[3, i] = mr2 * be
+                W[4, i] = 0.0
+                W[5, i] = mr2
+                B[i, 0] = -mr * s
+                B[i, 1] = mr * co
+                B[i, 2] = 0.0
+                B[i, 3] = 0.0
+                B[i, 4] = 0.0
+                B[i, 5] = mr2
+                fb[i] = -D * y[N + 7 + i] - mr2 * thdd
         Ir = M * eps * eps + n * m * R * R
         kb = b * b + 4.0 * d * d
         kab = a * a + b * b + 4.0 * d * d
@@ -135,8 +151,6 @@ def _make_kernels(jit):
         for i in range(6):
             for j in range(6):
                 A[i, j] = 0.0
-            for j in range(n):
-                W[i, j] = 0.0
         # Eq. (18), X
         A[0, 0] = Mt
         A[0, 5] = M_P * d - S1
@@ -167,25 +181,6 @@ def _make_kernels(jit):
         A[5, 1] = C1
         f[5] = (-kab * (c * gad + k * ga) - 4.0 * d * c * Xd - 4.0 * d * k * X
                 - (Ir + J_z) * thdd)
-        # Ball terms of the deck rows and Eq. (24) for each ball
-        mR = m * R
-        mR2 = mR * R
-        for i in range(n):
-            psi = y[0] + y[7 + i]
-            s = math.sin(psi)
-            co = math.cos(psi)
-            W[0, i] = -mR * (s + ga * co)
-            W[1, i] = mR * (co - ga * s)
-            W[2, i] = mR * (al * co + be * s)
-            W[3, i] = mR2 * be
-            W[5, i] = mR2
-            B[i, 0] = -mR * s
-            B[i, 1] = mR * co
-            B[i, 2] = 0.0
-            B[i, 3] = 0.0
-            B[i, 4] = 0.0
-            B[i, 5] = mR2
-            fb[i] = -D * y[N + 7 + i] - mR2 * thdd
 
     @jit
     def solve6(A, f, u):
@@ -232,8 +227,10 @@ def _make_kernels(jit):
             for b in range(n):
                 w = W[i, b] * inv
                 if w != 0.0:
-                    for j in range(6):
-                        A[i, j] -= w * B[b, j]
+                    # Eq. (24) involves X'', Y'' and gamma'' only (B[:, 2:5] = 0)
+                    A[i, 0] -= w * B[b, 0]
+                    A[i, 1] -= w * B[b, 1]
+                    A[i, 5] -= w * B[b, 5]
                     f[i] -= w * fb[b]
         solve6(A, f, u)
         qdd[0] = thdd
@@ -356,7 +353,7 @@ def _build_jit():
         import numba
     except ImportError:  # pragma: no cover - numba is pinned in requirements.txt
         return PY
-    return _Kernels(_make_kernels(numba.njit(cache=False, nogil=True)), compiled=True)
+    return _Kernels(_make_kernels(numba.njit(cache=False, nogil=True, error_model='numpy')), compiled=True)
 
 
 JIT = _build_jit()
