@@ -14,10 +14,11 @@ form used here is phi_1* = -(pi - atan(sqrt((2mR/(M eps))^2 - 1))) = -acos(-M ep
 For n > 2 the equilibria form a family. The documented choice here is the *symmetric fan*: the
 balls evenly spaced by delta, centred on the side opposite G::
 
-    phi_i* = pi + (i - (n + 1) / 2) delta,   i = 1..n,
+    phi_i* = pi - (i - (n + 1) / 2) delta,   i = 1..n   (wrapped to (-pi, pi]),
 
 with delta in [0, 2 pi / n] solving sin(n delta / 2) / sin(delta / 2) = M eps / (m R) (the
-Dirichlet kernel, monotone on that interval). For n = 2 this is exactly the corrected Eq. (34).
+Dirichlet kernel, monotone on that interval). For n = 2 this is exactly the corrected Eq. (34),
+with the paper's sign convention phi_1* = -phi_2* < 0.
 Any other configuration may be passed explicitly as ``phi_star`` and is checked against Eq. (26).
 
 No balanced equilibrium exists when n m R < M eps (the balls cannot cancel the imbalance) or
@@ -79,25 +80,32 @@ def phi_star_two_balls(ratio: float) -> tuple[float, float]:
     return -phi, phi
 
 
-def fan_phi_star(n: int, ratio: float) -> np.ndarray:
-    """Symmetric-fan solution of Eq. (26) for n >= 2 balls and ratio = M eps / (m R) <= n."""
-    if n == 2:
-        return np.array(phi_star_two_balls(ratio))
-    if ratio > n:
+def fan_phi_star(n: int, ratio):
+    """Symmetric-fan solution of Eq. (26) for n >= 2 balls and ratio = M eps / (m R) <= n.
+
+    ``ratio`` may be an array of shape (B,); the result then has shape (B, n) [rad].
+    """
+    ratio = np.asarray(ratio, dtype=float)
+    if np.any(ratio > n):
         raise ValueError('no balanced equilibrium: n m R < M eps')
-    # sin(n x) / sin(x) with x = delta / 2 falls monotonically from n (x = 0) to 0 (x = pi / n).
-    lo, hi = 0.0, math.pi / n
-    for _ in range(200):
+    i = np.arange(1, n + 1) - (n + 1) / 2.0
+    if n == 2:  # closed form, Eq. (34) in the corrected quadrant: delta/2 = acos(ratio/2)
+        half = np.arccos(ratio / 2.0)
+        return _wrap(math.pi - 2.0 * half[..., None] * i)
+    # sin(n x) / sin(x) with x = delta / 2 falls monotonically from n (x = 0) to 0 (x = pi/n).
+    lo = np.zeros_like(ratio)
+    hi = np.full_like(ratio, math.pi / n)
+    for _ in range(60):  # interval pi/n halved 60 times: below double round-off
         mid = 0.5 * (lo + hi)
-        if math.sin(n * mid) / math.sin(mid) > ratio:
-            lo = mid
-        else:
-            hi = mid
-        if hi - lo < 1e-15:
-            break
-    delta = lo + hi  # 2 * midpoint
-    i = np.arange(1, n + 1)
-    return math.pi + (i - (n + 1) / 2.0) * delta
+        above = np.sin(n * mid) / np.sin(mid) > ratio
+        lo = np.where(above, mid, lo)
+        hi = np.where(above, hi, mid)
+    return _wrap(math.pi - (lo + hi)[..., None] * i)
+
+
+def _wrap(phi):
+    """Angles [rad] wrapped to (-pi, pi]."""
+    return math.pi - np.mod(math.pi - phi, 2.0 * math.pi)
 
 
 def balanced_equilibrium(params: DriveParams, phi_star=None) -> BalancedEquilibrium:

@@ -1,0 +1,366 @@
+"""Monodromy matrices and Floquet multipliers of Eqs. (35) and (37), batched.
+
+The linearised systems M(t) x'' + C(t) x' + K(t) x = 0 (:mod:`abb_ros.model.linear`) have
+coefficients periodic in tau = omega t. The fundamental matrix over one period (tau from 0 to
+2 pi in-plane, pi out-of-plane) is integrated in tau, where the equation reads
+``M x_tt + (C/omega) x_t + (K/omega^2) x = 0``, with classical RK4 at a fixed number of steps per
+period chosen per point from its fastest rate (:func:`steps_for`). The coefficient matrices are
+evaluated from their harmonics at the 2 N + 1 distinct stage times, and the state is kept in
+second-order form Y = [Q; V] (Q' = V, V' = P Q + S V with P = -M^-1 K, S = -M^-1 C), so one step
+costs two 'solve M' and four (nq x nq) by (nq x 2nq) products.
+
+The kernel is built twice from one source (``JIT``: numba, parallel over the points of the
+batch; ``PY``: the same statements in plain Python), and a test checks the two agree. The
+multipliers are the eigenvalues of the monodromy matrix Phi(T); the point is balanced and
+stable when the largest modulus is < 1 (Section 4).
+"""
+
+from __future__ import annotations
+
+import math
+import os
+
+import numpy as np
+
+from abb_ros.model.equilibrium import EQ26_TOL, fan_phi_star
+from abb_ros.model.linear import in_plane_harmonics, out_of_plane_harmonics, stack_params
+from abb_ros.model.params import ParamError
+
+__all__ = ['STEPS_PER_RADIAN', 'MIN_STEPS', 'JIT', 'PY', 'monodromy_batch', 'steps_for',
+           'monodromy', 'monodromy_reference', 'multipliers', 'max_multiplier', 'PLANES',
+           'equilibria', 'max_multiplier_batch', 'sweep_speed']
+
+STEPS_PER_RADIAN = 7.0
+"""RK4 steps per radian of the fastest phase advance in tau (chosen in test_floquet's accuracy
+study: |lambda|max within 1e-6 of a DOP853 reference at rtol 1e-12; the error falls as
+STEPS_PER_RADIAN**-4, and 12 gave 3e-8 at worst on a random sample)."""
+
+MIN_STEPS = 32
+"""Fewest RK4 steps per period."""
+
+
+try:
+    import numba
+    from numba.extending import register_jitable as _jitable
+    _prange = numba.prange
+except ImportError:  # pragma: no cover - numba is pinned in requirements.txt
+    numba = None
+    _prange = range
+
+    def _jitable(func):
+        return func
+
+
+# The kernels are plain Python functions that numba compiles when a compiled caller uses them
+# (register_jitable); called from Python they are the pure-Python twin. numba.prange outside a
+# compiled function is range.
+
+@_jitable
+def eval_coeffs(H, tau, out):
+    """out = sum_j H[j] basis_j(tau), basis = [1, cos tau, sin tau, cos 2 tau, ...]."""
+    nh, nq = H.shape[0], H.shape[1]
+    for i in range(nq):
+        for j in range(nq):
+            out[i, j] = H[0, i, j]
+    for h in range(1, (nh - 1) // 2 + 1):
+        ch = math.cos(h * tau)
+        sh = math.sin(h * tau)
+        for i in range(nq):
+            for j in range(nq):
+                out[i, j] += ch * H[2 * h - 1, i, j] + sh * H[2 * h, i, j]
+
+@_jitable
+def accel_matrix(Mh, Ch, Kh, tau, Mw, R):
+    """R = -M(tau)^-1 [K(tau) C(tau)], shape (nq, 2 nq), by Gauss elimination (pivoting)."""
+    nq = Mh.shape[1]
+    eval_coeffs(Mh, tau, Mw)
+    eval_coeffs(Kh, tau, R[:, :nq])
+    eval_coeffs(Ch, tau, R[:, nq:])
+    for i in range(nq):
+        for j in range(2 * nq):
+            R[i, j] = -R[i, j]
+    for col in range(nq):
+        piv = col
+        big = abs(Mw[col, col])
+        for r in range(col + 1, nq):
+            if abs(Mw[r, col]) > big:
+                big = abs(Mw[r, col])
+                piv = r
+        if piv != col:
+            for j in range(nq):
+                tmp = Mw[col, j]
+                Mw[col, j] = Mw[piv, j]
+                Mw[piv, j] = tmp
+            for j in range(2 * nq):
+                tmp = R[col, j]
+                R[col, j] = R[piv, j]
+                R[piv, j] = tmp
+        inv = 1.0 / Mw[col, col]
+        for r in range(col + 1, nq):
+            f = Mw[r, col] * inv
+            if f != 0.0:
+                for j in range(col, nq):
+                    Mw[r, j] -= f * Mw[col, j]
+                for j in range(2 * nq):
+                    R[r, j] -= f * R[col, j]
+    for col in range(nq - 1, -1, -1):
+        inv = 1.0 / Mw[col, col]
+        for j in range(2 * nq):
+            acc = R[col, j]
+            for r in range(col + 1, nq):
+                acc -= Mw[col, r] * R[r, j]
+            R[col, j] = acc * inv
+
+@_jitable
+def deriv(R, Q, V, dQ, dV):
+    """dQ = V, dV = P Q + S V with R = [P S]; Q, V shape (nq, m)."""
+    nq, m = Q.shape
+    for i in range(nq):
+        for j in range(m):
+            dV[i, j] = 0.0
+            dQ[i, j] = V[i, j]
+        for l in range(nq):
+            p = R[i, l]
+            s = R[i, nq + l]
+            for j in range(m):
+                dV[i, j] += p * Q[l, j] + s * V[l, j]
+
+@_jitable
+def axpy(Q, V, h, dQ, dV, Qo, Vo):
+    nq, m = Q.shape
+    for i in range(nq):
+        for j in range(m):
+            Qo[i, j] = Q[i, j] + h * dQ[i, j]
+            Vo[i, j] = V[i, j] + h * dV[i, j]
+
+@_jitable
+def monodromy_one(Mh, Ch, Kh, tau_end, nsteps, Phi):
+    """Phi = fundamental matrix at tau_end of M x'' + C x' + K x = 0 (tau units), RK4."""
+    nq = Mh.shape[1]
+    m = 2 * nq
+    Q = np.zeros((nq, m))
+    V = np.zeros((nq, m))
+    for i in range(nq):
+        Q[i, i] = 1.0
+        V[i, nq + i] = 1.0
+    Mw = np.empty((nq, nq))
+    R0 = np.empty((nq, m))
+    Rm = np.empty((nq, m))
+    R1 = np.empty((nq, m))
+    kQ = np.empty((4, nq, m))
+    kV = np.empty((4, nq, m))
+    Qt = np.empty((nq, m))
+    Vt = np.empty((nq, m))
+    h = tau_end / nsteps
+    accel_matrix(Mh, Ch, Kh, 0.0, Mw, R0)
+    for step in range(nsteps):
+        t0 = step * h
+        accel_matrix(Mh, Ch, Kh, t0 + 0.5 * h, Mw, Rm)
+        accel_matrix(Mh, Ch, Kh, t0 + h, Mw, R1)
+        deriv(R0, Q, V, kQ[0], kV[0])
+        axpy(Q, V, 0.5 * h, kQ[0], kV[0], Qt, Vt)
+        deriv(Rm, Qt, Vt, kQ[1], kV[1])
+        axpy(Q, V, 0.5 * h, kQ[1], kV[1], Qt, Vt)
+        deriv(Rm, Qt, Vt, kQ[2], kV[2])
+        axpy(Q, V, h, kQ[2], kV[2], Qt, Vt)
+        deriv(R1, Qt, Vt, kQ[3], kV[3])
+        w = h / 6.0
+        for i in range(nq):
+            for j in range(m):
+                Q[i, j] += w * (kQ[0, i, j] + 2.0 * (kQ[1, i, j] + kQ[2, i, j]) + kQ[3, i, j])
+                V[i, j] += w * (kV[0, i, j] + 2.0 * (kV[1, i, j] + kV[2, i, j]) + kV[3, i, j])
+        for i in range(nq):
+            for j in range(m):
+                R0[i, j] = R1[i, j]
+    for i in range(nq):
+        for j in range(m):
+            Phi[i, j] = Q[i, j]
+            Phi[nq + i, j] = V[i, j]
+
+def _monodromy_many(Mh, Ch, Kh, tau_end, nsteps, Phi):
+    """monodromy_one for each point b of the batch (parallel over b)."""
+    for b in _prange(Mh.shape[0]):
+        monodromy_one(Mh[b], Ch[b], Kh[b], tau_end[b], nsteps[b], Phi[b])
+
+
+class _Kernels:
+    def __init__(self, monodromy_many, monodromy_one, compiled):
+        self.monodromy_many = monodromy_many
+        self.monodromy_one = monodromy_one
+        self.compiled = compiled
+
+
+PY = _Kernels(_monodromy_many, monodromy_one, compiled=False)
+"""Pure-Python twin of the kernels (the same statements, interpreted)."""
+
+
+def _build_jit():
+    if os.environ.get('ABB_ROS_NO_JIT') or numba is None:
+        return PY
+    many = numba.njit(cache=True, nogil=True, fastmath=True, parallel=True)(_monodromy_many)
+    one = numba.njit(cache=True, nogil=True, fastmath=True)(monodromy_one)
+    return _Kernels(many, one, compiled=True)
+
+
+JIT = _build_jit()
+"""Compiled kernels (numba, parallel over the batch), or the twin where numba is unavailable."""
+
+
+def steps_for(rate_tau, tau_end) -> np.ndarray:
+    """RK4 steps per period for the fastest rate [1/rad of tau] of each point (int array)."""
+    rate = np.asarray(rate_tau, dtype=float)
+    return np.maximum(MIN_STEPS, np.ceil(STEPS_PER_RADIAN * rate * np.asarray(tau_end)))\
+        .astype(np.int64)
+
+
+def monodromy_batch(Mh, Ch, Kh, omega, tau_end, nsteps, kern=None) -> np.ndarray:
+    """Monodromy matrices in tau units for a batch.
+
+    Mh, Ch, Kh : ndarray, shape (B, H, nq, nq), harmonics in SI (linear.py);
+    omega : (B,) [rad/s]; tau_end : (B,) period in tau (2 pi or pi); nsteps : (B,) int.
+    Returns Phi, shape (B, 2 nq, 2 nq), for the state [x, dx/dtau].
+    """
+    kern = kern or JIT
+    omega = np.asarray(omega, dtype=float)
+    Mh = np.ascontiguousarray(Mh, dtype=float)
+    Ch = np.ascontiguousarray(Ch / omega[:, None, None, None])
+    Kh = np.ascontiguousarray(Kh / (omega ** 2)[:, None, None, None])
+    B, nq = Mh.shape[0], Mh.shape[2]
+    Phi = np.zeros((B, 2 * nq, 2 * nq))
+    kern.monodromy_many(Mh, Ch, Kh, np.broadcast_to(np.asarray(tau_end, float), (B,)).copy(),
+                        np.broadcast_to(np.asarray(nsteps, np.int64), (B,)).copy(), Phi)
+    return Phi
+
+
+def multipliers(Phi) -> np.ndarray:
+    """Floquet (characteristic) multipliers: eigenvalues of Phi, shape (..., 2 nq) complex."""
+    return np.linalg.eigvals(Phi)
+
+
+def max_multiplier(Phi) -> np.ndarray:
+    """Largest |multiplier| of each monodromy matrix (shape Phi.shape[:-2])."""
+    return np.abs(multipliers(Phi)).max(axis=-1)
+
+
+def _to_physical(Phi_tau, omega):
+    """Phi for [x, dx/dt] from Phi for [x, dx/dtau] (similarity S Phi S^-1, S = diag(1, omega))."""
+    nq = Phi_tau.shape[-1] // 2
+    s = np.concatenate([np.ones(nq), np.full(nq, omega)])
+    return Phi_tau * s[:, None] / s[None, :]
+
+
+def monodromy(system, nsteps=None, kern=None) -> np.ndarray:
+    """Phi(T) of a :class:`~abb_ros.model.linear.PeriodicSystem`, state [x, x'] (SI)."""
+    tau_end = system.omega * system.period
+    if nsteps is None:
+        nsteps = int(steps_for(fastest_rate(system), tau_end))
+    Phi = monodromy_batch(system.M[None], system.C[None], system.K[None],
+                          np.array([system.omega]), tau_end, nsteps, kern)[0]
+    return _to_physical(Phi, system.omega)
+
+
+def fastest_rate(system) -> float:
+    """Largest |eigenvalue| of A(tau) in tau units over a coarse grid of the period, plus 1."""
+    rates = []
+    for tau in np.linspace(0.0, 2 * math.pi, 9)[:-1]:
+        A = system.state_matrix(tau / system.omega)
+        rates.append(np.abs(np.linalg.eigvals(A)).max() / system.omega)
+    return max(rates) + 1.0
+
+
+def monodromy_reference(system, rtol=1e-12, atol=1e-12, method='DOP853') -> np.ndarray:
+    """Phi(T) by scipy's adaptive solve_ivp (the accuracy reference), state [x, x'] (SI)."""
+    from scipy.integrate import solve_ivp
+    nq = system.M.shape[1]
+
+    def fun(t, y):
+        return (system.state_matrix(t) @ y.reshape(2 * nq, 2 * nq)).ravel()
+
+    sol = solve_ivp(fun, (0.0, system.period), np.eye(2 * nq).ravel(), method=method,
+                    rtol=rtol, atol=atol)
+    return sol.y[:, -1].reshape(2 * nq, 2 * nq)
+
+
+# ---- batched multipliers at balanced equilibria --------------------------------------------
+
+PLANES = {'in': (in_plane_harmonics, 2 * math.pi), 'out': (out_of_plane_harmonics, math.pi)}
+"""Builder of the harmonics and the period in tau for each plane (T_I = 2 pi/omega, T_O = T_I/2)."""
+
+CHUNK = 2000
+"""Points per kernel call (progress is reported per chunk)."""
+
+
+def _rate_estimate(Mh, Ch, Kh, omega):
+    """Fastest rate [1/rad of tau] of each point, from the constant harmonic, plus 1.
+
+    sqrt of the largest eigenvalue of M0^-1 K0 / omega^2 (oscillation) plus the largest one of
+    M0^-1 C0 / omega (decay); the +1 covers the phase advance of the rotating terms.
+    """
+    Minv = np.linalg.inv(Mh[:, 0])
+    w = omega[:, None, None]
+    osc = np.abs(np.linalg.eigvals(Minv @ Kh[:, 0] / w ** 2)).max(axis=-1)
+    dec = np.abs(np.linalg.eigvals(Minv @ Ch[:, 0] / w)).max(axis=-1)
+    return np.sqrt(osc) + dec + 1.0
+
+
+def equilibria(params_list):
+    """Balanced equilibria of a batch of DriveParams (same n): (exists (B,), phi_star (B, n))."""
+    n = params_list[0].n
+    p = stack_params(params_list)
+    B = len(params_list)
+    if n == 0:
+        return p.eps == 0.0, np.zeros((B, 0))
+    ratio = p.M * p.eps / (p.m * p.R)
+    exists = ratio <= n if n > 1 else np.abs(ratio - 1.0) <= EQ26_TOL
+    phi = np.zeros((B, n))
+    if exists.any():
+        phi[exists] = fan_phi_star(n, ratio[exists]) if n > 1 else math.pi
+    return exists, phi
+
+
+def max_multiplier_batch(params_list, omegas, plane='in', phi_star=None, progress=None,
+                         kern=None):
+    """Largest |Floquet multiplier| at the balanced equilibrium for each point of a batch.
+
+    params_list : sequence of DriveParams with the same n; omegas : (B,) [rad/s] > 0;
+    phi_star : optional (B, n) or (n,) [rad], else the symmetric fan (equilibrium.py).
+    Returns (lam (B,), exists (B,) bool); lam is +inf where no balanced equilibrium exists.
+    ``progress(k)`` is called with the number of points done after each chunk.
+    """
+    builder, tau_end = PLANES[plane]
+    omegas = np.asarray(omegas, dtype=float)
+    if np.any(omegas <= 0):
+        raise ParamError('omega', float(omegas.min()), '(0, inf) rad/s')
+    B = len(params_list)
+    if phi_star is None:
+        exists, phi = equilibria(params_list)
+    else:
+        exists = np.ones(B, dtype=bool)
+        phi = np.broadcast_to(np.asarray(phi_star, dtype=float), (B, params_list[0].n))
+    lam = np.full(B, np.inf)
+    p = stack_params(params_list)
+    idx = np.flatnonzero(exists)
+    for start in range(0, idx.size, CHUNK):
+        sel = idx[start:start + CHUNK]
+        sub = type(p)(**{f: v[sel] if isinstance(v, np.ndarray) else v
+                         for f, v in vars(p).items()})
+        Mh, Ch, Kh = builder(sub, omegas[sel], phi[sel])
+        steps = steps_for(_rate_estimate(Mh, Ch, Kh, omegas[sel]), tau_end)
+        lam[sel] = max_multiplier(monodromy_batch(Mh, Ch, Kh, omegas[sel], tau_end, steps, kern))
+        if progress is not None:
+            progress(sel.size)
+    if progress is not None and idx.size < B:
+        progress(B - idx.size)
+    return lam, exists
+
+
+def sweep_speed(params, omegas, plane='in', phi_star=None) -> np.ndarray:
+    """|lambda|max against spindle speed omegas [rad/s] for fixed parameters (1-D sweep).
+
+    +inf at every speed when no balanced equilibrium exists. About 0.2 s for 200 speeds once
+    the kernel is compiled (numba caches it on disk; the first use in a fresh checkout compiles
+    for ~20 s).
+    """
+    omegas = np.atleast_1d(np.asarray(omegas, dtype=float))
+    lam, _ = max_multiplier_batch([params] * omegas.size, omegas, plane, phi_star)
+    return lam
