@@ -1,0 +1,65 @@
+"""`abb-sim plot BAG --out DIR [--compare BAG2]`: the paper's time-response figures (PNG)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from abb_ros.io.bag import BagError
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument('bag', help='bag directory or .mcap file (abb-sim run, recorder, '
+                                    'ros2 bag record)')
+    parser.add_argument('--out', required=True, help='directory for the PNG files')
+    parser.add_argument('--compare', metavar='BAG2',
+                        help='the same case without the ABB: adds Fig. 14 (overlay) and '
+                             "Fig. 12 (its deck coordinates)")
+    parser.add_argument('--R', type=float, default=None,
+                        help='race radius [m] for rbar when the bag does not store the drive '
+                             'parameters (default: Table 1, 0.015 m)')
+    parser.add_argument('--title', default='', help='figure title')
+
+
+def run(args) -> dict:
+    from abb_ros.cli import UsageError
+    from abb_ros.io import plots
+
+    if args.R is not None and not args.R > 0:
+        raise UsageError(f'--R must be > 0 m, got {args.R}')
+    out = Path(args.out)
+    try:
+        out.mkdir(parents=True, exist_ok=True)
+        resp = plots.load_time_response(args.bag, R=args.R)
+        other = (plots.load_time_response(args.compare, R=args.R)
+                 if args.compare else None)
+    except (BagError, plots.PlotError, OSError) as exc:
+        raise UsageError(str(exc)) from None
+    figures = [out / 'rbar_balls.png', out / 'deck.png']
+    plots.plot_rbar_and_balls(resp, figures[0], args.title)
+    plots.plot_deck_coordinates(resp, figures[1], args.title)
+    if other is not None:
+        figures += [out / 'deck_without_abb.png', out / 'abb_comparison.png']
+        plots.plot_deck_coordinates(other, figures[2], f'{args.title} (without ABB)'.strip())
+        plots.plot_abb_comparison(resp, other, figures[3], args.title)
+    summary = {
+        'figures': [str(f) for f in figures],
+        'R_m': resp.R, 'R_source': resp.R_source,
+        'duration_s': float(resp.t_pose[-1]) if len(resp.t_pose) else 0.0,
+        'final_rbar': float(resp.rbar[-1]),
+        'n_balls': int(resp.phi.shape[0]) if resp.phi.size else 0,
+        'final_ball_angles_deg': (plots.wrap_degrees(resp.phi[:, -1]).tolist()
+                                  if resp.phi.size else []),
+    }
+    if other is not None:
+        summary['final_rbar_without_abb'] = float(other.rbar[-1])
+        summary['max_rbar_last_tenth'] = _tail_max(resp)
+        summary['max_rbar_last_tenth_without_abb'] = _tail_max(other)
+    return summary
+
+
+def _tail_max(resp) -> float:
+    """Largest rbar over the last tenth of the run (residual vibration, Fig. 14)."""
+    rbar = resp.rbar
+    return float(np.max(rbar[len(rbar) * 9 // 10:]))

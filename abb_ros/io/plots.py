@@ -1,0 +1,210 @@
+"""Time-response figures of the paper (Figs. 9-16) from a recorded bag.
+
+:func:`load_time_response` turns a bag (ours, or ``ros2 bag record`` of our topics) into arrays;
+the ``plot_*`` functions draw them. matplotlib is imported only when drawing. SI inside; mm and
+degrees on the axes.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import re
+
+import numpy as np
+
+from abb_ros.io.bag import read_bag, read_drive_params
+from abb_ros.model.params import DriveParams
+
+MAX_POINTS = 20000  # per curve; longer series are decimated for drawing
+_BALL = re.compile(r'^ball_(\d+)$')
+
+
+class PlotError(ValueError):
+    """The bag lacks what a figure needs."""
+
+
+@dataclasses.dataclass
+class TimeResponse:
+    """Deck coordinates and ball angles over time. All values are SI (s, m, rad).
+
+    t_pose : shape (T,); deck : shape (6, T) = X, Y, Z, alpha, beta, gamma (Eqs. 1-2 sequence);
+    t_joint : shape (S,); phi : shape (n, S), ball angles from the imbalance G; R : race radius.
+    """
+
+    t_pose: np.ndarray
+    deck: np.ndarray
+    t_joint: np.ndarray
+    phi: np.ndarray
+    R: float
+    R_source: str
+
+    @property
+    def rbar(self) -> np.ndarray:
+        """rbar = sqrt(X^2 + Y^2 + Z^2) / R (Section 5, Fig. 9(a))."""
+        return np.sqrt(np.sum(self.deck[:3] ** 2, axis=0)) / self.R
+
+
+def euler_from_quaternion(x, y, z, w):
+    """(alpha, beta, gamma) of R = Rz(gamma) Rx(alpha) Ry(beta) (Eqs. 1-2) from a quaternion."""
+    x, y, z, w = (np.asarray(v, dtype=float) for v in (x, y, z, w))
+    r01 = 2.0 * (x * y - w * z)
+    r11 = 1.0 - 2.0 * (x * x + z * z)
+    r20 = 2.0 * (x * z - w * y)
+    r21 = 2.0 * (y * z + w * x)
+    r22 = 1.0 - 2.0 * (x * x + y * y)
+    alpha = np.arcsin(np.clip(r21, -1.0, 1.0))
+    beta = np.arctan2(-r20, r22)
+    gamma = np.arctan2(-r01, r11)
+    return alpha, beta, gamma
+
+
+def _stamp(msg, log_time):
+    """Header stamp (simulated time) when set, else the receive time [ns]."""
+    ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+    return ns if ns else log_time
+
+
+def load_time_response(path, R: float | None = None) -> TimeResponse:
+    """Read deck/pose and joint_states (any namespace) of a bag.
+
+    R: the drive parameters stored in the bag, else ``R``, else Table 1 (0.015 m).
+    """
+    pose_t, pose = [], []
+    joint_t, joint = [], []
+    names = None
+    for topic, msg, log_time in read_bag(path):
+        if topic.endswith('/deck/pose'):
+            p, q = msg.pose.position, msg.pose.orientation
+            pose_t.append(_stamp(msg, log_time))
+            pose.append((p.x, p.y, p.z, q.x, q.y, q.z, q.w))
+        elif topic.endswith('/joint_states'):
+            if names is None:
+                names = sorted((int(m.group(1)), i) for i, n in enumerate(msg.name)
+                               if (m := _BALL.match(n)))
+            if len(msg.position) == len(msg.name):
+                joint_t.append(_stamp(msg, log_time))
+                joint.append([msg.position[i] for _, i in names])
+    if not pose:
+        raise PlotError(f'{path} has no deck/pose messages: rbar and the deck coordinates '
+                        'need them')
+    stored = read_drive_params(path) or {}
+    if 'R' in stored:
+        radius, source = float(stored['R']), 'bag'
+    elif R is not None:
+        radius, source = float(R), '--R'
+    else:
+        radius, source = DriveParams().R, 'Table 1'
+    if not radius > 0:
+        raise PlotError(f'R must be > 0 m, got {radius}')
+    pose = np.asarray(pose, dtype=float)
+    t0 = min(pose_t[0], joint_t[0]) if joint_t else pose_t[0]
+    deck = np.vstack([pose[:, :3].T, np.vstack(euler_from_quaternion(*pose[:, 3:].T))])
+    phi = np.asarray(joint, dtype=float).T if joint else np.zeros((0, 0))
+    return TimeResponse(t_pose=(np.asarray(pose_t) - t0) * 1e-9, deck=deck,
+                        t_joint=(np.asarray(joint_t) - t0) * 1e-9, phi=phi, R=radius,
+                        R_source=source)
+
+
+def wrap_degrees(phi) -> np.ndarray:
+    """Angles [rad] in degrees in [-180, 180)."""
+    return (np.degrees(np.asarray(phi, dtype=float)) + 180.0) % 360.0 - 180.0
+
+
+def _broken_at_wraps(deg: np.ndarray) -> np.ndarray:
+    """NaN where a time series of wrapped angles jumps by a turn (no vertical lines)."""
+    deg = deg.copy()
+    deg[..., 1:][np.abs(np.diff(deg, axis=-1)) > 180.0] = np.nan
+    return deg
+
+
+def _thin(t, *ys):
+    step = max(1, len(t) // MAX_POINTS)
+    return (t[::step],) + tuple(y[..., ::step] for y in ys)
+
+
+def _pyplot():
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+    return plt
+
+
+def plot_rbar_and_balls(resp: TimeResponse, out, title: str = '') -> None:
+    """(a) rbar vs time, (b) ball angles phi_i (deg) vs time: Figs. 9-11, 15, 16."""
+    plt = _pyplot()
+    fig, (ax_r, ax_phi) = plt.subplots(2, 1, figsize=(7, 6.5), sharex=True)
+    t, rbar = _thin(resp.t_pose, resp.rbar)
+    ax_r.plot(t, rbar, lw=0.8, color='k')
+    ax_r.set_ylabel(r'$\bar r = \sqrt{X^2+Y^2+Z^2}\,/\,R$')
+    ax_r.set_title(f'(a) displacement of the centre (R = {resp.R * 1e3:g} mm)', fontsize=10)
+    ax_r.grid(alpha=0.3)
+    if resp.phi.size:
+        t, phi = _thin(resp.t_joint, resp.phi)
+        deg = _broken_at_wraps(wrap_degrees(phi))
+        for i, row in enumerate(deg):
+            ax_phi.plot(t, row, lw=0.8, label=rf'$\phi_{{{i + 1}}}$')
+        if len(deg) <= 4:
+            ax_phi.legend(loc='best', fontsize=8)
+    else:
+        ax_phi.text(0.5, 0.5, 'no joint_states in the bag', ha='center',
+                    transform=ax_phi.transAxes)
+    ax_phi.set_ylim(-180, 180)
+    ax_phi.set_yticks(range(-180, 181, 60))
+    ax_phi.set_ylabel(r'ball angle $\phi_i$ (deg)')
+    ax_phi.set_xlabel('time (s)')
+    ax_phi.set_title('(b) angular positions of the balancing balls', fontsize=10)
+    ax_phi.grid(alpha=0.3)
+    _finish(fig, title, out)
+
+
+DECK_PANELS = (('(a) X', 'X (mm)', 1e3), ('(b) Y', 'Y (mm)', 1e3), ('(c) Z', 'Z (mm)', 1e3),
+               (r'(d) $\alpha$', r'$\alpha$ (deg)', np.degrees(1.0)),
+               (r'(e) $\beta$', r'$\beta$ (deg)', np.degrees(1.0)),
+               (r'(f) $\gamma$', r'$\gamma$ (deg)', np.degrees(1.0)))
+
+
+def plot_deck_coordinates(resp: TimeResponse, out, title: str = '') -> None:
+    """The six deck coordinates X, Y, Z (mm), alpha, beta, gamma (deg): Figs. 12, 13."""
+    plt = _pyplot()
+    fig, axes = plt.subplots(3, 2, figsize=(10, 8), sharex=True)
+    t, deck = _thin(resp.t_pose, resp.deck)
+    order = (0, 3, 1, 4, 2, 5)  # column 1 translations, column 2 rotations
+    for ax, k in zip(axes.flat, order):
+        label, ylabel, scale = DECK_PANELS[k]
+        ax.plot(t, deck[k] * scale, lw=0.7, color='k')
+        ax.set_title(label, fontsize=10)
+        ax.set_ylabel(ylabel)
+        ax.grid(alpha=0.3)
+        ax.ticklabel_format(axis='y', style='sci', scilimits=(-3, 3))
+    for ax in axes[-1]:
+        ax.set_xlabel('time (s)')
+    _finish(fig, title, out)
+
+
+def plot_abb_comparison(with_abb: TimeResponse, without_abb: TimeResponse, out,
+                        title: str = '') -> None:
+    """rbar (a) with the ABB and (b) without it, on one scale: Fig. 14."""
+    plt = _pyplot()
+    fig, axes = plt.subplots(2, 1, figsize=(7, 6.5), sharex=True, sharey=True)
+    t_w, r_w = _thin(with_abb.t_pose, with_abb.rbar)
+    t_n, r_n = _thin(without_abb.t_pose, without_abb.rbar)
+    axes[0].plot(t_w, r_w, lw=0.8, color='k', label='with ABB')
+    axes[1].plot(t_n, r_n, lw=0.8, color='tab:red', label='without ABB')
+    axes[1].plot(t_w, r_w, lw=0.6, color='k', alpha=0.35, label='with ABB')
+    axes[0].set_title('(a) ABB installed', fontsize=10)
+    axes[1].set_title('(b) ABB not installed', fontsize=10)
+    for ax in axes:
+        ax.set_ylabel(r'$\bar r$')
+        ax.grid(alpha=0.3)
+        ax.legend(loc='upper right', fontsize=8)
+    axes[1].set_xlabel('time (s)')
+    _finish(fig, title, out)
+
+
+def _finish(fig, title, out) -> None:
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+    import matplotlib.pyplot as plt
+    plt.close(fig)
