@@ -1,0 +1,72 @@
+"""The compiled kernels and their pure-Python twins run the same statements: they agree."""
+
+import numpy as np
+import pytest
+
+from abb_ros.model import kernels
+from abb_ros.model.dynamics import accelerations, lagrange_residual
+from abb_ros.model.integrate import SpindleMotor, initial_state
+from abb_ros.model.params import METAL_C, DriveParams, apply_settings
+
+pytestmark = pytest.mark.skipif(not kernels.JIT.compiled, reason='numba not available')
+
+
+def _state(n, seed):
+    params, omega = apply_settings(DriveParams(n=n), {'mbar': 0.03, 'c': METAL_C, 'wbar': 2.7})
+    rng = np.random.default_rng(seed)
+    y = initial_state(params, omega, phi0=rng.uniform(-np.pi, np.pi, n))
+    N = 7 + n
+    y[1:7] += rng.normal(0, 1e-4, 6)
+    y[N + 1:N + 7] = rng.normal(0, 0.05, 6)
+    y[N + 7:] = rng.normal(0, 5.0, n)
+    return params, omega, y
+
+
+@pytest.mark.parametrize('n', [0, 2, 10])
+def test_compiled_and_python_accelerations_agree(n):
+    params, omega, y = _state(n, seed=n)
+    S = SpindleMotor(max_accel=800.0, tau=0.05).pack(omega * 1.1)
+    fast = accelerations(params, y, 0.0, S, kern=kernels.JIT)
+    slow = accelerations(params, y, 0.0, S, kern=kernels.PY)
+    # Same operations in the same order; LLVM may contract a*b+c into FMAs: round-off only.
+    np.testing.assert_allclose(fast, slow, rtol=1e-12, atol=1e-12 * np.abs(slow).max())
+
+
+def test_compiled_and_python_rk4_agree_over_many_steps():
+    params, omega, y0 = _state(2, seed=7)
+    S = SpindleMotor().pack(omega)
+    outs = []
+    for kern in (kernels.JIT, kernels.PY):
+        y = y0.copy()
+        done, status = kern.rk4_advance(y, 0.0, 1e-4, 0, 200, 2, kernels.pack_params(params), S,
+                                        kernels.make_work(2))
+        assert (done, status) == (200, kernels.OK)
+        outs.append(y)
+    np.testing.assert_allclose(outs[0], outs[1], rtol=1e-10, atol=1e-15)
+
+
+@pytest.mark.parametrize('n', [1, 2, 5])
+def test_accelerations_solve_the_equations_of_motion(n):
+    """The elimination of the ball accelerations is exact: q'' satisfies all 6 + n equations."""
+    params, omega, y = _state(n, seed=10 + n)
+    S = SpindleMotor(max_accel=1500.0, tau=0.02).pack(0.0)   # spinning down: theta'' != 0
+    qdd = accelerations(params, y, 0.0, S)
+    assert qdd[0] == -1500.0
+    res = lagrange_residual(params, y, qdd)
+    scale = params.M * params.eps * omega ** 2      # the imbalance force [N]
+    assert np.abs(res).max() < 1e-12 * scale
+
+
+def test_bad_state_stops_integration_and_keeps_last_good_state():
+    params, omega, y = _state(2, seed=3)
+    y[1] = 0.5 * kernels.MAX_TRANSLATION
+    y[7 + 2 + 1] = 1e9        # X' absurd: the next step leaves the envelope
+    y_before = y.copy()
+    done, status = kernels.JIT.rk4_advance(y, 0.0, 1e-4, 0, 10, 2, kernels.pack_params(params),
+                                           np.zeros(kernels.N_SPINDLE), kernels.make_work(2))
+    assert status == kernels.ENVELOPE and done == 0
+    np.testing.assert_array_equal(y, y_before)
+    y[2] = np.nan
+    done, status = kernels.JIT.rk4_advance(y, 0.0, 1e-4, 0, 10, 2, kernels.pack_params(params),
+                                           np.zeros(kernels.N_SPINDLE), kernels.make_work(2))
+    assert status == kernels.NONFINITE
