@@ -119,10 +119,10 @@ def balanced_equilibrium(params: DriveParams, phi_star=None) -> BalancedEquilibr
     if phi_star is not None:
         phi = np.asarray(phi_star, dtype=float).reshape(-1)
         if phi.size != n or not np.all(np.isfinite(phi)):
-            raise ParamError('phi_star', list(phi), f'{n} finite angles [rad]')
+            raise ParamError('phi_star', _deg(phi), f'{n} finite angles')
         res = eq26_residual(params, phi)
         if res > EQ26_TOL * max(n, 1):
-            raise ParamError('phi_star', list(phi), 'a solution of Eq. (26)',
+            raise ParamError('phi_star', _deg(phi), 'a solution of Eq. (26)',
                              f'residual {res:.3g}')
         return BalancedEquilibrium(True, phi)
     if n == 0:
@@ -152,3 +152,7 @@ def mbar_lim(params: DriveParams) -> float:
     if params.n == 0:
         return math.inf
     return params.eps / (params.n * params.R)
+
+
+def _deg(phi) -> str:
+    return '[' + ', '.join(f'{math.degrees(v):.6g} deg' for v in phi) + ']'

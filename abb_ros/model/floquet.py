@@ -19,16 +19,20 @@ from __future__ import annotations
 
 import math
 import os
+from dataclasses import dataclass
 
 import numpy as np
 
-from abb_ros.model.equilibrium import EQ26_TOL, fan_phi_star
+from abb_ros.model.equilibrium import (EQ26_TOL, balanced_equilibrium, epsbar_lim, fan_phi_star,
+                                       mbar_lim)
 from abb_ros.model.linear import in_plane_harmonics, out_of_plane_harmonics, stack_params
 from abb_ros.model.params import ParamError
 
 __all__ = ['STEPS_PER_RADIAN', 'MIN_STEPS', 'JIT', 'PY', 'monodromy_batch', 'steps_for',
            'monodromy', 'monodromy_reference', 'multipliers', 'max_multiplier', 'PLANES',
-           'equilibria', 'max_multiplier_batch', 'sweep_speed']
+           'equilibria', 'max_multiplier_batch', 'sweep_speed', 'PointStability',
+           'point_stability', 'StabilityMap', 'stability_map', 'MAP_AXES', 'BALANCED', 'UNSTABLE',
+           'NO_EQUILIBRIUM']
 
 STEPS_PER_RADIAN = 7.0
 """RK4 steps per radian of the fastest phase advance in tau (chosen in test_floquet's accuracy
@@ -56,26 +60,32 @@ except ImportError:  # pragma: no cover - numba is pinned in requirements.txt
 # compiled function is range.
 
 @_jitable
-def eval_coeffs(H, tau, out):
-    """out = sum_j H[j] basis_j(tau), basis = [1, cos tau, sin tau, cos 2 tau, ...]."""
+def eval_coeffs(H, basis, out):
+    """out = sum_j H[j] basis[j], basis = [1, cos tau, sin tau, cos 2 tau, sin 2 tau]."""
     nh, nq = H.shape[0], H.shape[1]
     for i in range(nq):
         for j in range(nq):
-            out[i, j] = H[0, i, j]
-    for h in range(1, (nh - 1) // 2 + 1):
-        ch = math.cos(h * tau)
-        sh = math.sin(h * tau)
-        for i in range(nq):
-            for j in range(nq):
-                out[i, j] += ch * H[2 * h - 1, i, j] + sh * H[2 * h, i, j]
+            acc = H[0, i, j]
+            for h in range(1, nh):
+                acc += basis[h] * H[h, i, j]
+            out[i, j] = acc
+
 
 @_jitable
-def accel_matrix(Mh, Ch, Kh, tau, Mw, R):
-    """R = -M(tau)^-1 [K(tau) C(tau)], shape (nq, 2 nq), by Gauss elimination (pivoting)."""
+def accel_matrix(Mh, Ch, Kh, tau, Mw, R, basis):
+    """R = -M(tau)^-1 [K(tau) C(tau)], shape (nq, 2 nq), by Gauss elimination (pivoting).
+
+    Mw (nq, nq) and basis (5,) are work buffers.
+    """
     nq = Mh.shape[1]
-    eval_coeffs(Mh, tau, Mw)
-    eval_coeffs(Kh, tau, R[:, :nq])
-    eval_coeffs(Ch, tau, R[:, nq:])
+    basis[0] = 1.0
+    basis[1] = math.cos(tau)
+    basis[2] = math.sin(tau)
+    basis[3] = math.cos(2.0 * tau)
+    basis[4] = math.sin(2.0 * tau)
+    eval_coeffs(Mh, basis, Mw)
+    eval_coeffs(Kh, basis, R[:, :nq])
+    eval_coeffs(Ch, basis, R[:, nq:])
     for i in range(nq):
         for j in range(2 * nq):
             R[i, j] = -R[i, j]
@@ -144,6 +154,7 @@ def monodromy_one(Mh, Ch, Kh, tau_end, nsteps, Phi):
         Q[i, i] = 1.0
         V[i, nq + i] = 1.0
     Mw = np.empty((nq, nq))
+    basis = np.empty(5)
     R0 = np.empty((nq, m))
     Rm = np.empty((nq, m))
     R1 = np.empty((nq, m))
@@ -152,11 +163,11 @@ def monodromy_one(Mh, Ch, Kh, tau_end, nsteps, Phi):
     Qt = np.empty((nq, m))
     Vt = np.empty((nq, m))
     h = tau_end / nsteps
-    accel_matrix(Mh, Ch, Kh, 0.0, Mw, R0)
+    accel_matrix(Mh, Ch, Kh, 0.0, Mw, R0, basis)
     for step in range(nsteps):
         t0 = step * h
-        accel_matrix(Mh, Ch, Kh, t0 + 0.5 * h, Mw, Rm)
-        accel_matrix(Mh, Ch, Kh, t0 + h, Mw, R1)
+        accel_matrix(Mh, Ch, Kh, t0 + 0.5 * h, Mw, Rm, basis)
+        accel_matrix(Mh, Ch, Kh, t0 + h, Mw, R1, basis)
         deriv(R0, Q, V, kQ[0], kV[0])
         axpy(Q, V, 0.5 * h, kQ[0], kV[0], Qt, Vt)
         deriv(Rm, Qt, Vt, kQ[1], kV[1])
@@ -364,3 +375,152 @@ def sweep_speed(params, omegas, plane='in', phi_star=None) -> np.ndarray:
     omegas = np.atleast_1d(np.asarray(omegas, dtype=float))
     lam, _ = max_multiplier_batch([params] * omegas.size, omegas, plane, phi_star)
     return lam
+
+
+# ---- one operating point and two-parameter maps ----------------------------------------------
+
+MAP_AXES = ('wbar', 'zeta', 'Dbar', 'epsbar', 'mbar')
+"""Parameters a stability map may vary (Eq. 39)."""
+
+BALANCED, UNSTABLE, NO_EQUILIBRIUM = 0, 1, 2
+"""Map status codes: balanced and stable (|lambda|max < 1); balanced equilibrium unstable;
+no balanced equilibrium (n m R < M eps). Both of the last two are 'unbalanced'."""
+
+
+@dataclass(frozen=True)
+class PointStability:
+    """Stability of the balanced equilibrium at one operating point (Section 4)."""
+
+    omega: float
+    exists: bool
+    phi_star: np.ndarray
+    lam_in: float
+    lam_out: float
+    reason: str = ''
+
+    @property
+    def balanced(self) -> bool:
+        """True when the balanced equilibrium exists and both planes are stable."""
+        return self.exists and self.lam_in < 1.0 and self.lam_out < 1.0
+
+    @property
+    def verdict(self) -> str:
+        if not self.exists:
+            return 'unbalanced (no balanced equilibrium)'
+        if self.balanced:
+            return 'balanced'
+        planes = [name for name, lam in (('in-plane', self.lam_in), ('out-of-plane', self.lam_out))
+                  if lam >= 1.0]
+        return 'unbalanced (' + ' and '.join(planes) + ' unstable)'
+
+
+def point_stability(params, omega, phi_star=None) -> PointStability:
+    """In-plane and out-of-plane |lambda|max at the balanced equilibrium (omega [rad/s] > 0)."""
+    eq = balanced_equilibrium(params, phi_star)
+    if not eq.exists:
+        return PointStability(float(omega), False, eq.phi_star, math.inf, math.inf, eq.reason)
+    lam = [float(max_multiplier_batch([params], [omega], plane, eq.phi_star)[0][0])
+           for plane in ('in', 'out')]
+    return PointStability(float(omega), True, eq.phi_star, lam[0], lam[1])
+
+
+@dataclass
+class StabilityMap:
+    """|lambda|max and status over a grid: arrays shape (len(y_values), len(x_values)).
+
+    ``lam`` is +inf where no balanced equilibrium exists (status NO_EQUILIBRIUM).
+    ``fixed`` holds the settings applied to every point and the resulting dimensionless and SI
+    parameters (at the first grid point's non-axis values); ``limits`` the horizontal limit
+    lines of Figs. 6 and 7 (epsbar_lim, mbar_lim) that apply to the y axis.
+    """
+
+    x: str
+    y: str
+    x_values: np.ndarray
+    y_values: np.ndarray
+    lam: np.ndarray
+    status: np.ndarray
+    plane: str
+    fixed: dict
+    limits: dict
+
+    def save(self, path) -> None:
+        """NPZ (arrays + fixed parameters as JSON) or CSV (x, y, lam_max, status; '#' header)."""
+        import json
+        path = str(path)
+        if path.endswith('.csv'):
+            X, Y = np.meshgrid(self.x_values, self.y_values)
+            rows = np.column_stack([X.ravel(), Y.ravel(), self.lam.ravel(), self.status.ravel()])
+            header = (f'stability map, plane={self.plane}; fixed: {json.dumps(self.fixed)}; '
+                      f'limits: {json.dumps(self.limits)}; status 0 balanced, 1 unstable, '
+                      f'2 no balanced equilibrium (lam_max inf)\n{self.x},{self.y},lam_max,status')
+            np.savetxt(path, rows, delimiter=',', header=header, fmt='%.10g')
+        else:
+            np.savez_compressed(path, x_name=self.x, y_name=self.y, x_values=self.x_values,
+                                y_values=self.y_values, lam_max=self.lam, status=self.status,
+                                plane=self.plane, fixed_json=json.dumps(self.fixed),
+                                limits_json=json.dumps(self.limits))
+
+    def summary(self) -> dict:
+        n = self.status.size
+        return {'x': self.x, 'y': self.y, 'plane': self.plane, 'points': int(n),
+                'balanced_fraction': float((self.status == BALANCED).mean()),
+                'no_equilibrium_fraction': float((self.status == NO_EQUILIBRIUM).mean()),
+                'lam_max_finite_range': _finite_range(self.lam), 'limits': self.limits,
+                'fixed': self.fixed}
+
+
+def _finite_range(lam):
+    fin = lam[np.isfinite(lam)]
+    return [float(fin.min()), float(fin.max())] if fin.size else []
+
+
+def stability_map(base, x, x_values, y, y_values, settings=None, plane='in',
+                  progress=None) -> StabilityMap:
+    """|lambda|max over the grid x_values x y_values of two Eq. (39) parameters.
+
+    base : DriveParams; settings : further fixed settings for apply_settings (e.g. zeta, wbar);
+    every point is converted with :func:`abb_ros.model.params.apply_settings`. wbar must be
+    one of the axes or in ``settings``.
+    """
+    from abb_ros.model.params import apply_settings
+    for name in (x, y):
+        if name not in MAP_AXES:
+            raise ParamError('axis', name, 'one of ' + ', '.join(MAP_AXES))
+    if x == y:
+        raise ParamError('axis', y, 'a parameter other than the x axis')
+    settings = dict(settings or {})
+    for name in (x, y):
+        settings.pop(name, None)
+    if 'wbar' not in (x, y) and 'wbar' not in settings and 'omega' not in settings:
+        raise ParamError('wbar', None, '[0, inf): give it as an axis or with --set wbar=...')
+    xs = np.asarray(x_values, dtype=float)
+    ys = np.asarray(y_values, dtype=float)
+    cache = {}
+    plist, omegas = [], []
+    for yv in ys:
+        for xv in xs:
+            point = {**settings, x: float(xv), y: float(yv)}
+            speed = {k: point.pop(k) for k in ('wbar', 'omega') if k in point}
+            key = tuple(sorted(point.items()))
+            if key not in cache:
+                cache[key] = apply_settings(base, point)[0]
+            params, omega = apply_settings(cache[key], speed)
+            plist.append(params)
+            omegas.append(omega)
+    omegas = np.asarray(omegas)
+    lam, exists = max_multiplier_batch(plist, np.maximum(omegas, 1e-9), plane,
+                                       progress=progress)
+    status = np.where(~exists, NO_EQUILIBRIUM, np.where(lam < 1.0, BALANCED, UNSTABLE))
+    first = plist[0]
+    fixed = {'settings': settings, 'n': first.n, 'omega0': first.omega0,
+             **{k: v for k, v in first.dimensionless().items() if k not in (x, y)},
+             'SI': {k: v for k, v in first.as_dict().items()}}
+    limits = {}
+    if y == 'mbar' or x == 'mbar':
+        limits['mbar_lim'] = mbar_lim(first)
+    if y == 'epsbar' or x == 'epsbar':
+        limits['epsbar_lim'] = epsbar_lim(first)
+    shape = (ys.size, xs.size)
+    return StabilityMap(x, y, xs, ys, lam.reshape(shape), status.reshape(shape), plane, fixed,
+                        limits)

@@ -1,0 +1,86 @@
+"""`abb-sim map`: stability map over two Eq. (39) parameters (PNG + NPZ/CSV data file).
+
+Example (Fig. 7b): ``abb-sim map --x wbar --y mbar --set zeta=0.025 --out fig7b.png``.
+Progress goes to stderr (tqdm); the summary (and --json) to stdout.
+"""
+
+from __future__ import annotations
+
+import os
+import sys
+
+import numpy as np
+
+from abb_ros.cli import UsageError, parse_settings
+from abb_ros.model.floquet import MAP_AXES, stability_map
+from abb_ros.model.params import DriveParams, ParamError
+
+DEFAULT_RANGES = {'wbar': (0.2, 3.5), 'zeta': (0.0, 0.15), 'Dbar': (0.0, 1.0),
+                  'epsbar': (0.0, 0.05), 'mbar': (0.001, 0.12)}
+"""Axis ranges when --range-x/--range-y are not given (those of the paper's figures)."""
+OUT_OF_PLANE_MBAR = (0.01, 2.5)
+"""Fig. 8 needs heavy balls to show the parametric-resonance zone."""
+MAX_POINTS = 1_000_000
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument('--x', required=True, choices=MAP_AXES, help='horizontal axis')
+    parser.add_argument('--y', required=True, choices=MAP_AXES, help='vertical axis')
+    parser.add_argument('--set', action='append', default=[], metavar='KEY=VALUE',
+                        help='fixed parameter (SI or Eq. 39 name); others are Table 1 values')
+    parser.add_argument('--config', help='ROS 2 parameter file with drive.* parameters')
+    parser.add_argument('--res', default='120x100', help='grid NxM (x points by y points)')
+    parser.add_argument('--plane', choices=('in', 'out'), default='in')
+    parser.add_argument('--range-x', help='lo:hi of the x axis')
+    parser.add_argument('--range-y', help='lo:hi of the y axis')
+    parser.add_argument('--surface', action='store_true',
+                        help='draw |lambda|max as a 3-D surface (Fig. 4a) instead of regions')
+    parser.add_argument('--data', help='data file (.npz or .csv); default: --out with .npz')
+    parser.add_argument('--out', required=True, help='PNG file to write')
+    parser.add_argument('--no-progress', action='store_true', help='no progress bar')
+
+
+def _range(text, axis, plane):
+    if text is None:
+        if axis == 'mbar' and plane == 'out':
+            return OUT_OF_PLANE_MBAR
+        return DEFAULT_RANGES[axis]
+    try:
+        lo, hi = (float(v) for v in text.split(':'))
+    except ValueError:
+        raise UsageError(f'range of {axis} must be lo:hi, got {text!r}') from None
+    if not (np.isfinite(lo) and np.isfinite(hi) and lo < hi):
+        raise ParamError(f'range-{axis}', text, 'lo:hi with lo < hi, finite')
+    return lo, hi
+
+
+def _res(text):
+    try:
+        nx, ny = (int(v) for v in text.lower().split('x'))
+    except ValueError:
+        raise UsageError(f'--res must be NxM, got {text!r}') from None
+    if nx < 2 or ny < 2 or nx * ny > MAX_POINTS:
+        raise ParamError('res', text, f'NxM with N, M >= 2 and N*M <= {MAX_POINTS}')
+    return nx, ny
+
+
+def run(args) -> dict:
+    import time
+    from tqdm import tqdm
+    from abb_ros.io.mapplot import plot_map
+    if args.x == args.y:
+        raise UsageError('--x and --y must differ')
+    nx, ny = _res(args.res)
+    xs = np.linspace(*_range(args.range_x, args.x, args.plane), nx)
+    ys = np.linspace(*_range(args.range_y, args.y, args.plane), ny)
+    base = DriveParams.from_yaml(args.config) if args.config else DriveParams()
+    settings = parse_settings(args.set)
+    t0 = time.perf_counter()
+    with tqdm(total=nx * ny, unit='pt', file=sys.stderr, disable=args.no_progress,
+              desc=f'{args.plane}-plane map') as bar:
+        smap = stability_map(base, args.x, xs, args.y, ys, settings, args.plane, bar.update)
+    wall = time.perf_counter() - t0
+    data = args.data or os.path.splitext(args.out)[0] + '.npz'
+    smap.save(data)
+    plot_map(smap, args.out, kind='surface' if args.surface else 'regions')
+    return {**smap.summary(), 'png': args.out, 'data': data, 'wall_s': wall}

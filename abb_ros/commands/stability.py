@@ -1,0 +1,53 @@
+"""`abb-sim stability`: in-plane and out-of-plane max |Floquet multiplier| at one operating point.
+
+The spindle speed is given with ``--set wbar=...`` or ``--set omega=...`` [rad/s]; other
+parameters default to Table 1 (config/cdrom_table1.yaml values).
+"""
+
+from __future__ import annotations
+
+import math
+
+from abb_ros.cli import UsageError, parse_settings
+from abb_ros.model.floquet import point_stability
+from abb_ros.model.params import DriveParams, ParamError, apply_settings
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument('--set', action='append', default=[], metavar='KEY=VALUE',
+                        help='parameter (SI name, omega, or wbar/zeta/Dbar/epsbar/mbar/n)')
+    parser.add_argument('--config', help='ROS 2 parameter file with drive.* parameters')
+    parser.add_argument('--phi-star', help='explicit ball angles phi_i* in degrees, comma '
+                        'separated (must satisfy Eq. 26); default: symmetric fan')
+
+
+def operating_point(args):
+    """(DriveParams, omega) from --config and --set; omega is required."""
+    base = DriveParams.from_yaml(args.config) if args.config else DriveParams()
+    params, omega = apply_settings(base, parse_settings(args.set))
+    if omega is None:
+        raise UsageError('give the spindle speed with --set wbar=... or --set omega=... [rad/s]')
+    if omega <= 0:
+        raise ParamError('omega', omega, '(0, inf) rad/s')
+    return params, omega
+
+
+def run(args) -> dict:
+    params, omega = operating_point(args)
+    phi = None
+    if args.phi_star:
+        try:
+            phi = [math.radians(float(v)) for v in args.phi_star.split(',')]
+        except ValueError:
+            raise ParamError('phi_star', args.phi_star, 'comma-separated degrees') from None
+    res = point_stability(params, omega, phi)
+    out = {'omega_rad_s': omega, 'wbar': params.wbar(omega), **params.dimensionless(),
+           'verdict': res.verdict, 'balanced': res.balanced,
+           'balanced_equilibrium_exists': res.exists,
+           'phi_star_deg': [math.degrees(v) for v in res.phi_star]}
+    if res.exists:
+        out['lam_max_in_plane'] = res.lam_in
+        out['lam_max_out_of_plane'] = res.lam_out
+    else:
+        out['reason'] = res.reason
+    return out
