@@ -30,6 +30,9 @@ TABLE1_JOINTS = ['spindle', 'ball_1', 'ball_2']
 COLCON_TIMEOUT_S = 300.0
 FIRST_MESSAGE_TIMEOUT_S = 90.0
 SHUTDOWN_TIMEOUT_S = 20.0
+# A node may publish once while it starts; several messages show that its timer runs in spin(),
+# which is where the SIGINT below must find it.
+MIN_MESSAGES = 3
 
 pytestmark = pytest.mark.slow
 
@@ -153,10 +156,12 @@ def test_installed_simulator_publishes_joint_states_and_stops_cleanly_on_sigint(
                 env=sourced_env, stdin=subprocess.DEVNULL, stdout=log, stderr=subprocess.STDOUT)
 
             deadline = time.monotonic() + FIRST_MESSAGE_TIMEOUT_S
-            while not received and proc.poll() is None and time.monotonic() < deadline:
+            while (len(received) < MIN_MESSAGES and proc.poll() is None
+                   and time.monotonic() < deadline):
                 executor.spin_once(timeout_sec=0.1)
             assert proc.poll() is None, f'simulator exited early:\n{_read(log)}'
-            assert received, f'no joint_states within {FIRST_MESSAGE_TIMEOUT_S} s:\n{_read(log)}'
+            assert len(received) >= MIN_MESSAGES, \
+                f'{len(received)} joint_states in {FIRST_MESSAGE_TIMEOUT_S} s:\n{_read(log)}'
 
             proc.send_signal(signal.SIGINT)
             returncode = proc.wait(timeout=SHUTDOWN_TIMEOUT_S)
@@ -173,10 +178,10 @@ def test_installed_simulator_publishes_joint_states_and_stops_cleanly_on_sigint(
                 node.destroy_node()
             rclpy.try_shutdown(context=context)
 
-    msg = received[0]
-    assert list(msg.name) == TABLE1_JOINTS
-    assert len(msg.position) == len(msg.velocity) == len(TABLE1_JOINTS)
-    assert all(math.isfinite(v) for v in [*msg.position, *msg.velocity])
+    for msg in received:
+        assert list(msg.name) == TABLE1_JOINTS
+        assert len(msg.position) == len(msg.velocity) == len(TABLE1_JOINTS)
+        assert all(math.isfinite(v) for v in [*msg.position, *msg.velocity])
 
 
 def _read(log) -> str:
