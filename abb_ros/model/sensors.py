@@ -111,10 +111,16 @@ def point_specific_force(q, qd, qdd, r, gravity: bool = False) -> np.ndarray:
     r = np.asarray(r, dtype=float)
     w = deck_angular_velocity(*q[4:7], *qd[4:7])
     wd = deck_angular_acceleration(*q[4:7], *qd[4:7], *qdd[4:7])
-    a = rot.T @ np.asarray(qdd[1:4], dtype=float) + np.cross(wd, r) + np.cross(w, np.cross(w, r))
+    a = rot.T @ np.asarray(qdd[1:4], dtype=float) + _cross(wd, r) + _cross(w, _cross(w, r))
     if gravity:
         a = a + rot.T @ np.array([0.0, 0.0, GRAVITY])
     return a
+
+
+def _cross(u, v) -> np.ndarray:
+    """u x v of two 3-vectors (np.cross costs ~20 us a call on 3-vectors)."""
+    return np.array([u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
+                     u[0] * v[1] - u[1] * v[0]])
 
 
 @dataclass(frozen=True)

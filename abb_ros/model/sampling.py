@@ -1,0 +1,91 @@
+"""When the plant is sampled: the schedule shared by the live node and the headless run.
+
+A :class:`PlantSampler` advances a :class:`~abb_ros.model.integrate.Simulation` to the next
+instant at which the state (every ``publish_every`` steps) or the IMU (every ``imu_every``
+steps) is due, and returns :class:`Sample` s there. Instants are multiples of the step
+count, which never goes back (``Simulation.reset`` keeps it), so stamps computed from it in
+integer nanoseconds (``steps * dt_ns``) never drift. The live node and ``abb-sim run`` both
+drive this class, so the same seed, parameters and commands give the same samples.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from abb_ros.model.sensors import ImuModel, ImuReading
+
+__all__ = ['Sample', 'PlantSampler']
+
+
+@dataclass(frozen=True)
+class Sample:
+    """The plant at step ``steps``: ``y`` (state copy, shape (2N,)) when the state is due,
+    ``imu`` when the IMU is due (else None); ``n`` the ball count of ``y``."""
+
+    steps: int
+    n: int
+    y: np.ndarray | None
+    imu: ImuReading | None
+
+    def stamp_ns(self, dt_ns: int, epoch_ns: int = 0) -> int:
+        """The exact time stamp [ns] of this sample: epoch + steps * dt."""
+        return epoch_ns + self.steps * dt_ns
+
+    def is_finite(self) -> bool:
+        parts = [] if self.y is None else [self.y]
+        if self.imu is not None:
+            parts += [self.imu.accel, self.imu.gyro]
+        return all(np.all(np.isfinite(p)) for p in parts)
+
+
+class PlantSampler:
+    """Advance ``sim`` publish period by publish period, sampling state and IMU.
+
+    publish_every, imu_every : int
+        Steps between state samples and between IMU samples (>= 1).
+    """
+
+    def __init__(self, sim, imu: ImuModel, publish_every: int, imu_every: int):
+        self.sim = sim
+        self.imu = imu
+        self.set_rates(publish_every, imu_every)
+
+    def set_rates(self, publish_every: int, imu_every: int) -> None:
+        if publish_every < 1 or imu_every < 1:
+            raise ValueError('publish_every and imu_every must be >= 1 step')
+        self.publish_every = int(publish_every)
+        self.imu_every = int(imu_every)
+
+    def sample_now(self) -> Sample | None:
+        """What is due at the current step (None if nothing)."""
+        steps = self.sim.steps
+        state_due = steps % self.publish_every == 0
+        imu_due = steps % self.imu_every == 0
+        if not (state_due or imu_due):
+            return None
+        y = self.sim.y.copy() if state_due else None
+        reading = None
+        if imu_due:
+            N = self.sim.N
+            qdd = self.sim.accelerations()
+            reading = self.imu.read(self.sim.y[:N], self.sim.y[N:], qdd)
+        return Sample(steps, self.sim.params.n, y, reading)
+
+    def next_period(self) -> list[Sample]:
+        """Advance to the next state instant (a multiple of publish_every), returning every
+        sample due after the current step up to and including it, in time order.
+
+        Raises :class:`abb_ros.model.integrate.StateError` like ``Simulation.advance``
+        (the samples of the failed period are lost; none is non-finite).
+        """
+        target = (self.sim.steps // self.publish_every + 1) * self.publish_every
+        out = []
+        while self.sim.steps < target:
+            next_imu = (self.sim.steps // self.imu_every + 1) * self.imu_every
+            self.sim.advance(min(target, next_imu) - self.sim.steps)
+            sample = self.sample_now()
+            if sample is not None:
+                out.append(sample)
+        return out
