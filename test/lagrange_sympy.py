@@ -261,7 +261,7 @@ def _function_source(name, exprs, args):
 
 
 def _load(name, n, build):
-    """Source of function ``name`` for n balls from the cache, building and caching it if absent."""
+    """Source of ``name`` for n balls from the cache, building and caching it if absent."""
     path = os.path.join(CACHE_DIR, f'{name}_n{n}_{_SOURCE_HASH}.py')
     try:
         with open(path, encoding='utf-8') as f:

@@ -1,4 +1,4 @@
-"""The equations of motion of abb_ros.model.dynamics against Lagrange's equations from the energies.
+"""abb_ros.model.dynamics against Lagrange's equations derived from the energies (sympy).
 
 Source: Kim, Lee & Chung, J. Sound Vib. 285 (2005) 547-569, Section 2. The reference is an
 independent sympy derivation (test/lagrange_sympy.py) of Eq. (17) from T (Eq. 11), V (Eq. 13)
