@@ -183,41 +183,54 @@ def _make_kernels(jit):
                 - (Ir + J_z) * thdd)
 
     @jit
-    def solve6(A, f, u):
-        """u = A^-1 f for a 6x6 system, Gaussian elimination with partial pivoting (A, f destroyed)."""
-        for col in range(6):
-            piv = col
-            big = abs(A[col, col])
-            for r in range(col + 1, 6):
-                v = abs(A[r, col])
-                if v > big:
-                    big = v
-                    piv = r
-            if piv != col:
-                for j in range(6):
-                    tmp = A[col, j]
-                    A[col, j] = A[piv, j]
-                    A[piv, j] = tmp
-                tmp = f[col]
-                f[col] = f[piv]
-                f[piv] = tmp
-            inv = 1.0 / A[col, col]
-            for r in range(col + 1, 6):
-                fac = A[r, col] * inv
-                if fac != 0.0:
-                    for j in range(col + 1, 6):
-                        A[r, j] -= fac * A[col, j]
-                    f[r] -= fac * f[col]
-        for r in range(5, -1, -1):
-            acc = f[r]
-            for j in range(r + 1, 6):
-                acc -= A[r, j] * u[j]
-            u[r] = acc / A[r, r]
+    def solve3(A, f, i0, i1, i2, u):
+        """u[i] for i in (i0, i1, i2) from rows and columns (i0, i1, i2) of A u = f: Gaussian
+        elimination with partial pivoting on the 3 x 3 block (A and f are not modified)."""
+        a00, a01, a02 = A[i0, i0], A[i0, i1], A[i0, i2]
+        a10, a11, a12 = A[i1, i0], A[i1, i1], A[i1, i2]
+        a20, a21, a22 = A[i2, i0], A[i2, i1], A[i2, i2]
+        b0, b1, b2 = f[i0], f[i1], f[i2]
+        # pivot column 0
+        if abs(a10) > abs(a00) and abs(a10) >= abs(a20):
+            a00, a01, a02, b0, a10, a11, a12, b1 = a10, a11, a12, b1, a00, a01, a02, b0
+        elif abs(a20) > abs(a00):
+            a00, a01, a02, b0, a20, a21, a22, b2 = a20, a21, a22, b2, a00, a01, a02, b0
+        l1 = a10 / a00
+        l2 = a20 / a00
+        a11 -= l1 * a01
+        a12 -= l1 * a02
+        b1 -= l1 * b0
+        a21 -= l2 * a01
+        a22 -= l2 * a02
+        b2 -= l2 * b0
+        # pivot column 1
+        if abs(a21) > abs(a11):
+            a11, a12, b1, a21, a22, b2 = a21, a22, b2, a11, a12, b1
+        l2 = a21 / a11
+        a22 -= l2 * a12
+        b2 -= l2 * b1
+        x2 = b2 / a22
+        x1 = (b1 - a12 * x2) / a11
+        x0 = (b0 - a01 * x1 - a02 * x2) / a00
+        u[i0] = x0
+        u[i1] = x1
+        u[i2] = x2
+
+    @jit
+    def solve_deck(A, f, u):
+        """Deck accelerations u from A u = f. To the paper's order the in-plane rows (X, Y,
+        gamma: Eqs. 18, 19, 23 with the balls eliminated) hold no out-of-plane acceleration,
+        so the system is block triangular: a 3 x 3 in-plane solve, then a 3 x 3 out-of-plane
+        solve (Z, alpha, beta) with the in-plane accelerations moved to the right."""
+        solve3(A, f, 0, 1, 5, u)
+        for r in range(2, 5):
+            f[r] -= A[r, 0] * u[0] + A[r, 1] * u[1] + A[r, 5] * u[5]
+        solve3(A, f, 2, 3, 4, u)
 
     @jit
     def accel(t, y, n, P, S, qdd, A, W, f, B, fb, u):
-        """q'' at (t, y): eliminate the ball accelerations (their block is m R^2 I), then a
-        6x6 solve for the deck (Schur complement), then back-substitute the balls."""
+        """q'' at (t, y): eliminate the ball accelerations (their block is m R^2 I: Schur
+        complement), solve the deck (:func:`solve_deck`), then back-substitute the balls."""
         N = 7 + n
         thdd = spindle_accel(t, y[N], S)
         assemble(y, n, P, thdd, A, W, f, B, fb)
@@ -232,7 +245,7 @@ def _make_kernels(jit):
                     A[i, 1] -= w * B[b, 1]
                     A[i, 5] -= w * B[b, 5]
                     f[i] -= w * fb[b]
-        solve6(A, f, u)
+        solve_deck(A, f, u)
         qdd[0] = thdd
         for i in range(6):
             qdd[1 + i] = u[i]
@@ -331,7 +344,8 @@ def _make_kernels(jit):
                 rows += 1
         return done, rows, OK
 
-    return dict(spindle_accel=spindle_accel, assemble=assemble, solve6=solve6, accel=accel,
+    return dict(spindle_accel=spindle_accel, assemble=assemble, solve3=solve3,
+                solve_deck=solve_deck, accel=accel,
                 deriv=deriv, check_state=check_state, rk4_advance=rk4_advance,
                 rk4_trajectory=rk4_trajectory)
 

@@ -1,0 +1,90 @@
+"""Headless speed of the nonlinear model (issue: the physics core).
+
+Prints, for n = 2 and n = 10 at P3 (metal washers, wbar = 2.7):
+- the real-time factor (simulated s per wall s) of the compiled fixed-step RK4 at the node's
+  default step (abb_ros.model.integrate.DEFAULT_DT), integration alone;
+- scipy solve_ivp (DOP853, rtol 1e-9, atol 1e-12 m-scale) on the same run, same right-hand
+  side (the compiled one, so the comparison is of integrators, not of Python vs numba), and
+  the loosest DOP853 tolerance that is at least as accurate as RK4, with the speed ratio;
+- the errors of each against a tight reference (DOP853, rtol 1e-12).
+Nothing is asserted: these machines are shared and noisy; ratios are measured in one process.
+
+Run: .venv/bin/python benchmarks/bench_core.py [--seconds 2]
+"""
+
+import argparse
+import time
+
+import numpy as np
+
+from abb_ros.model.integrate import (DEFAULT_DT, ConstantSpeed, Simulation, initial_state,
+                                     reference_solution)
+from abb_ros.model.params import METAL_C, DriveParams, apply_settings
+
+
+def _best_of(fn, repeats=3):
+    best = np.inf
+    out = None
+    for _ in range(repeats):
+        t0 = time.perf_counter()
+        out = fn()
+        best = min(best, time.perf_counter() - t0)
+    return best, out
+
+
+def bench(n, seconds):
+    params, omega = apply_settings(DriveParams(), {'mbar': 0.03 * 2 / n, 'c': METAL_C,
+                                                   'wbar': 2.7, 'n': n})
+    y0 = initial_state(params, omega)
+    nsteps = int(round(seconds / DEFAULT_DT))
+    N = 7 + n
+
+    def rk4():
+        sim = Simulation(params, omega, DEFAULT_DT, spindle=ConstantSpeed(), y0=y0)
+        sim.advance(nsteps)
+        return sim.y
+
+    rk4()  # compile
+    t_rk4, y_rk4 = _best_of(rk4)
+    ref = reference_solution(params, y0, (0, seconds), t_eval=[seconds], rtol=1e-12,
+                             atol=1e-15).y[:, -1]
+
+    def err(y):  # deck translation error relative to the 0.3 mm initial displacement
+        return np.abs(y[1:4] - ref[1:4]).max() / 0.3e-3
+
+    def dop(rtol):
+        return reference_solution(params, y0, (0, seconds), t_eval=[seconds], rtol=rtol,
+                                  atol=rtol * 1e-3)
+
+    t_dop9, r9 = _best_of(lambda: dop(1e-9), repeats=2)
+    # loosest tolerance at least as accurate as RK4 at the default step
+    e_rk4 = err(y_rk4)
+    match = None
+    for rtol in (1e-5, 1e-6, 1e-7, 1e-8, 1e-9):
+        r = dop(rtol)
+        if err(r.y[:, -1]) <= e_rk4:
+            match = rtol
+            break
+    t_match, rm = _best_of(lambda: dop(match), repeats=2)
+    print(f'n = {n:2d}  ({seconds:g} s of P3, {nsteps} RK4 steps of {DEFAULT_DT * 1e6:g} us, '
+          f'N = {N} coordinates)')
+    print(f'  RK4 compiled, default step : {t_rk4:8.4f} s wall   real-time factor '
+          f'{seconds / t_rk4:8.1f}x   error {e_rk4:.1e}')
+    print(f'  solve_ivp DOP853 rtol 1e-9 : {t_dop9:8.4f} s wall   real-time factor '
+          f'{seconds / t_dop9:8.1f}x   error {err(r9.y[:, -1]):.1e}   nfev {r9.nfev}'
+          f'   RK4 is {t_dop9 / t_rk4:6.1f}x faster')
+    print(f'  solve_ivp DOP853 rtol {match:.0e} : {t_match:8.4f} s wall   (as accurate as RK4: '
+          f'error {err(rm.y[:, -1]):.1e}, nfev {rm.nfev})   RK4 is {t_match / t_rk4:6.1f}x '
+          f'faster')
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('--seconds', type=float, default=2.0)
+    args = parser.parse_args()
+    for n in (2, 10):
+        bench(n, args.seconds)
+
+
+if __name__ == '__main__':
+    main()
