@@ -256,9 +256,10 @@ def test_theta_dd_terms_match_the_generalisation_in_the_dynamics_docstring(n):
         assert np.max(np.abs((got - want) * w ** 2 / scales(params, w))) < ROUND_OFF
 
 
-@pytest.mark.xfail(strict=True, reason='docs/equations.md, finding 1: Eqs. (21)-(22) take J_x, '
-                   'J_y about the deck axes; a rotor with J_x != J_y spinning at theta has '
-                   'theta-periodic inertia about them. Table 1 has J_x = J_y.')
+@pytest.mark.xfail(strict=True, raises=AssertionError,
+                   reason='docs/equations.md, finding F1: Eqs. (21)-(22) take J_x, J_y about the '
+                   'deck axes; a rotor with J_x != J_y spinning at theta has theta-periodic '
+                   'inertia about them. Table 1 has J_x = J_y.')
 def test_asymmetric_rotor_inertia_spins_with_the_rotor():
     """J_x != J_y (diagonal in the spinning rotor): still second order against the energies."""
     params = DriveParams(J_x=1.0e-6, J_y=2.0e-6)
