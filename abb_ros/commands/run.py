@@ -54,7 +54,8 @@ def run(args) -> dict:
         try:
             bag = BagWriter(args.out, overwrite=args.overwrite)
         except (BagError, FileExistsError) as exc:
-            raise UsageError(str(exc)) from None
+            raise UsageError(f'--out {args.out}: {exc}'.replace('pass overwrite=True',
+                                                                 'pass --overwrite')) from None
         bag.set_drive_params(scenario.params)
     bar = None
     if not args.no_progress:

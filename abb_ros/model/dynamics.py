@@ -25,7 +25,11 @@ beta). With theta'' = 0 the equations are exactly Eqs. (18)-(24).
 Typos of the printed equations, resolved against the energies:
 
 - Eqs. (21), (23): 'Mpd' is M_P d.
-- Eqs. (6)-(8): 'cos psi' is cos gamma (the Euler product T_beta T_alpha T_gamma).
+- Eqs. (6)-(8): 'cos psi' is cos gamma (the Euler product T_beta T_alpha T_gamma), and the
+  i-component's '+Z cos alpha sin beta' is -Z cos alpha sin beta (entry (1,3) of that product);
+  neither changes Eqs. (18)-(24), which follow from the inertial velocities.
+- Eqs. (21), (22) take J_x, J_y about the deck axes: exact for an axisymmetric rotor only, so
+  the parameters require J_x = J_y (docs/equations.md, F1).
 - Eq. (20): the right-hand side M eps omega^2 (alpha sin - beta cos) is the rotor G's
   psi'^2 terms; here they sit with the ball terms of the same form (same sign).
 - Eq. (21): the term m R^2 beta sum phi_i'' generalises to beta (sum_j mu_j r_j^2 psi_j''

@@ -134,6 +134,10 @@ class DriveParams:
     def __post_init__(self):
         for f in dataclasses.fields(self):
             PARAM_SPECS[f.name].check(f.name, getattr(self, f.name))
+        if abs(self.J_x - self.J_y) > 1e-9 * max(self.J_x, self.J_y):
+            raise ParamError('J_y', self.J_y, f'equal to J_x = {self.J_x:g} kg m^2',
+                             'the equations of motion (Eqs. 21, 22) hold for an axisymmetric '
+                             'rotor only')
         if isinstance(self.n, float):
             if not self.n.is_integer():
                 raise ParamError('n', self.n, PARAM_SPECS['n'].valid_text(), 'not an integer')
