@@ -31,14 +31,13 @@ def test_no_balance_without_washer_damping(settings):
     assert np.all(_lam({**settings, 'zeta': 0.0}) > 1.0)
 
 
-@pytest.mark.parametrize('mbar', [None, 0.0165])
-def test_no_balance_without_ball_drag_on_fig5a(mbar):
-    # Fig. 5a: Dbar = 0 (zeta = 0.1, Table 1 ball) is unbalanced at every speed; also with heavy
-    # damping (zeta = 0.15) and heavier balls.
-    settings = {'Dbar': 0.0, 'zeta': RUBBER} if mbar is None else {'Dbar': 0.0, 'zeta': 0.15}
-    assert np.all(_lam(settings) > 1.0)
-    for heavier in (0.03, 0.05, 0.1):
-        assert np.all(_lam({'Dbar': 0.0, 'zeta': 0.15, 'mbar': heavier}) > 1.0)
+@pytest.mark.parametrize('settings', [
+    {'zeta': RUBBER}, {'zeta': 0.15}, {'zeta': 0.15, 'mbar': 0.03}, {'zeta': 0.15, 'mbar': 0.05},
+    {'zeta': 0.15, 'mbar': 0.1}])
+def test_no_balance_without_ball_drag_on_fig5a(settings):
+    # Fig. 5a: Dbar = 0 (zeta = 0.1, Table 1 ball) is unbalanced at every speed; so it is with
+    # heavier damping and heavier balls (but see the next test).
+    assert np.all(_lam({**settings, 'Dbar': 0.0}) > 1.0)
 
 
 def test_without_ball_drag_a_narrow_balanced_window_exists_at_lower_washer_damping():
