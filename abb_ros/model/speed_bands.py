@@ -1,0 +1,279 @@
+"""Predicted stability against spindle speed: |lambda|max table, unbalanced bands, verdict.
+
+For fixed drive parameters the largest |Floquet multiplier| of the balanced equilibrium
+(Section 4, Eqs. 35 and 37) is a function of the spindle speed alone. :func:`speed_table`
+computes it once over the drive's speed range (in-plane and out-of-plane, with
+:func:`abb_ros.model.floquet.sweep_speed`), :func:`unbalanced_bands` finds the speed intervals
+where it is >= 1, and :func:`assess` turns the value at the current speed into a verdict a
+person reads (the analysis node publishes it on ``/diagnostics``).
+
+Verdict rule (levels as diagnostic_msgs/DiagnosticStatus):
+
+* ERROR: no balanced equilibrium (Eq. 26 unsolvable: the imbalance exceeds the balls'
+  capacity, n m R < M eps), or |lambda|max >= 1 in either plane (below the translational
+  natural frequency, or inside an unbalanced band), or the speed is not a finite number >= 0.
+* WARN: balanced and stable, but the margin 1 - |lambda|max is below :data:`MARGIN_WARN`, or
+  an unbalanced band starts within :data:`BAND_GUARD_WBAR` (in wbar, i.e. that fraction of
+  omega0) of the current speed.
+* OK: balanced and stable with room on both counts.
+
+The margin is per period of the linearised system, so it is small at any speed (0.03 at the
+paper's P3); the guard distance to a band is the more telling warning.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from abb_ros.model.equilibrium import balanced_equilibrium
+from abb_ros.model.floquet import point_stability, sweep_speed
+from abb_ros.model.linear import natural_frequencies
+from abb_ros.model.params import DriveParams, ParamError
+
+__all__ = ['OK', 'WARN', 'ERROR', 'STALE', 'TABLE_POINTS', 'MARGIN_WARN', 'BAND_GUARD_WBAR',
+           'TRANSLATIONAL', 'ROTATIONAL', 'Band', 'SpeedTable', 'Assessment', 'speed_table',
+           'unbalanced_bands', 'assess', 'refine', 'rpm']
+
+OK, WARN, ERROR, STALE = 0, 1, 2, 3
+"""Verdict levels, the byte values of diagnostic_msgs/DiagnosticStatus."""
+
+TABLE_POINTS = 300
+"""Speeds in the table. Over 0..1500 rad/s (5 rad/s apart) linear interpolation is within
+1e-6 of the exact |lambda|max away from the bands and within 0.01 at their sharp peaks."""
+
+MARGIN_WARN = 0.005
+"""Margin 1 - |lambda|max below which a stable point is reported as WARN."""
+
+BAND_GUARD_WBAR = 0.1
+"""A stable point closer than this (dimensionless speed wbar) to an unbalanced band is WARN."""
+
+TRANSLATIONAL = ('X', 'Y', 'Z')
+ROTATIONAL = ('gamma', 'alpha', 'beta')
+
+
+def rpm(omega: float) -> float:
+    """Spindle speed in revolutions per minute from omega [rad/s] (edge unit)."""
+    return omega * 30.0 / math.pi
+
+
+@dataclass(frozen=True)
+class Band:
+    """An interval of spindle speed [rad/s] where the balanced equilibrium is unstable.
+
+    ``near`` names the natural frequency (linear.natural_frequencies) nearest the band: a
+    coordinate in TRANSLATIONAL or ROTATIONAL.
+    """
+
+    lo: float
+    hi: float
+    near: str
+    near_omega: float
+
+    @property
+    def kind(self) -> str:
+        return 'translational' if self.near in TRANSLATIONAL else 'rotational'
+
+    def contains(self, omega: float) -> bool:
+        return self.lo <= omega <= self.hi
+
+    def distance(self, omega: float) -> float:
+        """Speed distance [rad/s] from omega to the band (0 inside)."""
+        return max(self.lo - omega, omega - self.hi, 0.0)
+
+
+@dataclass(frozen=True)
+class SpeedTable:
+    """|lambda|max against speed for one set of parameters (arrays shape (K,), omegas rad/s).
+
+    ``lam_in``/``lam_out`` are +inf everywhere when no balanced equilibrium exists
+    (``exists`` False, ``reason`` says why). ``compute_s`` is the wall time it took.
+    """
+
+    params: DriveParams
+    omega_max: float
+    omegas: np.ndarray
+    lam_in: np.ndarray
+    lam_out: np.ndarray
+    exists: bool
+    phi_star: np.ndarray
+    reason: str
+    natural: dict
+    bands: tuple
+    compute_s: float = 0.0
+
+    def at(self, omega: float) -> tuple[float, float]:
+        """(lam_in, lam_out) at omega [rad/s] by linear interpolation (clamped to the table)."""
+        return (float(np.interp(omega, self.omegas, self.lam_in)),
+                float(np.interp(omega, self.omegas, self.lam_out)))
+
+
+def speed_table(params: DriveParams, omega_max: float, points: int = TABLE_POINTS
+                ) -> SpeedTable:
+    """Compute the table over omega_max / points .. omega_max [rad/s] (Floquet needs omega > 0).
+
+    Raises ParamError for a speed range or point count that cannot make a table.
+    """
+    if not (math.isfinite(omega_max) and omega_max > 0):
+        raise ParamError('max_spindle_speed', omega_max, '(0, inf) rad/s')
+    if points < 2:
+        raise ParamError('table_points', points, '[2, inf)')
+    start = time.perf_counter()
+    eq = balanced_equilibrium(params)
+    omegas = np.linspace(omega_max / points, omega_max, points)
+    natural = natural_frequencies(params)
+    if eq.exists:
+        lam_in = sweep_speed(params, omegas, 'in', eq.phi_star)
+        lam_out = sweep_speed(params, omegas, 'out', eq.phi_star)
+        bands = unbalanced_bands(omegas, np.maximum(lam_in, lam_out), natural)
+    else:
+        lam_in = lam_out = np.full(points, math.inf)
+        bands = ()
+    return SpeedTable(params, float(omega_max), omegas, lam_in, lam_out, eq.exists,
+                      eq.phi_star, _capacity_text(params) if 'capacity' in eq.reason
+                      else eq.reason, natural, bands, time.perf_counter() - start)
+
+
+def _capacity_text(p: DriveParams) -> str:
+    return (f"imbalance exceeds the balls' capacity: n m R = {p.n * p.m * p.R:.4g} < "
+            f'M eps = {p.M * p.eps:.4g} kg m (eps above {p.n * p.m * p.R / p.M * 1e3:.3g} mm)')
+
+
+def unbalanced_bands(omegas, lam, natural: dict) -> tuple:
+    """Intervals of omegas [rad/s] where lam >= 1, edges by linear interpolation of lam - 1.
+
+    A band that starts at the first table point extends down to 0 (the spindle at rest).
+    ``natural`` : {coordinate: natural frequency [rad/s]} names each band.
+    """
+    omegas = np.asarray(omegas, dtype=float)
+    unstable = np.asarray(lam) >= 1.0
+    bands = []
+    k, K = 0, omegas.size
+    while k < K:
+        if not unstable[k]:
+            k += 1
+            continue
+        j = k
+        while j + 1 < K and unstable[j + 1]:
+            j += 1
+        lo = 0.0 if k == 0 else _crossing(omegas, lam, k - 1, k)
+        hi = omegas[-1] if j == K - 1 else _crossing(omegas, lam, j, j + 1)
+        bands.append(_named_band(lo, hi, natural))
+        k = j + 1
+    return tuple(bands)
+
+
+def _crossing(omegas, lam, i, j) -> float:
+    """Speed where lam crosses 1 between table points i and j (linear)."""
+    a, b = lam[i] - 1.0, lam[j] - 1.0
+    if not (math.isfinite(a) and math.isfinite(b)) or a == b:
+        return float(omegas[j])
+    return float(omegas[i] + (omegas[j] - omegas[i]) * a / (a - b))
+
+
+def _named_band(lo, hi, natural) -> Band:
+    name = min(natural, key=lambda n: max(lo - natural[n], natural[n] - hi, 0.0)
+               + 1e-9 * abs(natural[n] - 0.5 * (lo + hi)))
+    return Band(float(lo), float(hi), name, float(natural[name]))
+
+
+@dataclass(frozen=True)
+class Assessment:
+    """The verdict at one speed: ``level`` (OK/WARN/ERROR), ``message``, ``margin``
+    (1 - max |lambda|, -inf without a balanced equilibrium) and ``values`` (key -> value)."""
+
+    level: int
+    message: str
+    margin: float
+    values: dict = field(default_factory=dict)
+
+
+def assess(table: SpeedTable, omega: float, exact=None) -> Assessment:
+    """Verdict at spindle speed omega [rad/s] from the table.
+
+    ``exact`` : optional :class:`abb_ros.model.floquet.PointStability` computed at (nearly)
+    this speed; its multipliers replace the interpolated ones.
+    """
+    p = table.params
+    values = _base_values(table, omega)
+    if not (isinstance(omega, (int, float)) and math.isfinite(omega) and omega >= 0):
+        return Assessment(ERROR, f'spindle speed {omega!r} is not a finite number >= 0',
+                          -math.inf, values)
+    if not table.exists:
+        return Assessment(ERROR, table.reason + '; no balanced equilibrium', -math.inf, values)
+    if exact is not None:
+        lam_in, lam_out, source = exact.lam_in, exact.lam_out, f'exact at {exact.omega:.2f} rad/s'
+    else:
+        lam_in, lam_out = table.at(omega)
+        source = 'table (interpolated)'
+    lam = max(lam_in, lam_out)
+    margin = 1.0 - lam
+    values.update(lambda_in=lam_in, lambda_out=lam_out, margin=margin, source=source)
+    wbar = p.wbar(omega)
+    lam_text = (f'|lambda|max {lam:.4f} ('
+                + ('in-plane' if lam_in >= lam_out else 'out-of-plane') + ')')
+    if lam >= 1.0 or omega < table.omegas[0] and omega < p.omega0:
+        if omega < p.omega0:
+            return Assessment(ERROR, f'unbalanced: below translational natural frequency '
+                              f'(wbar {wbar:.2f} < 1, omega0 {p.omega0:.1f} rad/s); the balls '
+                              f'cannot balance, {lam_text}', margin, values)
+        band = _band_at(table, omega)
+        where = (f'near the {band.kind} natural frequency ({band.near}, wbar ~ '
+                 f'{p.wbar(band.near_omega):.2f})' if band else 'between table points')
+        span = (f'; band wbar {p.wbar(band.lo):.2f}-{p.wbar(band.hi):.2f} '
+                f'({band.lo:.0f}-{band.hi:.0f} rad/s)' if band else '')
+        return Assessment(ERROR, f'unbalanced: inside an unbalanced band {where} at wbar '
+                          f'{wbar:.2f}{span}; {lam_text}', margin, values)
+    near = min(table.bands, key=lambda b: b.distance(omega), default=None)
+    text = f'balanced and stable, margin {margin:.3f} at wbar {wbar:.2f}'
+    if near is not None and p.wbar(near.distance(omega)) < BAND_GUARD_WBAR:
+        edge = near.lo if near.lo > omega else near.hi
+        return Assessment(WARN, f'{text}, but an unbalanced band near the {near.kind} natural '
+                          f'frequency ({near.near}) is {near.distance(omega):.0f} rad/s away '
+                          f'(edge wbar {p.wbar(edge):.2f})', margin, values)
+    if margin < MARGIN_WARN:
+        return Assessment(WARN, f'{text}: small margin (below {MARGIN_WARN:g}), '
+                          f'{lam_text}', margin, values)
+    return Assessment(OK, text, margin, values)
+
+
+def _band_at(table: SpeedTable, omega: float):
+    inside = [b for b in table.bands if b.contains(omega)]
+    if inside:
+        return inside[0]
+    return min(table.bands, key=lambda b: b.distance(omega), default=None)
+
+
+def _base_values(table: SpeedTable, omega) -> dict:
+    p = table.params
+    ok = isinstance(omega, (int, float)) and math.isfinite(omega)
+    values = {'omega': float(omega) if ok else omega,
+              'rpm': rpm(omega) if ok else omega,
+              'wbar': p.wbar(omega) if ok else omega,
+              'lambda_in': math.inf, 'lambda_out': math.inf, 'margin': -math.inf,
+              'balanced_equilibrium_exists': table.exists,
+              'phi_star_deg': ', '.join(f'{math.degrees(x):.2f}' for x in table.phi_star),
+              'omega0': p.omega0}
+    for name, w in table.natural.items():
+        values[f'natural_frequency_{name}'] = w
+    values['unbalanced_bands_rad_s'] = '; '.join(f'{b.lo:.1f}-{b.hi:.1f}' for b in table.bands)
+    values['unbalanced_bands_rpm'] = '; '.join(f'{rpm(b.lo):.0f}-{rpm(b.hi):.0f}'
+                                               for b in table.bands)
+    values['unbalanced_bands_near'] = ', '.join(b.near for b in table.bands)
+    values['speed_range_rad_s'] = f'0-{table.omega_max:g}'
+    values['n'] = p.n
+    values['eps'] = p.eps
+    values['table_compute_s'] = table.compute_s
+    values['source'] = 'table (interpolated)'
+    return values
+
+
+def refine(table: SpeedTable, omega: float):
+    """Exact multipliers at omega [rad/s] (about 2 ms), or None when the table has no
+    balanced equilibrium or omega <= 0."""
+    if not table.exists or not (math.isfinite(omega) and omega > 0):
+        return None
+    return point_stability(table.params, omega, table.phi_star)

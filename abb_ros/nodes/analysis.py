@@ -1,0 +1,414 @@
+"""``ros2 run abb_ros analysis``: predicted stability at the running speed (node abb_analysis).
+
+Tells a controller, before the balls show it, whether the current operating point can be
+balanced. A thin rclpy adapter over :mod:`abb_ros.model.speed_bands`:
+
+* parameters ``drive.*`` are declared exactly as the simulator declares them
+  (:mod:`abb_ros.nodes.ros_params`), so both load the same YAML; at start-up and whenever the
+  simulator (parameter ``simulator_node``, resolved in this node's namespace) declares or
+  changes ``drive.*`` or ``max_spindle_speed``, the values are copied into this node's own
+  parameters (from ``/parameter_events``, and once by GetParameters for a simulator that was
+  already running). The ball count follows ``joint_states`` (a changed ``drive.n`` applies in
+  the simulator only on ``~/reset``).
+* a worker thread computes the |lambda|max-vs-speed table over 0..max_spindle_speed whenever
+  the parameters change (about 0.3 s for 300 speeds), and refines the current point exactly
+  when it is idle; the executor only interpolates, so it never waits on a computation.
+* each ``joint_states`` (velocity[0] = omega) updates the verdict, published at most at
+  ``publish_rate_hz`` and at least every ``heartbeat_s``: ``stability/margin`` (Float64,
+  1 - max of the in- and out-of-plane |lambda|max; -inf while no balanced equilibrium exists)
+  and ``/diagnostics`` (status ``<node>: stability``). The level rule is in speed_bands.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+import threading
+import time
+from dataclasses import fields
+
+import rclpy
+from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
+                                ParameterEvent, SetParametersResult)
+from rclpy.executors import ExternalShutdownException
+from rclpy.node import Node
+from rclpy.parameter import Parameter, parameter_value_to_python
+from rclpy.parameter_client import AsyncParameterClient
+from rclpy.qos import qos_profile_parameter_events
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
+
+from abb_ros.io import ros_messages
+from abb_ros.model import speed_bands
+from abb_ros.model.params import DriveParams, ParamError
+from abb_ros.nodes import ros_params
+
+NODE_NAME = 'abb_analysis'
+QOS_DEPTH = 10
+REFINE_TOL_RAD_S = 0.5
+"""An exact point computed within this speed [rad/s] of the current one replaces the
+interpolated multipliers."""
+REFINE_MIN_INTERVAL_S = 0.05
+"""Exact refinements at most every 50 ms (a ramp would otherwise keep the worker busy)."""
+SYNC_PERIOD_S = 1.0
+WARN_THROTTLE_S = 5.0
+
+DRIVE_NAMES = tuple(ros_params.DRIVE_PREFIX + f.name for f in fields(DriveParams))
+FOLLOWED = DRIVE_NAMES + ('max_spindle_speed',)
+"""Simulator parameters this node copies."""
+
+OWN_PARAMS = {
+    'simulator_node': ('abb_simulator', 'node whose drive.* and max_spindle_speed are followed '
+                       '(relative names resolve in this node\'s namespace); fixed at start-up',
+                       None, None, True),
+    'publish_rate_hz': (50.0, 'largest rate of stability/margin and the status [Hz]',
+                        0.1, 1000.0, False),
+    'heartbeat_s': (1.0, 'status republished at least this often [s]', 0.01, 3600.0, False),
+    'table_points': (speed_bands.TABLE_POINTS, 'speeds in the |lambda|max table over '
+                     '0..max_spindle_speed []', 16, 20000, False),
+}
+"""Parameters only this node has: default, description, closed range, read-only."""
+
+
+def declare_parameters(node: Node) -> None:
+    """drive.* and max_spindle_speed as the simulator declares them, then OWN_PARAMS."""
+    defaults = DriveParams()
+    for name in DRIVE_NAMES:
+        field_name = name[len(ros_params.DRIVE_PREFIX):]
+        node.declare_parameter(name, getattr(defaults, field_name),
+                               ros_params._drive_descriptor(field_name))
+    spec = ros_params.NODE_PARAMS['max_spindle_speed']
+    node.declare_parameter('max_spindle_speed', spec.default,
+                           ros_params._descriptor('max_spindle_speed', spec))
+    for name, (default, text, low, high, read_only) in OWN_PARAMS.items():
+        d = ParameterDescriptor(description=text, read_only=read_only)
+        if isinstance(low, int) and isinstance(default, int):
+            d.integer_range = [IntegerRange(from_value=low, to_value=high, step=0)]
+        elif low is not None:
+            d.floating_point_range = [FloatingPointRange(from_value=float(low),
+                                                         to_value=float(high), step=0.0)]
+        node.declare_parameter(name, default, d)
+
+
+def config_from(values: dict) -> tuple[DriveParams, float, int]:
+    """(drive, max_spindle_speed [rad/s], table_points) from {ROS name: value}; ParamError."""
+    drive = DriveParams.from_mapping({k[len(ros_params.DRIVE_PREFIX):]: v
+                                      for k, v in values.items() if k in DRIVE_NAMES})
+    omega_max = values['max_spindle_speed']
+    if not (math.isfinite(omega_max) and omega_max > 0):
+        raise ParamError('max_spindle_speed', omega_max, '(0, inf) rad/s',
+                         'the analysis needs a speed range')
+    return drive, float(omega_max), int(values['table_points'])
+
+
+class TableWorker:
+    """Background thread: the speed table for the latest configuration, then exact points.
+
+    ``request(config)`` and ``want(omega)`` never block; ``table``, ``exact`` and ``error``
+    are read by the executor thread (reference assignment is atomic).
+    """
+
+    def __init__(self):
+        self._cv = threading.Condition()
+        self._config = None
+        self._config_id = 0
+        self._omega = None
+        self._stop = False
+        self.table = None
+        self.table_id = -1
+        self.exact = None
+        self.error = ''
+        self.error_point = ''
+        self.busy = False
+        self._thread = threading.Thread(target=self._run, name='abb_analysis_table', daemon=True)
+        self._thread.start()
+
+    def request(self, config) -> None:
+        with self._cv:
+            self._config = config
+            self._config_id += 1
+            self._cv.notify()
+
+    def want(self, omega: float) -> None:
+        with self._cv:
+            self._omega = omega
+            self._cv.notify()
+
+    def stop(self) -> None:
+        with self._cv:
+            self._stop = True
+            self._cv.notify()
+        self._thread.join(timeout=10.0)
+
+    def _needs_point(self) -> bool:
+        if self._omega is None or self.table is None or self.table_id != self._config_id:
+            return False
+        return self.exact is None or abs(self.exact.omega - self._omega) > REFINE_TOL_RAD_S
+
+    def _run(self) -> None:
+        last_point = 0.0
+        while True:
+            with self._cv:
+                while not self._stop and self.table_id == self._config_id \
+                        and not self._needs_point():
+                    self._cv.wait()
+                if self._stop:
+                    return
+                config_id, config, omega = self._config_id, self._config, self._omega
+                self.busy = self.table_id != config_id
+            if self.table_id != config_id:
+                self._compute_table(config_id, config)
+                continue
+            wait = last_point + REFINE_MIN_INTERVAL_S - time.monotonic()
+            if wait > 0:
+                time.sleep(wait)
+                continue
+            last_point = time.monotonic()
+            try:
+                self.exact = speed_bands.refine(self.table, omega)
+            except Exception as err:  # noqa: BLE001 - keep the interpolated value
+                self.exact = None
+                self.error_point = f'{type(err).__name__}: {err}'
+            if self.exact is None:  # nothing to refine here: wait for another speed
+                with self._cv:
+                    if self._omega == omega:
+                        self._omega = None
+
+    def _compute_table(self, config_id, config) -> None:
+        try:
+            table = speed_bands.speed_table(*config)
+        except Exception as err:  # noqa: BLE001 - reported as ERROR, the node goes on
+            table = None
+            self.error = f'analysis failed: {type(err).__name__}: {err}'
+        else:
+            self.error = ''
+        self.exact = None
+        self.table, self.table_id = table, config_id
+        self.busy = False
+
+
+class AnalysisNode(Node):
+    """The stability analysis node (see the module docstring)."""
+
+    def __init__(self, **kwargs):
+        super().__init__(NODE_NAME, **kwargs)
+        declare_parameters(self)
+        self.drive, self.omega_max, self.points = config_from(self._values())
+        self.add_on_set_parameters_callback(self._validate)
+        self.add_post_set_parameters_callback(self._on_parameters_set)
+
+        self.sim_fqn = _resolve(self.get_parameter('simulator_node').value,
+                                self.get_namespace())
+        self.parameters_from = 'own parameters (simulator not seen yet)'
+        self.sync_error = ''
+        self.speed = None          # (omega [rad/s], header stamp) of the last joint_states
+        self.n_seen = None
+        self._dirty = False
+        self._last_pub = 0.0
+        self.status_count = 0
+        self.worker = TableWorker()
+        self._request_table()
+
+        self._margin_pub = self.create_publisher(Float64, 'stability/margin', QOS_DEPTH)
+        self._diag_pub = self.create_publisher(ros_messages.TOPIC_TYPES['/diagnostics'],
+                                               '/diagnostics', QOS_DEPTH)
+        self.create_subscription(JointState, 'joint_states', self._on_joint_states, QOS_DEPTH)
+        self.create_subscription(ParameterEvent, '/parameter_events', self._on_parameter_event,
+                                 qos_profile_parameter_events)
+        self._param_client = AsyncParameterClient(self, self.sim_fqn)
+        self._sync_future = None
+        self._sync_timer = self.create_timer(SYNC_PERIOD_S, self._sync_from_simulator)
+        self._timer = self.create_timer(1.0 / self.get_parameter('publish_rate_hz').value,
+                                        self._on_timer)
+        self.get_logger().info(
+            f'following {self.sim_fqn}; speed range 0-{self.omega_max:g} rad/s, '
+            f'{self.points} table points')
+
+    # ---- parameters ----------------------------------------------------------------------
+    def _values(self) -> dict:
+        return {name: self.get_parameter(name).value
+                for name in FOLLOWED + ('table_points',)}
+
+    def _validate(self, parameters) -> SetParametersResult:
+        values = self._values()
+        for p in parameters:
+            if p.name in values:
+                values[p.name] = p.value
+        try:
+            config_from(values)
+        except ParamError as err:
+            return SetParametersResult(successful=False, reason=str(err))
+        except (TypeError, ValueError) as err:
+            return SetParametersResult(successful=False, reason=f'invalid parameter: {err}')
+        return SetParametersResult(successful=True)
+
+    def _on_parameters_set(self, parameters) -> None:
+        names = {p.name for p in parameters}
+        if names & set(FOLLOWED + ('table_points',)):
+            self.drive, self.omega_max, self.points = config_from(self._values())
+            self._request_table()
+        if 'publish_rate_hz' in names:
+            self.destroy_timer(self._timer)
+            self._timer = self.create_timer(1.0 / self.get_parameter('publish_rate_hz').value,
+                                            self._on_timer)
+        self._dirty = True
+
+    def _effective_drive(self) -> DriveParams:
+        """The drive as the simulator runs it: n from joint_states once seen."""
+        if self.n_seen is not None and self.n_seen != self.drive.n:
+            return self.drive.replace(n=self.n_seen)
+        return self.drive
+
+    def _request_table(self) -> None:
+        self.worker.request((self._effective_drive(), self.omega_max, self.points))
+
+    def _adopt(self, values: dict, source: str) -> None:
+        """Copy the simulator's parameter values into this node's own (validated here too)."""
+        params = [Parameter(name, value=v) for name, v in values.items()
+                  if name in FOLLOWED and v is not None]
+        if not params:
+            return
+        result = self.set_parameters_atomically(params)
+        self.parameters_from = self.sim_fqn
+        if result.successful:
+            self.sync_error = ''
+        else:
+            self.sync_error = f'parameters of {self.sim_fqn} refused here ({source}): ' \
+                              f'{result.reason}'
+            self.get_logger().error(self.sync_error)
+        self._dirty = True
+
+    def _on_parameter_event(self, event: ParameterEvent) -> None:
+        if event.node != self.sim_fqn:
+            return
+        values = {p.name: parameter_value_to_python(p.value)
+                  for p in list(event.new_parameters) + list(event.changed_parameters)}
+        self._adopt(values, 'parameter event')
+
+    def _sync_from_simulator(self) -> None:
+        """Once: read the followed parameters of an already running simulator."""
+        if self._sync_future is not None or not self._param_client.services_are_ready():
+            return
+        self._sync_future = self._param_client.get_parameters(list(FOLLOWED))
+        self._sync_future.add_done_callback(self._on_sync)
+
+    def _on_sync(self, future) -> None:
+        self.destroy_timer(self._sync_timer)
+        try:
+            response = future.result()
+        except Exception as err:  # noqa: BLE001 - a lost service call: retry by events
+            self.get_logger().warning(f'could not read the parameters of {self.sim_fqn}: {err}')
+            return
+        values = {name: parameter_value_to_python(v)
+                  for name, v in zip(FOLLOWED, response.values) if v.type != 0}
+        self._adopt(values, 'GetParameters')
+
+    # ---- inputs and publishing -------------------------------------------------------------
+    def _on_joint_states(self, msg: JointState) -> None:
+        names = list(msg.name)
+        if 'spindle' in names and len(msg.velocity) > names.index('spindle'):
+            omega = float(msg.velocity[names.index('spindle')])
+        elif msg.velocity:
+            omega = float(msg.velocity[0])
+        else:
+            omega = math.nan
+        if not math.isfinite(omega):
+            self.get_logger().warning(f'joint_states without a finite spindle speed: {omega!r}',
+                                      throttle_duration_sec=WARN_THROTTLE_S)
+        n = sum(1 for name in names if name.startswith('ball_'))
+        if names and n != self.n_seen:
+            self.n_seen = n
+            self._request_table()
+        self.speed = (omega, msg.header.stamp)
+        self._dirty = True
+        if math.isfinite(omega) and omega > 0:
+            self.worker.want(omega)
+        if time.monotonic() - self._last_pub >= 1.0 / self.get_parameter(
+                'publish_rate_hz').value:
+            self.publish_status()
+
+    def _on_timer(self) -> None:
+        if self._dirty or time.monotonic() - self._last_pub >= \
+                self.get_parameter('heartbeat_s').value:
+            self.publish_status()
+
+    def assessment(self) -> speed_bands.Assessment:
+        """The current verdict (never raises)."""
+        worker = self.worker
+        table = worker.table
+        omega = self.speed[0] if self.speed else None
+        if worker.error:
+            return speed_bands.Assessment(speed_bands.ERROR, worker.error, math.nan,
+                                          {'omega': omega})
+        if table is None or table.params != self._effective_drive() \
+                or table.omega_max != self.omega_max or worker.busy:
+            return speed_bands.Assessment(speed_bands.STALE, 'computing the stability table '
+                                          'for the current parameters', math.nan,
+                                          {'omega': omega})
+        if omega is None:
+            a = speed_bands.assess(table, 0.0)
+            return speed_bands.Assessment(speed_bands.STALE, 'no joint_states yet (spindle '
+                                          'speed unknown); ' + _first_clause(a.message),
+                                          math.nan, a.values)
+        exact = worker.exact
+        if exact is not None and abs(exact.omega - omega) > REFINE_TOL_RAD_S:
+            exact = None
+        return speed_bands.assess(table, omega, exact)
+
+    def publish_status(self) -> None:
+        a = self.assessment()
+        level, message = a.level, a.message
+        if self.sync_error:
+            level, message = speed_bands.ERROR, f'{self.sync_error}; {message}'
+        if self.n_seen is not None and self.n_seen != self.drive.n:
+            message += f' (n = {self.n_seen} from joint_states; drive.n = {self.drive.n} ' \
+                       'applies on the simulator\'s ~/reset)'
+        values = dict(a.values, parameters_from=self.parameters_from)
+        stamp = self.speed[1] if self.speed else None
+        stamp_ns = (stamp.sec * 1_000_000_000 + stamp.nanosec) if stamp is not None \
+            else self.get_clock().now().nanoseconds
+        if not math.isnan(a.margin):
+            self._margin_pub.publish(Float64(data=a.margin))
+        self._diag_pub.publish(ros_messages.diagnostics(
+            stamp_ns, f'{self.get_fully_qualified_name()}: stability', bytes([level]),
+            message, values))
+        self._last_pub = time.monotonic()
+        self._dirty = False
+        self.status_count += 1
+
+    def destroy_node(self):
+        self.worker.stop()
+        return super().destroy_node()
+
+
+def _first_clause(text: str) -> str:
+    return text.split(';')[0]
+
+
+def _resolve(name: str, namespace: str) -> str:
+    """Fully qualified node name of ``name`` relative to ``namespace``."""
+    if name.startswith('/'):
+        return name
+    return namespace.rstrip('/') + '/' + name
+
+
+def main(args=None):
+    rclpy.init(args=args)
+    try:
+        node = AnalysisNode()
+    except ParamError as err:
+        print(f'{NODE_NAME}: invalid parameter: {err}', file=sys.stderr)
+        rclpy.try_shutdown()
+        return 2
+    try:
+        rclpy.spin(node)
+    except (KeyboardInterrupt, ExternalShutdownException):
+        pass
+    finally:
+        node.destroy_node()
+        rclpy.try_shutdown()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
