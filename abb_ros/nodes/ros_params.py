@@ -51,7 +51,7 @@ NODE_PARAMS: dict[str, _P] = {
     'max_spindle_speed': _P(1500.0, 'largest accepted spindle/speed_cmd [rad/s]', 0.0, _INF),
     'spindle.initial_speed': _P(None, 'spindle speed at start and after ~/reset [rad/s]; '
                                 'default wbar = 2.7 (P3) with the drive omega0', 0.0, _INF),
-    'spindle.max_accel': _P(500.0, 'spindle motor acceleration limit [rad/s^2]', 0.0, _INF),
+    'spindle.max_accel': _P(2000.0, 'spindle motor acceleration limit [rad/s^2]', 0.0, _INF),
     'spindle.tau': _P(0.05, 'spindle motor speed-loop time constant [s]', 0.0, _INF),
     'seed': _P(0, 'seed of the IMU noise generator (applies on ~/reset)', 0, 2**31 - 1),
     'imu.rate_hz': _P(1000, 'IMU output rate [Hz]; must divide integration_rate_hz', 1, 10**6),

@@ -245,7 +245,8 @@ class SimulatorNode(Node):
         self.imu.reset()
         cleared = self.fault
         self.fault = ''
-        self._publish(self.sampler.sample_now())
+        # Nothing is published now: this step's stamp went out already (with the old state);
+        # the next period carries the restored state, so stamps stay strictly increasing.
         self._restart_pacing()
         self.publish_diagnostics()
         response.success = True
