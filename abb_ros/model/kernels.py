@@ -1,9 +1,10 @@
 """Compiled kernels of the nonlinear model, each with a pure-Python twin.
 
-One source, two builds: :func:`_make_kernels` is called once with ``numba.njit`` (the
-fast path, ``JIT``) and once with the identity (``PY``, plain Python on numpy arrays).
-Both run the same statements, so they agree to round-off (``test_kernels`` checks it);
-``PY`` is the fallback where numba is unavailable (set ``ABB_ROS_NO_JIT=1`` to force it).
+One source, two builds: this module's functions are compiled with ``numba.njit`` (``JIT``,
+cached on disk), and the same file is executed a second time with the identity as the
+decorator (``PY``, plain Python on numpy arrays). Both run the same statements, so they
+agree to round-off (``test_kernels`` checks it); ``PY`` is the fallback where numba is
+unavailable (set ``ABB_ROS_NO_JIT=1`` to force it).
 
 Packed inputs (plain float arrays, so the kernels stay free of Python objects):
 
@@ -20,6 +21,7 @@ State ``y = [q, q']`` with ``q = [theta, X, Y, Z, alpha, beta, gamma, phi_1..phi
 
 from __future__ import annotations
 
+import importlib.util
 import math
 import os
 
@@ -40,338 +42,355 @@ MAX_BALL_RATE = 1.0e5
 OK, NONFINITE, ENVELOPE = 0, 1, 2
 
 
-def _make_kernels(jit):
-    """Build the kernel set with the decorator ``jit`` (numba.njit or the identity)."""
 
-    @jit
-    def spindle_accel(t, omega, S):
-        """theta'' of the spindle profile S at time t and speed omega [rad/s^2]."""
-        mode = S[0]
-        if mode == SPINDLE_MOTOR:
-            acc = (S[1] - omega) / S[3]
-            if acc > S[2]:
-                acc = S[2]
-            elif acc < -S[2]:
-                acc = -S[2]
-            return acc
-        if mode == SPINDLE_RAMP:
-            if S[4] <= t < S[5]:
-                return S[6]
-            return 0.0
-        return 0.0
-
-    @jit
-    def assemble(y, n, P, thdd, A, W, f, B, fb):
-        """Eqs. (18)-(24) generalised to theta(t): the (6+n) system before elimination.
-
-        Deck rows (X, Y, Z, alpha, beta, gamma): A @ u + W @ phi'' = f, with u the deck
-        accelerations; ball rows: B @ u + m R^2 phi'' = fb. The rotor's mass centre G is
-        treated like a ball of mass M at radius eps and angle theta whose angle has a known
-        second derivative theta''; every phi_i'' of the paper is the ball's acceleration
-        relative to the rotor, and the inertial angle psi_i = phi_i + theta has psi_i'' =
-        phi_i'' + theta''.
-        """
-        a, b, d, R = P[0], P[1], P[2], P[3]
-        M_P, M, m = P[4], P[5], P[6]
-        J_Px, J_Py, J_Pz, J_x, J_y, J_z = P[7], P[8], P[9], P[10], P[11], P[12]
-        k, c, D, eps = P[13], P[14], P[15], P[16]
-        N = 7 + n
-        X, Y, Z, al, be, ga = y[1], y[2], y[3], y[4], y[5], y[6]
-        om = y[N]
-        Xd, Yd, Zd, ald, bed, gad = y[N + 1], y[N + 2], y[N + 3], y[N + 4], y[N + 5], y[N + 6]
-        Mt = M + M_P + n * m
-
-        # Sums over the rotating point masses j = G (M, eps, theta) and balls (m, R, phi_i + theta),
-        # with the known part psi'' = theta'' of their angular accelerations.
-        S1 = 0.0   # sum mu r sin(psi)
-        C1 = 0.0   # sum mu r cos(psi)
-        Sss = 0.0  # sum mu r^2 sin^2
-        Scc = 0.0  # sum mu r^2 cos^2
-        Ssc = 0.0  # sum mu r^2 sin cos
-        Wsc = 0.0  # sum mu r^2 psi' sin cos
-        Wss = 0.0  # sum mu r^2 psi' sin^2
-        Wcc = 0.0  # sum mu r^2 psi' cos^2
-        FX = 0.0   # known inertial terms moved to the right of the X, Y, Z rows
-        FY = 0.0
-        FZ = 0.0
-        for j in range(n + 1):
-            if j == 0:
-                mu = M
-                r = eps
-                psi = y[0]
-                psid = om
-            else:
-                mu = m
-                r = R
-                psi = y[0] + y[6 + j]
-                psid = om + y[N + 6 + j]
-            s = math.sin(psi)
-            co = math.cos(psi)
-            mr = mu * r
-            mr2 = mr * r
-            S1 += mr * s
-            C1 += mr * co
-            Sss += mr2 * s * s
-            Scc += mr2 * co * co
-            Ssc += mr2 * s * co
-            Wsc += mr2 * psid * s * co
-            Wss += mr2 * psid * s * s
-            Wcc += mr2 * psid * co * co
-            # Eq. (18): -mu r {[g'' + psi'' - psi'^2 g] sin + [g psi'' + psi'(2 g' + psi')] cos}
-            tX = (thdd - psid * psid * ga) * s + (ga * thdd + psid * (2.0 * gad + psid)) * co
-            # Eq. (19): +mu r {[g'' + psi'' - psi'^2 g] cos - [g psi'' + psi'(2 g' + psi')] sin}
-            tY = (thdd - psid * psid * ga) * co - (ga * thdd + psid * (2.0 * gad + psid)) * s
-            # Eq. (20): +mu r {[-b'' + a psi'' + 2 psi' a' + psi'^2 b] cos
-            #                  + [a'' + b psi'' + 2 psi' b' - psi'^2 a] sin}
-            tZ = ((al * thdd + 2.0 * psid * ald + psid * psid * be) * co
-                  + (be * thdd + 2.0 * psid * bed - psid * psid * al) * s)
-            FX += mr * tX
-            FY -= mr * tY
-            FZ -= mr * tZ
-            if j > 0:
-                # ball i = j - 1: its accelerations' coefficients in the deck rows, and Eq. (24)
-                i = j - 1
-                W[0, i] = -mr * (s + ga * co)
-                W[1, i] = mr * (co - ga * s)
-                W[2, i] = mr * (al * co + be * s)
-                W[3, i] = mr2 * be
-                W[4, i] = 0.0
-                W[5, i] = mr2
-                B[i, 0] = -mr * s
-                B[i, 1] = mr * co
-                B[i, 2] = 0.0
-                B[i, 3] = 0.0
-                B[i, 4] = 0.0
-                B[i, 5] = mr2
-                fb[i] = -D * y[N + 7 + i] - mr2 * thdd
-        Ir = M * eps * eps + n * m * R * R
-        kb = b * b + 4.0 * d * d
-        kab = a * a + b * b + 4.0 * d * d
-
-        for i in range(6):
-            for j in range(6):
-                A[i, j] = 0.0
-        # Eq. (18), X
-        A[0, 0] = Mt
-        A[0, 5] = M_P * d - S1
-        f[0] = -4.0 * c * Xd - 4.0 * k * X - 4.0 * d * c * gad - 4.0 * d * k * ga + FX
-        # Eq. (19), Y
-        A[1, 1] = Mt
-        A[1, 5] = C1
-        f[1] = -4.0 * c * Yd - 4.0 * k * Y + FY
-        # Eq. (20), Z
-        A[2, 2] = Mt
-        A[2, 3] = -M_P * d + S1
-        A[2, 4] = -C1
-        f[2] = -4.0 * c * Zd - 4.0 * k * Z + 4.0 * d * c * ald + 4.0 * d * k * al + FZ
-        # Eq. (21), alpha
-        A[3, 3] = J_x + J_Px + M_P * d * d + Sss
-        A[3, 4] = -Ssc
-        A[3, 2] = -M_P * d + S1
-        f[3] = (-(kb * c + 2.0 * Wsc) * ald - kb * k * al - (J_z * om + 2.0 * Wss) * bed
-                + 4.0 * d * c * Zd + 4.0 * d * k * Z - be * (Ir + J_z) * thdd)
-        # Eq. (22), beta
-        A[4, 4] = J_y + J_Py + Scc
-        A[4, 3] = -Ssc
-        A[4, 2] = -C1
-        f[4] = -(a * a * c - 2.0 * Wsc) * bed - a * a * k * be + (J_z * om + 2.0 * Wcc) * ald
-        # Eq. (23), gamma
-        A[5, 5] = J_z + J_Pz + M_P * d * d + Ir
-        A[5, 0] = M_P * d - S1
-        A[5, 1] = C1
-        f[5] = (-kab * (c * gad + k * ga) - 4.0 * d * c * Xd - 4.0 * d * k * X
-                - (Ir + J_z) * thdd)
-
-    @jit
-    def solve3(A, f, i0, i1, i2, u):
-        """u[i] for i in (i0, i1, i2) from rows and columns (i0, i1, i2) of A u = f: Gaussian
-        elimination with partial pivoting on the 3 x 3 block (A and f are not modified)."""
-        a00, a01, a02 = A[i0, i0], A[i0, i1], A[i0, i2]
-        a10, a11, a12 = A[i1, i0], A[i1, i1], A[i1, i2]
-        a20, a21, a22 = A[i2, i0], A[i2, i1], A[i2, i2]
-        b0, b1, b2 = f[i0], f[i1], f[i2]
-        # pivot column 0
-        if abs(a10) > abs(a00) and abs(a10) >= abs(a20):
-            a00, a01, a02, b0, a10, a11, a12, b1 = a10, a11, a12, b1, a00, a01, a02, b0
-        elif abs(a20) > abs(a00):
-            a00, a01, a02, b0, a20, a21, a22, b2 = a20, a21, a22, b2, a00, a01, a02, b0
-        l1 = a10 / a00
-        l2 = a20 / a00
-        a11 -= l1 * a01
-        a12 -= l1 * a02
-        b1 -= l1 * b0
-        a21 -= l2 * a01
-        a22 -= l2 * a02
-        b2 -= l2 * b0
-        # pivot column 1
-        if abs(a21) > abs(a11):
-            a11, a12, b1, a21, a22, b2 = a21, a22, b2, a11, a12, b1
-        l2 = a21 / a11
-        a22 -= l2 * a12
-        b2 -= l2 * b1
-        x2 = b2 / a22
-        x1 = (b1 - a12 * x2) / a11
-        x0 = (b0 - a01 * x1 - a02 * x2) / a00
-        u[i0] = x0
-        u[i1] = x1
-        u[i2] = x2
-
-    @jit
-    def solve_deck(A, f, u):
-        """Deck accelerations u from A u = f. To the paper's order the in-plane rows (X, Y,
-        gamma: Eqs. 18, 19, 23 with the balls eliminated) hold no out-of-plane acceleration,
-        so the system is block triangular: a 3 x 3 in-plane solve, then a 3 x 3 out-of-plane
-        solve (Z, alpha, beta) with the in-plane accelerations moved to the right."""
-        solve3(A, f, 0, 1, 5, u)
-        for r in range(2, 5):
-            f[r] -= A[r, 0] * u[0] + A[r, 1] * u[1] + A[r, 5] * u[5]
-        solve3(A, f, 2, 3, 4, u)
-
-    @jit
-    def accel(t, y, n, P, S, qdd, A, W, f, B, fb, u):
-        """q'' at (t, y): eliminate the ball accelerations (their block is m R^2 I: Schur
-        complement), solve the deck (:func:`solve_deck`), then back-substitute the balls."""
-        N = 7 + n
-        thdd = spindle_accel(t, y[N], S)
-        assemble(y, n, P, thdd, A, W, f, B, fb)
-        mR2 = P[6] * P[3] * P[3]
-        inv = 1.0 / mR2
-        for i in range(6):
-            for b in range(n):
-                w = W[i, b] * inv
-                if w != 0.0:
-                    # Eq. (24) involves X'', Y'' and gamma'' only (B[:, 2:5] = 0)
-                    A[i, 0] -= w * B[b, 0]
-                    A[i, 1] -= w * B[b, 1]
-                    A[i, 5] -= w * B[b, 5]
-                    f[i] -= w * fb[b]
-        solve_deck(A, f, u)
-        qdd[0] = thdd
-        for i in range(6):
-            qdd[1 + i] = u[i]
-        for b in range(n):
-            acc = fb[b]
-            for j in range(6):
-                acc -= B[b, j] * u[j]
-            qdd[7 + b] = acc * inv
-
-    @jit
-    def deriv(t, y, n, P, S, dy, qdd, A, W, f, B, fb, u):
-        N = 7 + n
-        accel(t, y, n, P, S, qdd, A, W, f, B, fb, u)
-        for i in range(N):
-            dy[i] = y[N + i]
-            dy[N + i] = qdd[i]
-
-    @jit
-    def check_state(y, n):
-        """OK, NONFINITE or ENVELOPE for the state y."""
-        N = 7 + n
-        for i in range(2 * N):
-            if not math.isfinite(y[i]):
-                return NONFINITE
-        for i in range(1, 4):
-            if abs(y[i]) > MAX_TRANSLATION:
-                return ENVELOPE
-        for i in range(4, 7):
-            if abs(y[i]) > MAX_ANGLE:
-                return ENVELOPE
-        for i in range(n):
-            if abs(y[N + 7 + i]) > MAX_BALL_RATE:
-                return ENVELOPE
-        return OK
-
-    @jit
-    def rk4_advance(y, t0, dt, step0, nsteps, n, P, S, work):
-        """Advance y in place by nsteps classical RK4 steps of dt from t = (step0) dt + t0.
-
-        Time is recomputed from the integer step count at every step (no accumulated drift).
-        ``work`` : ndarray, shape (6, 2N) of stage buffers, plus the solver scratch that
-        :func:`make_work` allocates. Returns (steps_done, status); on a bad state the
-        state of the last good step is kept.
-        """
-        N = 7 + n
-        n2 = 2 * N
-        k1, k2, k3, k4, yt, ysave = work[0], work[1], work[2], work[3], work[4], work[5]
-        qdd = np.empty(N)
-        A = np.empty((6, 6))
-        W = np.empty((6, max(n, 1)))
-        f = np.empty(6)
-        B = np.empty((max(n, 1), 6))
-        fb = np.empty(max(n, 1))
-        u = np.empty(6)
-        for s in range(nsteps):
-            t = t0 + (step0 + s) * dt
-            for i in range(n2):
-                ysave[i] = y[i]
-            deriv(t, y, n, P, S, k1, qdd, A, W, f, B, fb, u)
-            for i in range(n2):
-                yt[i] = y[i] + 0.5 * dt * k1[i]
-            deriv(t + 0.5 * dt, yt, n, P, S, k2, qdd, A, W, f, B, fb, u)
-            for i in range(n2):
-                yt[i] = y[i] + 0.5 * dt * k2[i]
-            deriv(t + 0.5 * dt, yt, n, P, S, k3, qdd, A, W, f, B, fb, u)
-            for i in range(n2):
-                yt[i] = y[i] + dt * k3[i]
-            deriv(t + dt, yt, n, P, S, k4, qdd, A, W, f, B, fb, u)
-            h6 = dt / 6.0
-            for i in range(n2):
-                y[i] = y[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
-            status = check_state(y, n)
-            if status != OK:
-                for i in range(n2):
-                    y[i] = ysave[i]
-                return s, status
-        return nsteps, OK
-
-    @jit
-    def rk4_trajectory(y, t0, dt, step0, nsteps, every, n, P, S, work, out):
-        """Like rk4_advance, storing y after every ``every`` steps into ``out`` rows.
-
-        Returns (steps_done, rows_written, status).
-        """
-        rows = 0
-        done = 0
-        while done < nsteps:
-            chunk = min(every, nsteps - done)
-            got, status = rk4_advance(y, t0, dt, step0 + done, chunk, n, P, S, work)
-            done += got
-            if status != OK:
-                return done, rows, status
-            if chunk == every:
-                for i in range(y.shape[0]):
-                    out[rows, i] = y[i]
-                rows += 1
-        return done, rows, OK
-
-    return dict(spindle_accel=spindle_accel, assemble=assemble, solve3=solve3,
-                solve_deck=solve_deck, accel=accel,
-                deriv=deriv, check_state=check_state, rk4_advance=rk4_advance,
-                rk4_trajectory=rk4_trajectory)
+_PYTHON_TWIN = globals().get('_PYTHON_TWIN', False)   # set when loaded as the Python twin
 
 
-class _Kernels:
-    def __init__(self, funcs, compiled):
-        self.__dict__.update(funcs)
-        self.compiled = compiled
-
-
-PY = _Kernels(_make_kernels(lambda func: func), compiled=False)
-"""Pure-Python twin of every kernel."""
-
-
-def _build_jit():
-    if os.environ.get('ABB_ROS_NO_JIT'):
-        return PY
+def _choose_jit():
+    if _PYTHON_TWIN or os.environ.get('ABB_ROS_NO_JIT'):
+        return None
     try:
         import numba
     except ImportError:  # pragma: no cover - numba is pinned in requirements.txt
-        return PY
-    return _Kernels(_make_kernels(numba.njit(cache=False, nogil=True, error_model='numpy')), compiled=True)
+        return None
+    return numba.njit(cache=True, nogil=True, error_model='numpy')
 
 
-JIT = _build_jit()
-"""Compiled kernels (numba), or the Python twin where numba is unavailable."""
+_NUMBA_JIT = _choose_jit()
+
+
+def jit(func):
+    """numba.njit(cache=True) where available, else the function itself."""
+    return func if _NUMBA_JIT is None else _NUMBA_JIT(func)
+
+
+
+@jit
+def spindle_accel(t, omega, S):
+    """theta'' of the spindle profile S at time t and speed omega [rad/s^2]."""
+    mode = S[0]
+    if mode == SPINDLE_MOTOR:
+        acc = (S[1] - omega) / S[3]
+        if acc > S[2]:
+            acc = S[2]
+        elif acc < -S[2]:
+            acc = -S[2]
+        return acc
+    if mode == SPINDLE_RAMP:
+        if S[4] <= t < S[5]:
+            return S[6]
+        return 0.0
+    return 0.0
+
+@jit
+def assemble(y, n, P, thdd, A, W, f, B, fb):
+    """Eqs. (18)-(24) generalised to theta(t): the (6+n) system before elimination.
+
+    Deck rows (X, Y, Z, alpha, beta, gamma): A @ u + W @ phi'' = f, with u the deck
+    accelerations; ball rows: B @ u + m R^2 phi'' = fb. The rotor's mass centre G is
+    treated like a ball of mass M at radius eps and angle theta whose angle has a known
+    second derivative theta''; every phi_i'' of the paper is the ball's acceleration
+    relative to the rotor, and the inertial angle psi_i = phi_i + theta has psi_i'' =
+    phi_i'' + theta''.
+    """
+    a, b, d, R = P[0], P[1], P[2], P[3]
+    M_P, M, m = P[4], P[5], P[6]
+    J_Px, J_Py, J_Pz, J_x, J_y, J_z = P[7], P[8], P[9], P[10], P[11], P[12]
+    k, c, D, eps = P[13], P[14], P[15], P[16]
+    N = 7 + n
+    X, Y, Z, al, be, ga = y[1], y[2], y[3], y[4], y[5], y[6]
+    om = y[N]
+    Xd, Yd, Zd, ald, bed, gad = y[N + 1], y[N + 2], y[N + 3], y[N + 4], y[N + 5], y[N + 6]
+    Mt = M + M_P + n * m
+
+    # Sums over the rotating point masses j = G (M, eps, theta) and balls (m, R, phi_i + theta),
+    # with the known part psi'' = theta'' of their angular accelerations.
+    S1 = 0.0   # sum mu r sin(psi)
+    C1 = 0.0   # sum mu r cos(psi)
+    Sss = 0.0  # sum mu r^2 sin^2
+    Scc = 0.0  # sum mu r^2 cos^2
+    Ssc = 0.0  # sum mu r^2 sin cos
+    Wsc = 0.0  # sum mu r^2 psi' sin cos
+    Wss = 0.0  # sum mu r^2 psi' sin^2
+    Wcc = 0.0  # sum mu r^2 psi' cos^2
+    FX = 0.0   # known inertial terms moved to the right of the X, Y, Z rows
+    FY = 0.0
+    FZ = 0.0
+    for j in range(n + 1):
+        if j == 0:
+            mu = M
+            r = eps
+            psi = y[0]
+            psid = om
+        else:
+            mu = m
+            r = R
+            psi = y[0] + y[6 + j]
+            psid = om + y[N + 6 + j]
+        s = math.sin(psi)
+        co = math.cos(psi)
+        mr = mu * r
+        mr2 = mr * r
+        S1 += mr * s
+        C1 += mr * co
+        Sss += mr2 * s * s
+        Scc += mr2 * co * co
+        Ssc += mr2 * s * co
+        Wsc += mr2 * psid * s * co
+        Wss += mr2 * psid * s * s
+        Wcc += mr2 * psid * co * co
+        # Eq. (18): -mu r {[g'' + psi'' - psi'^2 g] sin + [g psi'' + psi'(2 g' + psi')] cos}
+        tX = (thdd - psid * psid * ga) * s + (ga * thdd + psid * (2.0 * gad + psid)) * co
+        # Eq. (19): +mu r {[g'' + psi'' - psi'^2 g] cos - [g psi'' + psi'(2 g' + psi')] sin}
+        tY = (thdd - psid * psid * ga) * co - (ga * thdd + psid * (2.0 * gad + psid)) * s
+        # Eq. (20): +mu r {[-b'' + a psi'' + 2 psi' a' + psi'^2 b] cos
+        #                  + [a'' + b psi'' + 2 psi' b' - psi'^2 a] sin}
+        tZ = ((al * thdd + 2.0 * psid * ald + psid * psid * be) * co
+              + (be * thdd + 2.0 * psid * bed - psid * psid * al) * s)
+        FX += mr * tX
+        FY -= mr * tY
+        FZ -= mr * tZ
+        if j > 0:
+            # ball i = j - 1: its accelerations' coefficients in the deck rows, and Eq. (24)
+            i = j - 1
+            W[0, i] = -mr * (s + ga * co)
+            W[1, i] = mr * (co - ga * s)
+            W[2, i] = mr * (al * co + be * s)
+            W[3, i] = mr2 * be
+            W[4, i] = 0.0
+            W[5, i] = mr2
+            B[i, 0] = -mr * s
+            B[i, 1] = mr * co
+            B[i, 2] = 0.0
+            B[i, 3] = 0.0
+            B[i, 4] = 0.0
+            B[i, 5] = mr2
+            fb[i] = -D * y[N + 7 + i] - mr2 * thdd
+    Ir = M * eps * eps + n * m * R * R
+    kb = b * b + 4.0 * d * d
+    kab = a * a + b * b + 4.0 * d * d
+
+    for i in range(6):
+        for j in range(6):
+            A[i, j] = 0.0
+    # Eq. (18), X
+    A[0, 0] = Mt
+    A[0, 5] = M_P * d - S1
+    f[0] = -4.0 * c * Xd - 4.0 * k * X - 4.0 * d * c * gad - 4.0 * d * k * ga + FX
+    # Eq. (19), Y
+    A[1, 1] = Mt
+    A[1, 5] = C1
+    f[1] = -4.0 * c * Yd - 4.0 * k * Y + FY
+    # Eq. (20), Z
+    A[2, 2] = Mt
+    A[2, 3] = -M_P * d + S1
+    A[2, 4] = -C1
+    f[2] = -4.0 * c * Zd - 4.0 * k * Z + 4.0 * d * c * ald + 4.0 * d * k * al + FZ
+    # Eq. (21), alpha
+    A[3, 3] = J_x + J_Px + M_P * d * d + Sss
+    A[3, 4] = -Ssc
+    A[3, 2] = -M_P * d + S1
+    f[3] = (-(kb * c + 2.0 * Wsc) * ald - kb * k * al - (J_z * om + 2.0 * Wss) * bed
+            + 4.0 * d * c * Zd + 4.0 * d * k * Z - be * (Ir + J_z) * thdd)
+    # Eq. (22), beta
+    A[4, 4] = J_y + J_Py + Scc
+    A[4, 3] = -Ssc
+    A[4, 2] = -C1
+    f[4] = -(a * a * c - 2.0 * Wsc) * bed - a * a * k * be + (J_z * om + 2.0 * Wcc) * ald
+    # Eq. (23), gamma
+    A[5, 5] = J_z + J_Pz + M_P * d * d + Ir
+    A[5, 0] = M_P * d - S1
+    A[5, 1] = C1
+    f[5] = (-kab * (c * gad + k * ga) - 4.0 * d * c * Xd - 4.0 * d * k * X
+            - (Ir + J_z) * thdd)
+
+@jit
+def solve3(A, f, i0, i1, i2, u):
+    """u[i] for i in (i0, i1, i2) from rows and columns (i0, i1, i2) of A u = f: Gaussian
+    elimination with partial pivoting on the 3 x 3 block (A and f are not modified)."""
+    a00, a01, a02 = A[i0, i0], A[i0, i1], A[i0, i2]
+    a10, a11, a12 = A[i1, i0], A[i1, i1], A[i1, i2]
+    a20, a21, a22 = A[i2, i0], A[i2, i1], A[i2, i2]
+    b0, b1, b2 = f[i0], f[i1], f[i2]
+    # pivot column 0
+    if abs(a10) > abs(a00) and abs(a10) >= abs(a20):
+        a00, a01, a02, b0, a10, a11, a12, b1 = a10, a11, a12, b1, a00, a01, a02, b0
+    elif abs(a20) > abs(a00):
+        a00, a01, a02, b0, a20, a21, a22, b2 = a20, a21, a22, b2, a00, a01, a02, b0
+    l1 = a10 / a00
+    l2 = a20 / a00
+    a11 -= l1 * a01
+    a12 -= l1 * a02
+    b1 -= l1 * b0
+    a21 -= l2 * a01
+    a22 -= l2 * a02
+    b2 -= l2 * b0
+    # pivot column 1
+    if abs(a21) > abs(a11):
+        a11, a12, b1, a21, a22, b2 = a21, a22, b2, a11, a12, b1
+    l2 = a21 / a11
+    a22 -= l2 * a12
+    b2 -= l2 * b1
+    x2 = b2 / a22
+    x1 = (b1 - a12 * x2) / a11
+    x0 = (b0 - a01 * x1 - a02 * x2) / a00
+    u[i0] = x0
+    u[i1] = x1
+    u[i2] = x2
+
+@jit
+def solve_deck(A, f, u):
+    """Deck accelerations u from A u = f. To the paper's order the in-plane rows (X, Y,
+    gamma: Eqs. 18, 19, 23 with the balls eliminated) hold no out-of-plane acceleration,
+    so the system is block triangular: a 3 x 3 in-plane solve, then a 3 x 3 out-of-plane
+    solve (Z, alpha, beta) with the in-plane accelerations moved to the right."""
+    solve3(A, f, 0, 1, 5, u)
+    for r in range(2, 5):
+        f[r] -= A[r, 0] * u[0] + A[r, 1] * u[1] + A[r, 5] * u[5]
+    solve3(A, f, 2, 3, 4, u)
+
+@jit
+def accel(t, y, n, P, S, qdd, A, W, f, B, fb, u):
+    """q'' at (t, y): eliminate the ball accelerations (their block is m R^2 I: Schur
+    complement), solve the deck (:func:`solve_deck`), then back-substitute the balls."""
+    N = 7 + n
+    thdd = spindle_accel(t, y[N], S)
+    assemble(y, n, P, thdd, A, W, f, B, fb)
+    mR2 = P[6] * P[3] * P[3]
+    inv = 1.0 / mR2
+    for i in range(6):
+        for b in range(n):
+            w = W[i, b] * inv
+            if w != 0.0:
+                # Eq. (24) involves X'', Y'' and gamma'' only (B[:, 2:5] = 0)
+                A[i, 0] -= w * B[b, 0]
+                A[i, 1] -= w * B[b, 1]
+                A[i, 5] -= w * B[b, 5]
+                f[i] -= w * fb[b]
+    solve_deck(A, f, u)
+    qdd[0] = thdd
+    for i in range(6):
+        qdd[1 + i] = u[i]
+    for b in range(n):
+        acc = fb[b]
+        for j in range(6):
+            acc -= B[b, j] * u[j]
+        qdd[7 + b] = acc * inv
+
+@jit
+def deriv(t, y, n, P, S, dy, qdd, A, W, f, B, fb, u):
+    N = 7 + n
+    accel(t, y, n, P, S, qdd, A, W, f, B, fb, u)
+    for i in range(N):
+        dy[i] = y[N + i]
+        dy[N + i] = qdd[i]
+
+@jit
+def check_state(y, n):
+    """OK, NONFINITE or ENVELOPE for the state y."""
+    N = 7 + n
+    for i in range(2 * N):
+        if not math.isfinite(y[i]):
+            return NONFINITE
+    for i in range(1, 4):
+        if abs(y[i]) > MAX_TRANSLATION:
+            return ENVELOPE
+    for i in range(4, 7):
+        if abs(y[i]) > MAX_ANGLE:
+            return ENVELOPE
+    for i in range(n):
+        if abs(y[N + 7 + i]) > MAX_BALL_RATE:
+            return ENVELOPE
+    return OK
+
+@jit
+def rk4_advance(y, t0, dt, step0, nsteps, n, P, S, work):
+    """Advance y in place by nsteps classical RK4 steps of dt from t = (step0) dt + t0.
+
+    Time is recomputed from the integer step count at every step (no accumulated drift).
+    ``work`` : ndarray, shape (6, 2N) of stage buffers, plus the solver scratch that
+    :func:`make_work` allocates. Returns (steps_done, status); on a bad state the
+    state of the last good step is kept.
+    """
+    N = 7 + n
+    n2 = 2 * N
+    k1, k2, k3, k4, yt, ysave = work[0], work[1], work[2], work[3], work[4], work[5]
+    qdd = np.empty(N)
+    A = np.empty((6, 6))
+    W = np.empty((6, max(n, 1)))
+    f = np.empty(6)
+    B = np.empty((max(n, 1), 6))
+    fb = np.empty(max(n, 1))
+    u = np.empty(6)
+    for s in range(nsteps):
+        t = t0 + (step0 + s) * dt
+        for i in range(n2):
+            ysave[i] = y[i]
+        deriv(t, y, n, P, S, k1, qdd, A, W, f, B, fb, u)
+        for i in range(n2):
+            yt[i] = y[i] + 0.5 * dt * k1[i]
+        deriv(t + 0.5 * dt, yt, n, P, S, k2, qdd, A, W, f, B, fb, u)
+        for i in range(n2):
+            yt[i] = y[i] + 0.5 * dt * k2[i]
+        deriv(t + 0.5 * dt, yt, n, P, S, k3, qdd, A, W, f, B, fb, u)
+        for i in range(n2):
+            yt[i] = y[i] + dt * k3[i]
+        deriv(t + dt, yt, n, P, S, k4, qdd, A, W, f, B, fb, u)
+        h6 = dt / 6.0
+        for i in range(n2):
+            y[i] = y[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+        status = check_state(y, n)
+        if status != OK:
+            for i in range(n2):
+                y[i] = ysave[i]
+            return s, status
+    return nsteps, OK
+
+@jit
+def rk4_trajectory(y, t0, dt, step0, nsteps, every, n, P, S, work, out):
+    """Like rk4_advance, storing y after every ``every`` steps into ``out`` rows.
+
+    Returns (steps_done, rows_written, status).
+    """
+    rows = 0
+    done = 0
+    while done < nsteps:
+        chunk = min(every, nsteps - done)
+        got, status = rk4_advance(y, t0, dt, step0 + done, chunk, n, P, S, work)
+        done += got
+        if status != OK:
+            return done, rows, status
+        if chunk == every:
+            for i in range(y.shape[0]):
+                out[rows, i] = y[i]
+            rows += 1
+    return done, rows, OK
+
+
+KERNEL_NAMES = ('spindle_accel', 'assemble', 'solve3', 'solve_deck', 'accel', 'deriv',
+                'check_state', 'rk4_advance', 'rk4_trajectory')
+
+
+class _Kernels:
+    def __init__(self, namespace, compiled):
+        for name in KERNEL_NAMES:
+            setattr(self, name, namespace[name])
+        self.compiled = compiled
+
+
+def _load_python_twin():
+    spec = importlib.util.spec_from_file_location(__name__ + '_python_twin', __file__)
+    module = importlib.util.module_from_spec(spec)
+    module._PYTHON_TWIN = True
+    spec.loader.exec_module(module)
+    return module
+
+
+if not _PYTHON_TWIN:
+    JIT = _Kernels(globals(), compiled=_NUMBA_JIT is not None)
+    """Compiled kernels (numba), or the Python twin where numba is unavailable."""
+    PY = _Kernels(vars(_load_python_twin()), compiled=False)
+    """Pure-Python twin of every kernel: the same source run by the interpreter."""
 
 
 def make_work(n: int) -> np.ndarray:
