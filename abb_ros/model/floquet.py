@@ -34,7 +34,7 @@ __all__ = ['STEPS_PER_RADIAN', 'MIN_STEPS', 'JIT', 'PY', 'monodromy_batch', 'ste
            'point_stability', 'StabilityMap', 'stability_map', 'MAP_AXES', 'BALANCED', 'UNSTABLE',
            'NO_EQUILIBRIUM']
 
-STEPS_PER_RADIAN = 7.0
+STEPS_PER_RADIAN = 8.0
 """RK4 steps per radian of the fastest phase advance in tau (chosen in test_floquet's accuracy
 study: |lambda|max within 1e-6 of a DOP853 reference at rtol 1e-12; the error falls as
 STEPS_PER_RADIAN**-4, and 12 gave 3e-8 at worst on a random sample)."""
