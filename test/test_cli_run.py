@@ -1,0 +1,79 @@
+"""`abb-sim run`: the headless command line, its JSON summary and its errors (exit code 2)."""
+
+import json
+import subprocess
+import sys
+
+import pytest
+
+
+def abb_sim(*args, timeout=300):
+    proc = subprocess.run([sys.executable, '-m', 'abb_ros.cli', *args], capture_output=True,
+                          text=True, timeout=timeout, stdin=subprocess.DEVNULL)
+    return proc.returncode, proc.stdout, proc.stderr
+
+
+def test_run_p3_prints_one_json_summary():
+    code, out, err = abb_sim('run', '--scenario', 'p3', '--duration', '3', '--json')
+    assert code == 0, err
+    summary = json.loads(out)
+    assert summary['scenario'] == 'p3' and summary['n'] == 2
+    assert summary['wbar'] == pytest.approx(2.7)
+    assert summary['final_rbar'] < 1e-6
+    assert sorted(summary['ball_angles_deg']) == pytest.approx([-106.13, 106.13], abs=0.05)
+    assert summary['wall_time_s'] > 0 and summary['real_time_factor'] > 0
+
+
+def test_no_abb_and_dimensionless_settings():
+    code, out, err = abb_sim('run', '--scenario', 'p3', '--no-abb', '--set', 'wbar=1.5',
+                             '--set', 'zeta=0.1', '--duration', '1', '--json')
+    assert code == 0, err
+    summary = json.loads(out)
+    assert summary['n'] == 0 and summary['ball_angles_deg'] == []
+    assert summary['wbar'] == pytest.approx(1.5)
+    assert summary['final_rbar'] > 1e-3
+
+
+@pytest.mark.parametrize('args,fragment', [
+    (['--scenario', 'p9'], "'scenario'"),
+    (['--set', 'k=-3'], "'k' = -3.0 is invalid: valid range is (0, inf) N/m"),
+    (['--set', 'wbarr=2'], "'wbarr'"),
+    (['--set', 'n=2.5'], "'n'"),
+    (['--set', 'mbar=abc'], "'mbar'"),
+    (['--set', 'J_y=1e-5'], "'J_y'"),
+    (['--duration', '-1'], "'duration'"),
+])
+def test_bad_input_exits_2_naming_the_parameter(args, fragment):
+    code, out, err = abb_sim('run', *args, '--json', '--no-progress')
+    assert code == 2
+    assert fragment in err
+    assert 'Traceback' not in err and out == ''
+
+
+def test_malformed_scenario_file_is_a_clear_error(tmp_path):
+    bad = tmp_path / 'bad.yaml'
+    bad.write_text('name: x\nset: {wbar: [1, 2}\n')
+    code, _, err = abb_sim('run', '--scenario', str(bad), '--json')
+    assert code == 2 and 'malformed' in err
+    wrong = tmp_path / 'wrong.yaml'
+    wrong.write_text('name: x\nspindle: {model: turbo}\n')
+    code, _, err = abb_sim('run', '--scenario', str(wrong), '--json')
+    assert code == 2 and "'scenario.spindle.model'" in err
+
+
+def test_out_writes_a_bag_and_refuses_to_overwrite_it(tmp_path):
+    from abb_ros.io.bag import read_bag
+    out = tmp_path / 'p3bag'
+    code, stdout, err = abb_sim('run', '--scenario', 'p3', '--duration', '0.2', '--out', str(out),
+                                '--json')
+    assert code == 0, err
+    summary = json.loads(stdout)
+    topics = {}
+    for topic, msg, _ in read_bag(out):
+        topics.setdefault(topic, []).append(msg)
+    assert len(topics['/joint_states']) == 201             # t = 0 and 200 publish periods
+    assert summary['messages'] == sum(len(v) for v in topics.values())
+    last = topics['/joint_states'][-1]
+    assert list(last.name) == ['spindle', 'ball_1', 'ball_2']
+    code, _, err = abb_sim('run', '--scenario', 'p3', '--duration', '0.1', '--out', str(out))
+    assert code == 2 and '--overwrite' in err
