@@ -115,7 +115,7 @@ class TableWorker:
         self._omega = None
         self._stop = False
         self.table = None
-        self.table_id = -1
+        self.table_id = 0
         self.exact = None
         self.error = ''
         self.error_point = ''
@@ -245,8 +245,10 @@ class AnalysisNode(Node):
     def _on_parameters_set(self, parameters) -> None:
         names = {p.name for p in parameters}
         if names & set(FOLLOWED + ('table_points',)):
-            self.drive, self.omega_max, self.points = config_from(self._values())
-            self._request_table()
+            config = config_from(self._values())
+            if config != (self.drive, self.omega_max, self.points):
+                self.drive, self.omega_max, self.points = config
+                self._request_table()
         if 'publish_rate_hz' in names:
             self.destroy_timer(self._timer)
             self._timer = self.create_timer(1.0 / self.get_parameter('publish_rate_hz').value,
