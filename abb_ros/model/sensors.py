@@ -38,19 +38,34 @@ GRAVITY = 9.80665
 """Standard gravity [m/s^2], acting along -Z of the base frame when enabled."""
 
 
-def euler_rotation(alpha: float, beta: float, gamma: float) -> np.ndarray:
-    """Deck-to-base rotation R = Rz(gamma) Rx(alpha) Ry(beta) = (T_beta T_alpha T_gamma)^T,
-    Eqs. (1)-(2); shape (3, 3). ``R @ v_deck = v_base``."""
+def _t_matrix(alpha: float, beta: float, gamma: float) -> tuple[float, ...]:
+    """T_beta T_alpha T_gamma of Eq. (2), row-major (9 floats): base -> deck components.
+
+    Plain floats: at one call per sample, numpy's per-call overhead on 3 x 3 arrays costs
+    more than the arithmetic."""
     ca, sa = math.cos(alpha), math.sin(alpha)
     cb, sb = math.cos(beta), math.sin(beta)
     cg, sg = math.cos(gamma), math.sin(gamma)
-    # Rows of T_beta T_alpha T_gamma are the deck axes i, j, k in base components (Eq. 6).
-    t = np.array([
-        [cb * cg - sa * sb * sg, cb * sg + sa * sb * cg, -ca * sb],
-        [-ca * sg, ca * cg, sa],
-        [sb * cg + sa * cb * sg, sb * sg - sa * cb * cg, ca * cb],
-    ])
-    return t.T
+    # Rows are the deck axes i, j, k in base components (Eq. 6 with 'cos psi' = cos gamma).
+    return (cb * cg - sa * sb * sg, cb * sg + sa * sb * cg, -ca * sb,
+            -ca * sg, ca * cg, sa,
+            sb * cg + sa * cb * sg, sb * sg - sa * cb * cg, ca * cb)
+
+
+def _mul(t, v) -> tuple[float, float, float]:
+    return (t[0] * v[0] + t[1] * v[1] + t[2] * v[2],
+            t[3] * v[0] + t[4] * v[1] + t[5] * v[2],
+            t[6] * v[0] + t[7] * v[1] + t[8] * v[2])
+
+
+def _cross(u, v) -> tuple[float, float, float]:
+    return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
+
+
+def euler_rotation(alpha: float, beta: float, gamma: float) -> np.ndarray:
+    """Deck-to-base rotation R = Rz(gamma) Rx(alpha) Ry(beta) = (T_beta T_alpha T_gamma)^T,
+    Eqs. (1)-(2); shape (3, 3). ``R @ v_deck = v_base``."""
+    return np.array(_t_matrix(alpha, beta, gamma)).reshape(3, 3).T
 
 
 def euler_quaternion(alpha: float, beta: float, gamma: float) -> tuple[float, float, float,
@@ -69,27 +84,32 @@ def euler_quaternion(alpha: float, beta: float, gamma: float) -> tuple[float, fl
     return x, y, z, w
 
 
-def deck_angular_velocity(alpha, beta, gamma, dalpha, dbeta, dgamma) -> np.ndarray:
-    """omega_P of Eq. (10) in deck axes [rad/s], shape (3,)."""
+def _omega(alpha, beta, dalpha, dbeta, dgamma) -> tuple[float, float, float]:
     ca, sa = math.cos(alpha), math.sin(alpha)
     cb, sb = math.cos(beta), math.sin(beta)
-    return np.array([dalpha * cb - dgamma * ca * sb,
-                     dbeta + dgamma * sa,
-                     dalpha * sb + dgamma * ca * cb])
+    return (dalpha * cb - dgamma * ca * sb, dbeta + dgamma * sa, dalpha * sb + dgamma * ca * cb)
+
+
+def _omega_dot(alpha, beta, dalpha, dbeta, dgamma, ddalpha, ddbeta, ddgamma
+               ) -> tuple[float, float, float]:
+    ca, sa = math.cos(alpha), math.sin(alpha)
+    cb, sb = math.cos(beta), math.sin(beta)
+    return (ddalpha * cb - dalpha * dbeta * sb - ddgamma * ca * sb
+            + dgamma * dalpha * sa * sb - dgamma * dbeta * ca * cb,
+            ddbeta + ddgamma * sa + dgamma * dalpha * ca,
+            ddalpha * sb + dalpha * dbeta * cb + ddgamma * ca * cb
+            - dgamma * dalpha * sa * cb - dgamma * dbeta * ca * sb)
+
+
+def deck_angular_velocity(alpha, beta, gamma, dalpha, dbeta, dgamma) -> np.ndarray:
+    """omega_P of Eq. (10) in deck axes [rad/s], shape (3,)."""
+    return np.array(_omega(alpha, beta, dalpha, dbeta, dgamma))
 
 
 def deck_angular_acceleration(alpha, beta, gamma, dalpha, dbeta, dgamma,
                               ddalpha, ddbeta, ddgamma) -> np.ndarray:
     """Time derivative of Eq. (10) in deck axes [rad/s^2], shape (3,)."""
-    ca, sa = math.cos(alpha), math.sin(alpha)
-    cb, sb = math.cos(beta), math.sin(beta)
-    return np.array([
-        ddalpha * cb - dalpha * dbeta * sb - ddgamma * ca * sb
-        + dgamma * dalpha * sa * sb - dgamma * dbeta * ca * cb,
-        ddbeta + ddgamma * sa + dgamma * dalpha * ca,
-        ddalpha * sb + dalpha * dbeta * cb + ddgamma * ca * cb
-        - dgamma * dalpha * sa * cb - dgamma * dbeta * ca * sb,
-    ])
+    return np.array(_omega_dot(alpha, beta, dalpha, dbeta, dgamma, ddalpha, ddbeta, ddgamma))
 
 
 def deck_velocity(q, qd) -> tuple[np.ndarray, np.ndarray]:
@@ -97,9 +117,25 @@ def deck_velocity(q, qd) -> tuple[np.ndarray, np.ndarray]:
 
     ``q``, ``qd``: generalised coordinates and rates, [theta, X, Y, Z, alpha, beta, gamma, ...].
     """
-    rot = euler_rotation(q[4], q[5], q[6])
-    v = rot.T @ np.asarray(qd[1:4], dtype=float)
-    return v, deck_angular_velocity(*q[4:7], *qd[4:7])
+    a, b, g = float(q[4]), float(q[5]), float(q[6])
+    v = _mul(_t_matrix(a, b, g), (float(qd[1]), float(qd[2]), float(qd[3])))
+    return np.array(v), np.array(_omega(a, b, float(qd[4]), float(qd[5]), float(qd[6])))
+
+
+def _specific_force(q, qd, qdd, r, gravity):
+    """point_specific_force and Eq. (10) as float tuples."""
+    a, b, g = float(q[4]), float(q[5]), float(q[6])
+    da, db, dg = float(qd[4]), float(qd[5]), float(qd[6])
+    t = _t_matrix(a, b, g)
+    w = _omega(a, b, da, db, dg)
+    wd = _omega_dot(a, b, da, db, dg, float(qdd[4]), float(qdd[5]), float(qdd[6]))
+    r = (float(r[0]), float(r[1]), float(r[2]))
+    a_c = _mul(t, (float(qdd[1]), float(qdd[2]), float(qdd[3])))
+    e1, e2 = _cross(wd, r), _cross(w, _cross(w, r))
+    f = [a_c[i] + e1[i] + e2[i] for i in range(3)]
+    if gravity:  # -g = +GRAVITY along Z of base: T (0, 0, g) is g times T's last column
+        f = [f[0] + t[2] * GRAVITY, f[1] + t[5] * GRAVITY, f[2] + t[8] * GRAVITY]
+    return f, w
 
 
 def point_specific_force(q, qd, qdd, r, gravity: bool = False) -> np.ndarray:
@@ -107,20 +143,7 @@ def point_specific_force(q, qd, qdd, r, gravity: bool = False) -> np.ndarray:
 
     a_C + w' x r + w x (w x r) - g, with a_C = R^T (X'', Y'', Z'').
     """
-    rot = euler_rotation(q[4], q[5], q[6])
-    r = np.asarray(r, dtype=float)
-    w = deck_angular_velocity(*q[4:7], *qd[4:7])
-    wd = deck_angular_acceleration(*q[4:7], *qd[4:7], *qdd[4:7])
-    a = rot.T @ np.asarray(qdd[1:4], dtype=float) + _cross(wd, r) + _cross(w, _cross(w, r))
-    if gravity:
-        a = a + rot.T @ np.array([0.0, 0.0, GRAVITY])
-    return a
-
-
-def _cross(u, v) -> np.ndarray:
-    """u x v of two 3-vectors (np.cross costs ~20 us a call on 3-vectors)."""
-    return np.array([u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2],
-                     u[0] * v[1] - u[1] * v[0]])
+    return np.array(_specific_force(q, qd, qdd, r, gravity)[0])
 
 
 @dataclass(frozen=True)
@@ -185,8 +208,7 @@ class ImuModel:
     def read(self, q, qd, qdd) -> ImuReading:
         """The reading at the state (q, q', q''); advances the noise generator."""
         c = self.config
-        accel = point_specific_force(q, qd, qdd, c.position, c.gravity)
-        gyro = deck_angular_velocity(*q[4:7], *qd[4:7])
+        accel, gyro = _specific_force(q, qd, qdd, c.position, c.gravity)
         # One draw of 12 normals per sample whatever the settings, so that the sequence of
         # the generator (and so every later reading) does not depend on which terms are on.
         z = self.rng.standard_normal(12)
