@@ -14,7 +14,10 @@ import importlib
 import json
 import sys
 
+from abb_ros.commands import UsageError
 from abb_ros.model.params import ParamError, parse_value
+
+__all__ = ['main', 'parse_settings', 'UsageError', 'SUBCOMMANDS']
 
 SUBCOMMANDS = {
     'run': 'headless simulation (no DDS) written to a rosbag2 MCAP directory',
@@ -23,10 +26,6 @@ SUBCOMMANDS = {
     'map': 'stability map over two parameters (PNG + data file)',
     'plot': 'time-response figures (PNG) from a recorded bag',
 }
-
-
-class UsageError(Exception):
-    """Bad command-line input that is not a single parameter (exit code 2)."""
 
 
 def parse_settings(items) -> dict:
