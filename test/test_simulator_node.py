@@ -153,6 +153,9 @@ def plant_factory():
 
 # ---- real time, as a separate process ---------------------------------------------------------
 
+# Real time on a shared 2-core machine: a burst of load from elsewhere can starve the node
+# for part of the window, so a failure is retried (pytest-rerunfailures, pinned).
+@pytest.mark.flaky(reruns=2)
 def test_topics_arrive_at_their_rates_with_frames_names_and_units_in_real_time(tmp_path):
     ns = '/rt'
     log = open(tmp_path / 'simulator.log', 'w+')

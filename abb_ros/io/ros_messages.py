@@ -13,11 +13,9 @@ import math
 import numpy as np
 from builtin_interfaces.msg import Time
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
-from geometry_msgs.msg import (Point, Pose, PoseStamped, Quaternion, Twist, TwistStamped,
-                               Vector3)
+from geometry_msgs.msg import PoseStamped, TwistStamped
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
-from std_msgs.msg import Header
 
 from abb_ros.model.dynamics import n_coords
 from abb_ros.model.sampling import Sample
@@ -55,60 +53,76 @@ def joint_names(n: int) -> list[str]:
     return ['spindle'] + [f'ball_{i + 1}' for i in range(n)]
 
 
-def _header(stamp, frame_id: str = '') -> Header:
-    """Header of a stamp given as integer nanoseconds or a Time message."""
-    return Header(stamp=stamp if isinstance(stamp, Time) else time_msg(stamp),
-                  frame_id=frame_id)
+def _stamp(stamp) -> Time:
+    return stamp if isinstance(stamp, Time) else time_msg(stamp)
 
 
-def joint_state(stamp_ns, y: np.ndarray, n: int) -> JointState:
+# Every builder below fills ``out`` in place when given (the live node reuses one message
+# per topic: the generated constructors build every nested default, which costs more than
+# the physics at 1 kHz); without ``out`` it returns a new message. ``stamp`` is integer
+# nanoseconds or a builtin_interfaces/Time.
+
+def joint_state(stamp, y: np.ndarray, n: int, out: JointState | None = None) -> JointState:
     """Spindle angle theta and speed omega; ball angles phi_i and rates phi_i' [rad, rad/s]."""
+    msg = JointState() if out is None else out
     N = n_coords(n)
-    idx = [0] + list(range(7, N))
-    return JointState(header=_header(stamp_ns), name=joint_names(n),
-                      position=[float(y[i]) for i in idx],
-                      velocity=[float(y[N + i]) for i in idx])
+    msg.header.stamp = _stamp(stamp)
+    if len(msg.name) != n + 1:
+        msg.name = joint_names(n)
+    msg.position = [float(y[0])] + y[7:N].tolist()
+    msg.velocity = [float(y[N])] + y[N + 7:].tolist()
+    return msg
 
 
-def deck_pose(stamp_ns, y: np.ndarray) -> PoseStamped:
+def deck_pose(stamp, y: np.ndarray, out: PoseStamped | None = None) -> PoseStamped:
     """Position of C (X, Y, Z) [m] and the deck orientation R = Rz(gamma) Rx(alpha) Ry(beta)
     in frame ``base``."""
-    x, y_, z, w = euler_quaternion(float(y[4]), float(y[5]), float(y[6]))
-    return PoseStamped(header=_header(stamp_ns, FRAME_BASE), pose=Pose(
-        position=Point(x=float(y[1]), y=float(y[2]), z=float(y[3])),
-        orientation=Quaternion(x=x, y=y_, z=z, w=w)))
+    msg = PoseStamped() if out is None else out
+    msg.header.stamp = _stamp(stamp)
+    msg.header.frame_id = FRAME_BASE
+    p, o = msg.pose.position, msg.pose.orientation
+    p.x, p.y, p.z = float(y[1]), float(y[2]), float(y[3])
+    o.x, o.y, o.z, o.w = euler_quaternion(float(y[4]), float(y[5]), float(y[6]))
+    return msg
 
 
-def _vector3(v) -> Vector3:
-    return Vector3(x=float(v[0]), y=float(v[1]), z=float(v[2]))
+def _set3(vec, values) -> None:
+    vec.x, vec.y, vec.z = float(values[0]), float(values[1]), float(values[2])
 
 
-def deck_twist(stamp_ns, y: np.ndarray, n: int) -> TwistStamped:
+def deck_twist(stamp, y: np.ndarray, n: int, out: TwistStamped | None = None
+               ) -> TwistStamped:
     """Velocity of C [m/s] and angular velocity Eq. (10) [rad/s], both in deck axes."""
+    msg = TwistStamped() if out is None else out
     N = n_coords(n)
     v, w = deck_velocity(y[:N], y[N:])
-    return TwistStamped(header=_header(stamp_ns, FRAME_DECK),
-                        twist=Twist(linear=_vector3(v), angular=_vector3(w)))
+    msg.header.stamp = _stamp(stamp)
+    msg.header.frame_id = FRAME_DECK
+    _set3(msg.twist.linear, v)
+    _set3(msg.twist.angular, w)
+    return msg
 
 
-def deck_imu(stamp_ns, reading, config: ImuConfig) -> Imu:
+def deck_imu(stamp, reading, config: ImuConfig, out: Imu | None = None) -> Imu:
     """Specific force [m/s^2] and angular rate [rad/s] in frame ``deck``; no orientation
     (orientation_covariance[0] = -1); diagonal covariances = noise density^2 * rate."""
-    a, g = config.accel_variance, config.gyro_variance
-    return Imu(header=_header(stamp_ns, FRAME_DECK),
-               orientation_covariance=_NO_ORIENTATION,
-               linear_acceleration=_vector3(reading.accel),
-               linear_acceleration_covariance=[a, 0.0, 0.0, 0.0, a, 0.0, 0.0, 0.0, a],
-               angular_velocity=_vector3(reading.gyro),
-               angular_velocity_covariance=[g, 0.0, 0.0, 0.0, g, 0.0, 0.0, 0.0, g])
+    msg = Imu() if out is None else out
+    msg.header.stamp = _stamp(stamp)
+    msg.header.frame_id = FRAME_DECK
+    msg.orientation_covariance[0] = -1.0
+    _set3(msg.linear_acceleration, reading.accel)
+    _set3(msg.angular_velocity, reading.gyro)
+    for i in (0, 4, 8):
+        msg.linear_acceleration_covariance[i] = config.accel_variance
+        msg.angular_velocity_covariance[i] = config.gyro_variance
+    return msg
 
 
-_NO_ORIENTATION = [-1.0] + [0.0] * 8
-
-
-def clock(stamp_ns) -> Clock:
-    """/clock at a stamp (integer nanoseconds or a Time message)."""
-    return Clock(clock=stamp_ns if isinstance(stamp_ns, Time) else time_msg(stamp_ns))
+def clock(stamp, out: Clock | None = None) -> Clock:
+    """/clock at a stamp."""
+    msg = Clock() if out is None else out
+    msg.clock = _stamp(stamp)
+    return msg
 
 
 def diagnostics(stamp_ns: int, name: str, level: bytes, message: str,
@@ -130,17 +144,21 @@ def _text(value) -> str:
 
 
 def sample_messages(sample: Sample, dt_ns: int, imu_config: ImuConfig, epoch_ns: int = 0,
-                    with_clock: bool = False) -> list[tuple[str, object]]:
+                    with_clock: bool = False, reuse: dict | None = None
+                    ) -> list[tuple[str, object]]:
     """(topic, message) pairs of one :class:`Sample`, in publishing order: ``/clock``
-    first (when the simulator owns time), then the state topics, then ``deck/imu``."""
+    first (when the simulator owns time), then the state topics, then ``deck/imu``.
+
+    ``reuse``: {topic: message} filled in place (publish them before the next call)."""
     stamp = time_msg(sample.stamp_ns(dt_ns, epoch_ns))
+    get = (reuse or {}).get
     out = []
     if with_clock:
-        out.append(('/clock', clock(stamp)))
+        out.append(('/clock', clock(stamp, get('/clock'))))
     if sample.y is not None:
-        out += [('joint_states', joint_state(stamp, sample.y, sample.n)),
-                ('deck/pose', deck_pose(stamp, sample.y)),
-                ('deck/twist', deck_twist(stamp, sample.y, sample.n))]
+        out += [('joint_states', joint_state(stamp, sample.y, sample.n, get('joint_states'))),
+                ('deck/pose', deck_pose(stamp, sample.y, get('deck/pose'))),
+                ('deck/twist', deck_twist(stamp, sample.y, sample.n, get('deck/twist')))]
     if sample.imu is not None:
-        out.append(('deck/imu', deck_imu(stamp, sample.imu, imu_config)))
+        out.append(('deck/imu', deck_imu(stamp, sample.imu, imu_config, get('deck/imu'))))
     return out

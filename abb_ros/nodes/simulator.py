@@ -76,6 +76,7 @@ class SimulatorNode(Node):
 
         self._pubs = {topic: self.create_publisher(kind, topic, QOS_DEPTH)
                       for topic, kind in ros_messages.TOPIC_TYPES.items()}
+        self._reuse = {topic: kind() for topic, kind in ros_messages.TOPIC_TYPES.items()}
         self.create_subscription(Float64, 'spindle/speed_cmd', self._on_speed_cmd, QOS_DEPTH)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(SetBool, '~/pause', self._on_pause)
@@ -125,7 +126,8 @@ class SimulatorNode(Node):
             self._timer = self.create_timer(0.0, self._tick_fast, clock=self._steady)
         else:
             # Ticks at the publish period in wall time; the due step count is computed half
-            # a period ahead so that a tick's latency below P/2 never skips a period.
+            # a period ahead, so that ticks early or late by less than P/2 (timer wake-up
+            # jitter either way) integrate exactly one period each.
             self._anchor = (self._anchor[0] - int(period_ns / rtf / 2), self._anchor[1])
             self._timer = self.create_timer(period_ns / rtf * 1e-9, self._tick_paced,
                                             clock=self._steady)
@@ -178,7 +180,8 @@ class SimulatorNode(Node):
         if sample is None:
             return
         for topic, msg in ros_messages.sample_messages(
-                sample, self._dt_ns, self.imu.config, self._epoch_ns, self.owns_time):
+                sample, self._dt_ns, self.imu.config, self._epoch_ns, self.owns_time,
+                self._reuse):
             try:
                 self._pubs[topic].publish(msg)
             except RCLError:
