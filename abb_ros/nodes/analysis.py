@@ -48,8 +48,10 @@ QOS_DEPTH = 10
 REFINE_TOL_RAD_S = 0.5
 """An exact point computed within this speed [rad/s] of the current one replaces the
 interpolated multipliers."""
-REFINE_MIN_INTERVAL_S = 0.05
-"""Exact refinements at most every 50 ms (a ramp would otherwise keep the worker busy)."""
+REFINE_SETTLE_S = 0.2
+"""The exact point is computed once the speed has stayed within REFINE_TOL_RAD_S for this long
+[s]: during a ramp the table alone answers (an exact point per update would compete with the
+executor for the CPU and triple the p99 latency, benchmarks/bench_analysis.py)."""
 SYNC_PERIOD_S = 1.0
 WARN_THROTTLE_S = 5.0
 
@@ -113,6 +115,7 @@ class TableWorker:
         self._config = None
         self._config_id = 0
         self._omega = None
+        self._moved_at = 0.0
         self._stop = False
         self.table = None
         self.table_id = 0
@@ -130,9 +133,12 @@ class TableWorker:
             self._cv.notify()
 
     def want(self, omega: float) -> None:
+        """The current speed [rad/s]: refined once it has been steady for REFINE_SETTLE_S."""
         with self._cv:
-            self._omega = omega
-            self._cv.notify()
+            if self._omega is None or abs(omega - self._omega) > REFINE_TOL_RAD_S:
+                self._omega = omega
+                self._moved_at = time.monotonic()
+                self._cv.notify()
 
     def stop(self) -> None:
         with self._cv:
@@ -145,25 +151,32 @@ class TableWorker:
             return False
         return self.exact is None or abs(self.exact.omega - self._omega) > REFINE_TOL_RAD_S
 
+    def _next_job(self):
+        """Under the lock: wait until there is a table to compute or a steady speed to refine;
+        None to stop."""
+        while not self._stop:
+            if self.table_id != self._config_id:
+                self.busy = True
+                return self._config_id, self._config, None
+            if self._needs_point():
+                remaining = self._moved_at + REFINE_SETTLE_S - time.monotonic()
+                if remaining <= 0:
+                    return self._config_id, self._config, self._omega
+                self._cv.wait(remaining)
+            else:
+                self._cv.wait()
+        return None
+
     def _run(self) -> None:
-        last_point = 0.0
         while True:
             with self._cv:
-                while not self._stop and self.table_id == self._config_id \
-                        and not self._needs_point():
-                    self._cv.wait()
-                if self._stop:
-                    return
-                config_id, config, omega = self._config_id, self._config, self._omega
-                self.busy = self.table_id != config_id
-            if self.table_id != config_id:
+                job = self._next_job()
+            if job is None:
+                return
+            config_id, config, omega = job
+            if omega is None:
                 self._compute_table(config_id, config)
                 continue
-            wait = last_point + REFINE_MIN_INTERVAL_S - time.monotonic()
-            if wait > 0:
-                time.sleep(wait)
-                continue
-            last_point = time.monotonic()
             try:
                 self.exact = speed_bands.refine(self.table, omega)
             except Exception as err:  # noqa: BLE001 - keep the interpolated value
