@@ -31,6 +31,7 @@ sys.path.insert(0, str(ROOT))
 from abb_ros.model.floquet import point_stability  # noqa: E402
 from abb_ros.model.params import DriveParams  # noqa: E402
 from abb_ros.model.speed_bands import assess, speed_table  # noqa: E402
+from abb_ros.nodes.analysis import status_delays  # noqa: E402
 
 P3 = DriveParams(c=0.66, m=0.03 * 0.026)
 
@@ -126,14 +127,7 @@ def bench_latency(accel, assess_s):
                     p.kill()
     js = [j for j in js if j[0] >= start]
     st = [s for s in st if s[0] >= start]
-    delays, k = [], 0
-    for receipt, s in js:
-        while k < len(st) and (st[k][1] < s or st[k][0] < receipt):
-            k += 1
-        if k == len(st):
-            break
-        delays.append(st[k][0] - receipt)
-    d = np.array(delays) * 1e3
+    d = np.array(status_delays(js, st)) * 1e3
     print(f'2. status latency over a {ramp_s:.1f} s ramp P1 -> P3 ({accel:g} rad/s^2), '
           f'{d.size} joint_states, {len(st)} statuses ({len(st) / (ramp_s + 0.5):.0f}/s)')
     print(f'   p50 {np.percentile(d, 50):6.1f} ms   p99 {np.percentile(d, 99):6.1f} ms   '

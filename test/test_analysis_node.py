@@ -30,6 +30,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
 from abb_ros.model.params import DriveParams
+from abb_ros.nodes.analysis import status_delays
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 ROOT = Path(__file__).resolve().parents[1]
@@ -242,15 +243,7 @@ def test_status_follows_a_speed_ramp_and_reports_the_latency(graph):
         assert float(s[4]['omega']) == pytest.approx(speeds[s[1]], abs=1e-9)
     levels = [s[2] for s in matched]
     assert levels[0] == DiagnosticStatus.ERROR and DiagnosticStatus.OK in levels
-    delays = []
-    k = 0
-    for receipt, stamp, omega, _ in js:
-        while k < len(st) and (st[k][1] < stamp or st[k][0] < receipt):
-            k += 1
-        if k == len(st):
-            break
-        delays.append(st[k][0] - receipt)
-    delays = np.array(delays) * 1e3
+    delays = np.array(status_delays([j[:2] for j in js], [s[:2] for s in st])) * 1e3
     print(f'\nstatus latency over the ramp: {delays.size} joint_states, p50 '
           f'{np.percentile(delays, 50):.1f} ms, p99 {np.percentile(delays, 99):.1f} ms, max '
           f'{delays.max():.1f} ms (publish throttle 50 Hz = 20 ms)')
