@@ -493,3 +493,18 @@ def test_subscribers_coming_and_going_leave_the_plant_running(plant_factory):
     states = plant.collect(JointState, 'joint_states')
     plant.wait(lambda: len(states) > 50, 'joint_states still flowing')
     assert plant.status() is None or plant.status().level != DiagnosticStatus.ERROR
+
+
+def test_a_change_of_n_waits_for_reset(plant_factory):
+    plant = plant_factory(start_paused=True, real_time_factor=0.0, publish_rate_hz=1000)
+    states = plant.collect(JointState, 'joint_states')
+    assert plant.set_params(**{'drive.n': 3})[0].successful
+    assert plant.step().success
+    plant.wait(lambda: len(states) == 1, 'a step with the old n')
+    assert states[-1].name == ['spindle', 'ball_1', 'ball_2']
+    assert plant.call(Trigger, '/abb_simulator/reset', Trigger.Request()).success
+    assert plant.step().success
+    plant.wait(lambda: len(states) == 2, 'a step after ~/reset')
+    assert states[-1].name == ['spindle', 'ball_1', 'ball_2', 'ball_3']
+    # n = 3 starts from the two fanned groups of integrate.default_phi0: +60, -60, +61 deg.
+    assert np.degrees(states[-1].position[1:]) == pytest.approx([60.0, -60.0, 61.0], abs=1.0)
