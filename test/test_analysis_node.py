@@ -112,6 +112,11 @@ class Probe:
         self.wait_for(future.done, 10.0, f'set_parameters on {node}')
         return future.result().results
 
+    def get_params(self, node, *names):
+        future = self.params[node].get_parameters(list(names))
+        self.wait_for(future.done, 10.0, f'get_parameters on {node}')
+        return [v.double_value for v in future.result().values]
+
     def close(self):
         self.executor.shutdown()
         self.node.destroy_node()
@@ -226,6 +231,7 @@ def test_status_follows_a_speed_ramp_and_reports_the_latency(graph):
     that stalls behind a computation; the 50 ms target is measured in
     benchmarks/bench_analysis.py."""
     graph.command(0.8)
+    rtf, accel = graph.get_params('abb_simulator', 'real_time_factor', 'spindle.max_accel')
     assert all(r.successful for r in graph.set_params(
         'abb_simulator', real_time_factor=1.0, spindle__max_accel=200.0))
     try:
@@ -233,7 +239,7 @@ def test_status_follows_a_speed_ramp_and_reports_the_latency(graph):
         graph.command(2.7)
     finally:
         assert all(r.successful for r in graph.set_params(
-            'abb_simulator', real_time_factor=0.0, spindle__max_accel=500.0))
+            'abb_simulator', real_time_factor=rtf, spindle__max_accel=accel))
     js = [j for j in graph.joint_states if j[0] >= start]
     st = [s for s in graph.statuses if s[0] >= start]
     speeds = {stamp: omega for _, stamp, omega, _ in js}
