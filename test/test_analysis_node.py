@@ -53,6 +53,7 @@ class Probe:
         self.node = Node('analysis_test_probe', context=self.context)
         self.joint_states = []    # (receipt [s], stamp [ns], omega [rad/s], ball angles [rad])
         self.statuses = []        # (receipt [s], stamp [ns], level, message, {key: value})
+        self.others = {}          # status name -> the last other ': stability' status
         self.node.create_subscription(JointState, 'joint_states', self._on_js, 100)
         self.node.create_subscription(DiagnosticArray, '/diagnostics', self._on_diag, 100)
         self.margins = []
@@ -73,9 +74,12 @@ class Probe:
     def _on_diag(self, msg):
         now = time.monotonic()
         for s in msg.status:
+            record = (now, _stamp_ns(msg.header.stamp), s.level, s.message,
+                      {kv.key: kv.value for kv in s.values})
             if s.name == STATUS:
-                self.statuses.append((now, _stamp_ns(msg.header.stamp), s.level, s.message,
-                                      {kv.key: kv.value for kv in s.values}))
+                self.statuses.append(record)
+            elif s.name.endswith(': stability'):
+                self.others[s.name] = record
 
     def wait_for(self, predicate, timeout, what):
         """Poll ``predicate`` until it returns something truthy; fail after ``timeout`` s."""
@@ -292,3 +296,28 @@ def test_eccentricity_beyond_capacity_on_the_simulator_is_an_error_naming_the_ca
     graph.wait_for(lambda: next((s for s in graph.statuses if s[0] > since
                                  and s[2] == DiagnosticStatus.OK), None),
                    10.0, 'OK again after restoring drive.eps')
+
+
+def test_analysis_started_later_with_other_parameters_adopts_the_running_simulators(
+        graph, tmp_path):
+    """A second analysis node loads Table 1 as shipped (rubber washers, m = 0.43 g: phi* =
+    +-120.3 deg) beside the simulator running the metal-washer P3 drive (+-106.13 deg): it
+    reads the simulator's parameters by GetParameters and reports the simulator's phi*."""
+    log = open(tmp_path / 'late.log', 'w+')
+    proc = subprocess.Popen(
+        [sys.executable, '-m', 'abb_ros.nodes.analysis', '--ros-args', '--params-file',
+         str(ROOT / 'config' / 'cdrom_table1.yaml'), '-r', '__node:=abb_analysis_late'],
+        cwd=ROOT, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+    try:
+        def adopted():
+            s = graph.others.get('/abb_analysis_late: stability')
+            return s if s and s[4].get('parameters_from') == '/abb_simulator' \
+                and s[2] != DiagnosticStatus.STALE else None
+        status = graph.wait_for(adopted, 60.0, 'the late analysis node to adopt the '
+                                'simulator parameters')
+        phi = sorted(float(x) for x in status[4]['phi_star_deg'].split(','))
+        assert phi == pytest.approx([-106.13, 106.13], abs=0.01)  # printed to 0.01 deg
+    finally:
+        proc.send_signal(signal.SIGINT)
+        proc.wait(timeout=15)
+        log.close()
