@@ -30,7 +30,6 @@ from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 
 from abb_ros.model.params import DriveParams
-from abb_ros.model.sensors import euler_rotation
 from abb_ros.nodes.simulator import SimulatorNode, make_executor
 
 pytestmark = pytest.mark.ros

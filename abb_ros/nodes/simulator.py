@@ -57,16 +57,16 @@ class SimulatorNode(Node):
         s = self.settings
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._dt_ns = s.dt_ns
-        self._epoch_ns = 0
-        self._wall_time_base = s.real_time_factor == 1.0
-        if self._wall_time_base:
-            now = self.get_clock().now().nanoseconds
-            self._epoch_ns = now - now % self._dt_ns
         self.sim = Simulation(self.drive, s.initial_speed, self._dt_ns * 1e-9,
                               spindle=SpindleMotor(s.spindle_max_accel, s.spindle_tau))
         self.imu = ImuModel(s.imu, seed=s.seed)
         self.sampler = PlantSampler(self.sim, self.imu, s.publish_every, s.imu_every)
         _warm_up(self.sim)
+        self._epoch_ns = 0
+        self._wall_time_base = s.real_time_factor == 1.0
+        if self._wall_time_base:
+            now = self.get_clock().now().nanoseconds
+            self._epoch_ns = now - now % self._dt_ns
         self.pending_drive = self.drive
         self.fault = ''
         self.paused = s.start_paused
@@ -88,7 +88,6 @@ class SimulatorNode(Node):
         self._diag_timer = self.create_timer(DIAGNOSTICS_PERIOD_S, self.publish_diagnostics,
                                              clock=self._steady)
         self._timer = None
-        self._last_published_steps = None
         self._publish(self.sampler.sample_now())
         self._restart_pacing()
         self.get_logger().info(
@@ -120,17 +119,21 @@ class SimulatorNode(Node):
             lag = now - self.stamp_ns()
             if lag > 0:
                 self._epoch_ns += lag - lag % self._dt_ns
-        period_ns = self.sampler.publish_every * self._dt_ns
-        self._anchor = (self._steady.now().nanoseconds, self.sim.steps)
         if rtf == 0.0:
             self._timer = self.create_timer(0.0, self._tick_fast, clock=self._steady)
         else:
-            # Ticks at the publish period in wall time; the due step count is computed half
-            # a period ahead, so that ticks early or late by less than P/2 (timer wake-up
-            # jitter either way) integrate exactly one period each.
-            self._anchor = (self._anchor[0] - int(period_ns / rtf / 2), self._anchor[1])
+            self._anchor_pacing(self.sim.steps)
+            period_ns = self.sampler.publish_every * self._dt_ns
             self._timer = self.create_timer(period_ns / rtf * 1e-9, self._tick_paced,
                                             clock=self._steady)
+
+    def _anchor_pacing(self, steps: int) -> None:
+        """Pace from now at ``steps``. Ticks come at the publish period in wall time; the due
+        step count is computed half a period ahead, so that ticks early or late by less than
+        P/2 (timer wake-up jitter either way) integrate exactly one period each."""
+        wall_period_ns = (self.sampler.publish_every * self._dt_ns
+                          / self.settings.real_time_factor)
+        self._anchor = (self._steady.now().nanoseconds - int(wall_period_ns / 2), steps)
 
     # ---- integration ---------------------------------------------------------------------
     def _tick_paced(self) -> None:
@@ -147,8 +150,7 @@ class SimulatorNode(Node):
         if periods > MAX_CATCH_UP:
             self.counters['slips'] += 1
             periods = MAX_CATCH_UP
-            self._anchor = (self._steady.now().nanoseconds,
-                            (self.sim.steps // every + periods) * every)
+            self._anchor_pacing((self.sim.steps // every + periods) * every)
         for _ in range(max(periods, 0)):
             if not self._integrate_period():
                 return
