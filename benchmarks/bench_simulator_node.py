@@ -1,6 +1,6 @@
 """Speed of the simulator node (prints figures; asserts nothing).
 
-Real time (real_time_factor 1, n = 10, default rates 20 kHz / 1 kHz), the node in its own
+Real time (real_time_factor 1, n = 10, default rates 10 kHz / 1 kHz), the node in its own
 process, a subscriber in this one:
   achieved real-time factor and overruns (from /diagnostics; target 1.00, 0 overruns),
   CPU of the node process (/proc/<pid>/stat utime + stime; target < 50 % of one core),
@@ -35,12 +35,14 @@ from rclpy.qos import QoSProfile  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 
 from abb_ros.io import ros_messages  # noqa: E402
-from abb_ros.model.integrate import Simulation, SpindleMotor  # noqa: E402
+from abb_ros.model.integrate import DEFAULT_DT, Simulation, SpindleMotor  # noqa: E402
 from abb_ros.model.params import DriveParams  # noqa: E402
 from abb_ros.model.sampling import PlantSampler  # noqa: E402
-from abb_ros.model.sensors import ImuConfig, ImuModel  # noqa: E402
+from abb_ros.model.sensors import TYPICAL_IMU, ImuModel  # noqa: E402
 
 N_BALLS = 10
+RATE_HZ = int(round(1.0 / DEFAULT_DT))
+STEPS_PER_MS = RATE_HZ // 1000
 CLK_TCK = os.sysconf('SC_CLK_TCK')
 
 
@@ -138,12 +140,12 @@ def measure_node(ns: str, seconds: float, rtf: float, subscribe: bool):
 
 
 def headless(seconds: float, with_messages: bool) -> float:
-    """Real-time factor of the model alone: Simulation.advance in publish periods (20 steps),
-    optionally with the node's sampler (IMU) and message building."""
+    """Real-time factor of the model alone: Simulation.advance in publish periods (1 ms at the
+    default step), optionally with the node's sampler (IMU) and message building."""
     p = DriveParams(n=N_BALLS)
-    sim = Simulation(p, 2.7 * p.omega0, 5e-5, spindle=SpindleMotor(2000.0, 0.05))
-    imu = ImuModel(ImuConfig(accel_noise_density=1.5e-3, gyro_noise_density=2.4e-4))
-    sampler = PlantSampler(sim, imu, 20, 20)
+    sim = Simulation(p, 2.7 * p.omega0, DEFAULT_DT, spindle=SpindleMotor(2000.0, 0.05))
+    imu = ImuModel(TYPICAL_IMU)
+    sampler = PlantSampler(sim, imu, STEPS_PER_MS, STEPS_PER_MS)
     sampler.next_period()  # compile
     wall0 = time.perf_counter()
     sim0 = sim.t
@@ -151,9 +153,10 @@ def headless(seconds: float, with_messages: bool) -> float:
         for _ in range(100):
             if with_messages:
                 for sample in sampler.next_period():
-                    ros_messages.sample_messages(sample, 50_000, imu.config, 0, True)
+                    ros_messages.sample_messages(sample, int(DEFAULT_DT * 1e9), imu.config,
+                                                 0, True)
             else:
-                sim.advance(20)
+                sim.advance(STEPS_PER_MS)
     return (sim.t - sim0) / (time.perf_counter() - wall0)
 
 
@@ -162,7 +165,7 @@ def main():
     ap.add_argument('--duration', type=float, default=60.0, help='real-time window [s]')
     ap.add_argument('--fast-duration', type=float, default=10.0, help='fast window [s]')
     args = ap.parse_args()
-    print(f'simulator node benchmark: n = {N_BALLS}, 20 kHz RK4, 1 kHz publish, '
+    print(f'simulator node benchmark: n = {N_BALLS}, {RATE_HZ // 1000} kHz RK4, 1 kHz publish, '
           f'load average {os.getloadavg()[0]:.2f} on {os.cpu_count()} cores')
 
     rt = measure_node('/bench_rt', args.duration, 1.0, subscribe=True)

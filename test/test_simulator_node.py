@@ -373,7 +373,7 @@ def test_state_leaving_the_envelope_stops_with_error_and_reset_recovers(plant_fa
     imus = plant.collect(Imu, 'deck/imu')
     plant.wait(lambda: states, 'joint_states')
     # k = 1e9 N/m is a valid washer, but its mode (1.5e5 rad/s) is far beyond what the
-    # 20 kHz RK4 can resolve (w dt = 7.5 > 2.8): the state explodes within a few steps.
+    # 10 kHz RK4 can resolve (w dt = 15 > 2.8): the state explodes within a few steps.
     assert plant.set_params(**{'drive.k': 1e9})[0].successful
     plant.wait(lambda: plant.status() and plant.status().level == DiagnosticStatus.ERROR,
                'ERROR on /diagnostics')

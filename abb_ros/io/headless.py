@@ -17,7 +17,7 @@ import numpy as np
 from abb_ros.io.scenario import Scenario
 from abb_ros.model.integrate import DEFAULT_DT, Simulation, initial_state
 from abb_ros.model.sampling import PlantSampler
-from abb_ros.model.sensors import ImuConfig, ImuModel
+from abb_ros.model.sensors import TYPICAL_IMU, ImuConfig, ImuModel
 
 __all__ = ['RunResult', 'run_scenario', 'STATE_TOPIC_TYPES']
 
@@ -69,7 +69,7 @@ def run_scenario(scenario: Scenario, dt: float = DEFAULT_DT, publish_dt: float =
     """
     from abb_ros.io import ros_messages
 
-    imu_config = imu_config or ImuConfig(rate=1.0 / publish_dt)
+    imu_config = imu_config or TYPICAL_IMU
     p = scenario.params
     y0 = initial_state(p, scenario.omega, phi0=scenario.phi0, deck0=scenario.deck0)
     sim = Simulation(p, scenario.omega, dt, spindle=scenario.spindle, y0=y0)

@@ -175,6 +175,13 @@ class ImuConfig:
         return self.gyro_noise_density ** 2 * self.rate
 
 
+TYPICAL_IMU = ImuConfig(rate=1000.0, accel_noise_density=1.5e-3, accel_bias=0.02,
+                        accel_bias_random_walk=3e-3, gyro_noise_density=2.4e-4, gyro_bias=1e-3,
+                        gyro_bias_random_walk=2e-5)
+"""A MEMS-class IMU at C, 1 kHz: the simulator node's default and ``abb-sim run``'s, so that
+live and headless recordings of the same scenario and seed hold the same readings."""
+
+
 @dataclass(frozen=True)
 class ImuReading:
     """One IMU sample, deck axes: specific force [m/s^2] and angular rate [rad/s]."""

@@ -18,7 +18,8 @@ from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescr
                                 SetParametersResult)
 
 from abb_ros.model.params import PARAM_SPECS, DriveParams, ParamError
-from abb_ros.model.sensors import ImuConfig
+from abb_ros.model.integrate import DEFAULT_DT
+from abb_ros.model.sensors import TYPICAL_IMU, ImuConfig
 
 __all__ = ['DRIVE_PREFIX', 'NODE_PARAMS', 'SimSettings', 'declare_all', 'settings_from',
            'current_values', 'validate_change', 'P3_WBAR']
@@ -39,7 +40,8 @@ class _P:
 
 _INF = math.inf
 NODE_PARAMS: dict[str, _P] = {
-    'integration_rate_hz': _P(20000, 'fixed RK4 step rate [Hz]; 1e9 must be a multiple of '
+    'integration_rate_hz': _P(int(round(1.0 / DEFAULT_DT)), 'fixed RK4 step rate [Hz]; 1e9 '
+                              'must be a multiple of '
                               'it (integer-nanosecond step); fixed at start-up', 10, 10**7,
                               read_only=True),
     'publish_rate_hz': _P(1000, 'rate of joint_states, deck/pose, deck/twist and /clock [Hz]; '
@@ -54,19 +56,19 @@ NODE_PARAMS: dict[str, _P] = {
     'spindle.max_accel': _P(2000.0, 'spindle motor acceleration limit [rad/s^2]', 0.0, _INF),
     'spindle.tau': _P(0.05, 'spindle motor speed-loop time constant [s]', 0.0, _INF),
     'seed': _P(0, 'seed of the IMU noise generator (applies on ~/reset)', 0, 2**31 - 1),
-    'imu.rate_hz': _P(1000, 'IMU output rate [Hz]; must divide integration_rate_hz', 1, 10**6),
+    'imu.rate_hz': _P(int(TYPICAL_IMU.rate), 'IMU output rate [Hz]; must divide integration_rate_hz', 1, 10**6),
     'imu.position': _P([0.0, 0.0, 0.0], 'IMU mounting point on the deck, deck axes from C '
                        '[m] (3 finite values)'),
     'imu.gravity': _P(False, 'add gravity (-Z of base) to the specific force (the paper '
                       'neglects it)'),
-    'imu.accel_noise_density': _P(1.5e-3, 'accelerometer white noise [m/s^2/sqrt(Hz)]',
+    'imu.accel_noise_density': _P(TYPICAL_IMU.accel_noise_density, 'accelerometer white noise [m/s^2/sqrt(Hz)]',
                                   0.0, _INF),
-    'imu.accel_bias': _P(0.02, 'accelerometer turn-on bias std [m/s^2]', 0.0, _INF),
-    'imu.accel_bias_random_walk': _P(3e-3, 'accelerometer bias random walk '
+    'imu.accel_bias': _P(TYPICAL_IMU.accel_bias, 'accelerometer turn-on bias std [m/s^2]', 0.0, _INF),
+    'imu.accel_bias_random_walk': _P(TYPICAL_IMU.accel_bias_random_walk, 'accelerometer bias random walk '
                                      '[m/s^3/sqrt(Hz)]', 0.0, _INF),
-    'imu.gyro_noise_density': _P(2.4e-4, 'gyro white noise [rad/s/sqrt(Hz)]', 0.0, _INF),
-    'imu.gyro_bias': _P(1e-3, 'gyro turn-on bias std [rad/s]', 0.0, _INF),
-    'imu.gyro_bias_random_walk': _P(2e-5, 'gyro bias random walk [rad/s^2/sqrt(Hz)]',
+    'imu.gyro_noise_density': _P(TYPICAL_IMU.gyro_noise_density, 'gyro white noise [rad/s/sqrt(Hz)]', 0.0, _INF),
+    'imu.gyro_bias': _P(TYPICAL_IMU.gyro_bias, 'gyro turn-on bias std [rad/s]', 0.0, _INF),
+    'imu.gyro_bias_random_walk': _P(TYPICAL_IMU.gyro_bias_random_walk, 'gyro bias random walk [rad/s^2/sqrt(Hz)]',
                                     0.0, _INF),
 }
 """The node's own parameters: default, description with units, closed range, read-only."""
