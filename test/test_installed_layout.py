@@ -68,8 +68,9 @@ def install(tmp_path_factory) -> Path:
 def sourced_env(install) -> dict:
     """``os.environ`` after ``. install/setup.sh`` (the sh variant colcon-core always writes)."""
     script = '. "$ABB_ROS_TEST_PREFIX/setup.sh" && env -0'
-    out = subprocess.run(['sh', '-c', script], env=dict(os.environ, ABB_ROS_TEST_PREFIX=str(install)),
-                         stdin=subprocess.DEVNULL, capture_output=True, check=True).stdout
+    env = dict(os.environ, ABB_ROS_TEST_PREFIX=str(install))
+    out = subprocess.run(['sh', '-c', script], env=env, stdin=subprocess.DEVNULL,
+                         capture_output=True, check=True).stdout
     env = dict(item.split('=', 1) for item in out.decode().split('\0') if '=' in item)
     env.pop('ABB_ROS_TEST_PREFIX', None)
     return env
@@ -79,7 +80,8 @@ def test_colcon_installs_the_console_scripts_where_ros2_run_looks(install):
     lib = install / PACKAGE / 'lib' / PACKAGE
     for name in EXECUTABLES:
         path = lib / name
-        assert path.is_file(), f'{path} missing; installed: {sorted(p.name for p in lib.iterdir())}'
+        installed = sorted(p.name for p in lib.iterdir())
+        assert path.is_file(), f'{path} missing; installed: {installed}'
         assert os.access(path, os.X_OK), f'{path} is not executable'
 
 

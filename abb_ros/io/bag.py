@@ -92,7 +92,8 @@ class _Dumper(yaml.SafeDumper):
 
 
 def _str(dumper, value):
-    return dumper.represent_scalar('tag:yaml.org,2002:str', value, style='"' if not value else None)
+    style = '"' if not value else None
+    return dumper.represent_scalar('tag:yaml.org,2002:str', value, style=style)
 
 
 _Dumper.add_representer(str, _str)

@@ -46,7 +46,8 @@ class RunResult:
 
     @property
     def real_time_factor(self) -> float:
-        return float(self.t[-1] - self.t[0]) / self.wall_time if self.wall_time > 0 else float('inf')
+        span = float(self.t[-1] - self.t[0])
+        return span / self.wall_time if self.wall_time > 0 else float('inf')
 
 
 def _steps_per(period: float, dt: float, what: str) -> int:

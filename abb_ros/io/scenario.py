@@ -110,7 +110,8 @@ def load_scenario(name_or_path: str, base: DriveParams | None = None) -> Scenari
     except yaml.YAMLError as exc:
         raise ParamError('scenario', str(path), 'a valid YAML file', f'malformed: {exc}') from None
     if not isinstance(doc, dict):
-        raise ParamError('scenario', str(path), 'a YAML mapping of ' + ', '.join(sorted(_TOP_KEYS)))
+        raise ParamError('scenario', str(path),
+                         'a YAML mapping of ' + ', '.join(sorted(_TOP_KEYS)))
     unknown = set(doc) - _TOP_KEYS
     if unknown:
         raise ParamError(f'scenario.{sorted(unknown)[0]}', '...',

@@ -27,10 +27,8 @@ import threading
 import time
 from dataclasses import fields
 
-import rclpy
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 ParameterEvent, SetParametersResult)
-from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
@@ -42,6 +40,7 @@ from abb_ros.io import ros_messages
 from abb_ros.model import speed_bands
 from abb_ros.model.params import DriveParams, ParamError
 from abb_ros.nodes import ros_params
+from abb_ros.nodes.lifecycle import run_node
 
 NODE_NAME = 'abb_analysis'
 QOS_DEPTH = 10
@@ -243,17 +242,7 @@ class AnalysisNode(Node):
                 for name in FOLLOWED + ('table_points',)}
 
     def _validate(self, parameters) -> SetParametersResult:
-        values = self._values()
-        for p in parameters:
-            if p.name in values:
-                values[p.name] = p.value
-        try:
-            config_from(values)
-        except ParamError as err:
-            return SetParametersResult(successful=False, reason=str(err))
-        except (TypeError, ValueError) as err:
-            return SetParametersResult(successful=False, reason=f'invalid parameter: {err}')
-        return SetParametersResult(successful=True)
+        return ros_params.validate_merged(self._values(), parameters, config_from)
 
     def _on_parameters_set(self, parameters) -> None:
         names = {p.name for p in parameters}
@@ -422,21 +411,7 @@ def _resolve(name: str, namespace: str) -> str:
 
 
 def main(args=None):
-    rclpy.init(args=args)
-    try:
-        node = AnalysisNode()
-    except ParamError as err:
-        print(f'{NODE_NAME}: invalid parameter: {err}', file=sys.stderr)
-        rclpy.try_shutdown()
-        return 2
-    try:
-        rclpy.spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node(NODE_NAME, AnalysisNode, args)
 
 
 if __name__ == '__main__':

@@ -56,20 +56,24 @@ NODE_PARAMS: dict[str, _P] = {
     'spindle.max_accel': _P(2000.0, 'spindle motor acceleration limit [rad/s^2]', 0.0, _INF),
     'spindle.tau': _P(0.05, 'spindle motor speed-loop time constant [s]', 0.0, _INF),
     'seed': _P(0, 'seed of the IMU noise generator (applies on ~/reset)', 0, 2**31 - 1),
-    'imu.rate_hz': _P(int(TYPICAL_IMU.rate), 'IMU output rate [Hz]; must divide integration_rate_hz', 1, 10**6),
+    'imu.rate_hz': _P(int(TYPICAL_IMU.rate), 'IMU output rate [Hz]; must divide '
+                      'integration_rate_hz', 1, 10**6),
     'imu.position': _P([0.0, 0.0, 0.0], 'IMU mounting point on the deck, deck axes from C '
                        '[m] (3 finite values)'),
     'imu.gravity': _P(False, 'add gravity (-Z of base) to the specific force (the paper '
                       'neglects it)'),
-    'imu.accel_noise_density': _P(TYPICAL_IMU.accel_noise_density, 'accelerometer white noise [m/s^2/sqrt(Hz)]',
-                                  0.0, _INF),
-    'imu.accel_bias': _P(TYPICAL_IMU.accel_bias, 'accelerometer turn-on bias std [m/s^2]', 0.0, _INF),
-    'imu.accel_bias_random_walk': _P(TYPICAL_IMU.accel_bias_random_walk, 'accelerometer bias random walk '
-                                     '[m/s^3/sqrt(Hz)]', 0.0, _INF),
-    'imu.gyro_noise_density': _P(TYPICAL_IMU.gyro_noise_density, 'gyro white noise [rad/s/sqrt(Hz)]', 0.0, _INF),
+    'imu.accel_noise_density': _P(TYPICAL_IMU.accel_noise_density,
+                                  'accelerometer white noise [m/s^2/sqrt(Hz)]', 0.0, _INF),
+    'imu.accel_bias': _P(TYPICAL_IMU.accel_bias, 'accelerometer turn-on bias std [m/s^2]',
+                         0.0, _INF),
+    'imu.accel_bias_random_walk': _P(TYPICAL_IMU.accel_bias_random_walk,
+                                     'accelerometer bias random walk [m/s^3/sqrt(Hz)]',
+                                     0.0, _INF),
+    'imu.gyro_noise_density': _P(TYPICAL_IMU.gyro_noise_density,
+                                 'gyro white noise [rad/s/sqrt(Hz)]', 0.0, _INF),
     'imu.gyro_bias': _P(TYPICAL_IMU.gyro_bias, 'gyro turn-on bias std [rad/s]', 0.0, _INF),
-    'imu.gyro_bias_random_walk': _P(TYPICAL_IMU.gyro_bias_random_walk, 'gyro bias random walk [rad/s^2/sqrt(Hz)]',
-                                    0.0, _INF),
+    'imu.gyro_bias_random_walk': _P(TYPICAL_IMU.gyro_bias_random_walk,
+                                    'gyro bias random walk [rad/s^2/sqrt(Hz)]', 0.0, _INF),
 }
 """The node's own parameters: default, description with units, closed range, read-only."""
 
@@ -189,17 +193,23 @@ def settings_from(values: Mapping[str, Any]) -> tuple[DriveParams, SimSettings]:
     return drive, settings
 
 
-def validate_change(node, parameters) -> SetParametersResult:
-    """on-set-parameters callback body: the proposed values merged with the current ones
-    must make valid settings. No side effects."""
-    values = current_values(node)
+def validate_merged(values: dict, parameters, build) -> SetParametersResult:
+    """The proposed ``parameters`` merged into ``values`` ({ROS name: value}) must be accepted
+    by ``build(values)`` (which raises ParamError otherwise). No side effects."""
+    values = dict(values)
     for p in parameters:
         if p.name in values:
             values[p.name] = p.value
     try:
-        settings_from(values)
+        build(values)
     except ParamError as err:
         return SetParametersResult(successful=False, reason=str(err))
     except (TypeError, ValueError) as err:
         return SetParametersResult(successful=False, reason=f'invalid parameter: {err}')
     return SetParametersResult(successful=True)
+
+
+def validate_change(node, parameters) -> SetParametersResult:
+    """on-set-parameters callback body: the proposed values merged with the current ones
+    must make valid settings. No side effects."""
+    return validate_merged(current_values(node), parameters, settings_from)

@@ -21,21 +21,20 @@ import os
 import sys
 import time
 
-import rclpy
 from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy._rclpy_pybind11 import RCLError
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 
 from abb_ros.io import ros_messages
 from abb_ros.model.integrate import Simulation, SpindleMotor, StateError, initial_state
-from abb_ros.model.params import ParamError
 from abb_ros.model.sampling import PlantSampler
 from abb_ros.model.sensors import ImuModel
 from abb_ros.nodes import ros_params
+from abb_ros.nodes.lifecycle import run_node
 
 NODE_NAME = 'abb_simulator'
 QOS_DEPTH = 10
@@ -340,21 +339,7 @@ def _warm_up(sim: Simulation) -> None:
 
 
 def main(args=None):
-    rclpy.init(args=args)
-    try:
-        node = SimulatorNode()
-    except ParamError as err:
-        print(f'abb_simulator: invalid parameter: {err}', file=sys.stderr)
-        rclpy.try_shutdown()
-        return 2
-    try:
-        spin(node)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        node.destroy_node()
-        rclpy.try_shutdown()
-    return 0
+    return run_node('abb_simulator', SimulatorNode, args, spin=spin)
 
 
 if __name__ == '__main__':
