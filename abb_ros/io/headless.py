@@ -1,8 +1,10 @@
 """Headless runs: a scenario integrated as fast as possible, without DDS, optionally to a bag.
 
 The plant is stepped by the same :class:`~abb_ros.model.sampling.PlantSampler` as the live
-simulator node and its messages come from the same :mod:`abb_ros.io.ros_messages`
-functions, so a headless bag and a live bag of the same scenario hold the same messages.
+simulator node and its messages hold the same contents (:mod:`abb_ros.io.ros_messages`),
+encoded straight to CDR by :mod:`abb_ros.io.cdr` (byte-identical to the serialised rclpy
+messages, without building them), so a headless bag and a live bag of the same scenario hold
+the same messages (test/test_live_vs_headless.py).
 Speed commands of the scenario take effect at the first publish instant at or after their
 time, as a command arriving on ``spindle/speed_cmd`` does in the node.
 """
@@ -68,7 +70,7 @@ def run_scenario(scenario: Scenario, dt: float = DEFAULT_DT, publish_dt: float =
     progress : callable(float), optional
         Called with the simulated seconds done after each chunk (for a progress bar).
     """
-    from abb_ros.io import ros_messages
+    from abb_ros.io import cdr
 
     imu_config = imu_config or TYPICAL_IMU
     p = scenario.params
@@ -107,10 +109,11 @@ def run_scenario(scenario: Scenario, dt: float = DEFAULT_DT, publish_dt: float =
         else:
             for _ in range(chunk):
                 for sample in pending + sampler.next_period():
-                    for topic, msg in ros_messages.sample_messages(sample, dt_ns, imu_config,
-                                                                   with_clock=True):
-                        bag.write(topic, msg, sample.stamp_ns(dt_ns))
-                        written += 1
+                    stamp_ns, encoded = cdr.sample_cdr(sample, dt_ns, imu_config,
+                                                       with_clock=True)
+                    for topic, data in encoded:
+                        bag.write(topic, data, stamp_ns)
+                    written += len(encoded)
                 pending = []
                 times.append(sim.t)
                 states.append(sim.y[None, :].copy())

@@ -1,9 +1,11 @@
 """The ROS messages of every simulator topic, built from a simulation sample.
 
-The live node (:mod:`abb_ros.nodes.simulator`) and the headless ``abb-sim run`` call the
-same functions, so live and headless bags are message for message identical. Only the
-message packages are imported (no rclpy, no DDS). Topics and frames are those of
-design.md; all values SI (m, rad, s).
+What a message holds is defined once, as plain values (``*_content``, :func:`sample_contents`);
+the live node (:mod:`abb_ros.nodes.simulator`) fills rclpy messages with them
+(:func:`sample_messages`) and the headless ``abb-sim run`` encodes them straight to CDR bytes
+(:mod:`abb_ros.io.cdr`, byte-identical to the serialised messages), so live and headless bags
+are message for message identical. Only the message packages are imported (no rclpy, no
+DDS). Topics and frames are those of design.md; all values SI (m, rad, s).
 """
 
 from __future__ import annotations
@@ -23,10 +25,13 @@ from abb_ros.model.sensors import ImuConfig, deck_velocity, euler_quaternion
 
 __all__ = ['FRAME_BASE', 'FRAME_DECK', 'TOPIC_TYPES', 'STATE_TOPICS', 'time_msg',
            'joint_names', 'joint_state', 'deck_pose', 'deck_twist', 'deck_imu', 'clock',
-           'diagnostics', 'sample_messages']
+           'diagnostics', 'sample_messages', 'TOPIC_FRAMES', 'joint_state_content',
+           'deck_pose_content', 'deck_twist_content', 'deck_imu_content', 'diagnostics_content',
+           'sample_contents']
 
 FRAME_BASE = 'base'
 FRAME_DECK = 'deck'
+HARDWARE_ID = 'abb_ros'
 
 TOPIC_TYPES = {
     'joint_states': JointState,
@@ -57,81 +62,160 @@ def _stamp(stamp) -> Time:
     return stamp if isinstance(stamp, Time) else time_msg(stamp)
 
 
-# Every builder below fills ``out`` in place when given (the live node reuses one message
-# per topic: the generated constructors build every nested default, which costs more than
-# the physics at 1 kHz); without ``out`` it returns a new message. ``stamp`` is integer
-# nanoseconds or a builtin_interfaces/Time.
+# ---- contents ------------------------------------------------------------------------------
+# What each message holds, as plain floats: the one definition that both the rclpy messages
+# below (live node) and the CDR encoder abb_ros.io.cdr (headless bags) are made from. Names
+# and frames are fixed per topic (joint_names, TOPIC_FRAMES).
+
+TOPIC_FRAMES = {'joint_states': '', 'deck/pose': FRAME_BASE, 'deck/twist': FRAME_DECK,
+                'deck/imu': FRAME_DECK}
+"""header.frame_id of each stamped topic."""
+
+
+def joint_state_content(y: np.ndarray, n: int) -> tuple[list[float], list[float]]:
+    """(position, velocity) of ``joint_names(n)``: [theta, phi_1..phi_n] [rad] and
+    [omega, phi_1'..phi_n'] [rad/s]."""
+    N = n_coords(n)
+    return [float(y[0])] + y[7:N].tolist(), [float(y[N])] + y[N + 7:].tolist()
+
+
+def deck_pose_content(y: np.ndarray) -> tuple[float, ...]:
+    """(X, Y, Z, qx, qy, qz, qw): C in ``base`` [m] and R = Rz(gamma) Rx(alpha) Ry(beta)."""
+    return ((float(y[1]), float(y[2]), float(y[3]))
+            + euler_quaternion(float(y[4]), float(y[5]), float(y[6])))
+
+
+def deck_twist_content(y: np.ndarray, n: int) -> tuple[float, ...]:
+    """(vx, vy, vz, wx, wy, wz): velocity of C [m/s] and Eq. (10) [rad/s], deck axes."""
+    N = n_coords(n)
+    v, w = deck_velocity(y[:N], y[N:])
+    return tuple(v.tolist()) + tuple(w.tolist())
+
+
+def deck_imu_content(reading, config: ImuConfig) -> tuple[float, ...]:
+    """(wx, wy, wz, ax, ay, az, accel_variance, gyro_variance): angular rate [rad/s] and
+    specific force [m/s^2] in deck axes, and the diagonal of their covariances."""
+    return (tuple(reading.gyro.tolist()) + tuple(reading.accel.tolist())
+            + (config.accel_variance, config.gyro_variance))
+
+
+def sample_contents(sample: Sample, dt_ns: int, imu_config: ImuConfig, epoch_ns: int = 0,
+                    with_clock: bool = False) -> tuple[int, list[tuple[str, object]]]:
+    """(stamp [ns], [(topic, content)]) of one :class:`Sample`, in publishing order:
+    ``/clock`` first (when the simulator owns time; content None), then the state topics,
+    then ``deck/imu``. ``joint_states`` content is (n, position, velocity)."""
+    out = [('/clock', None)] if with_clock else []
+    y = sample.y
+    if y is not None:
+        out += [('joint_states', (sample.n,) + joint_state_content(y, sample.n)),
+                ('deck/pose', deck_pose_content(y)),
+                ('deck/twist', deck_twist_content(y, sample.n))]
+    if sample.imu is not None:
+        out.append(('deck/imu', deck_imu_content(sample.imu, imu_config)))
+    return sample.stamp_ns(dt_ns, epoch_ns), out
+
+
+# ---- rclpy messages ------------------------------------------------------------------------
+# Every builder fills ``out`` in place when given (the live node reuses one message per topic:
+# the generated constructors build every nested default, which costs more than the physics at
+# 1 kHz); without ``out`` it returns a new message. ``stamp`` is integer nanoseconds or a
+# builtin_interfaces/Time.
+
+def _fill_joint_state(msg: JointState, stamp: Time, content) -> JointState:
+    n, position, velocity = content
+    msg.header.stamp = stamp
+    if len(msg.name) != n + 1:
+        msg.name = joint_names(n)
+    msg.position = position
+    msg.velocity = velocity
+    return msg
+
+
+def _fill_pose(msg: PoseStamped, stamp: Time, content) -> PoseStamped:
+    msg.header.stamp = stamp
+    msg.header.frame_id = TOPIC_FRAMES['deck/pose']
+    p, o = msg.pose.position, msg.pose.orientation
+    p.x, p.y, p.z, o.x, o.y, o.z, o.w = content
+    return msg
+
+
+def _fill_twist(msg: TwistStamped, stamp: Time, content) -> TwistStamped:
+    msg.header.stamp = stamp
+    msg.header.frame_id = TOPIC_FRAMES['deck/twist']
+    v, w = msg.twist.linear, msg.twist.angular
+    v.x, v.y, v.z, w.x, w.y, w.z = content
+    return msg
+
+
+def _fill_imu(msg: Imu, stamp: Time, content) -> Imu:
+    msg.header.stamp = stamp
+    msg.header.frame_id = TOPIC_FRAMES['deck/imu']
+    msg.orientation_covariance[0] = -1.0
+    w, a = msg.angular_velocity, msg.linear_acceleration
+    w.x, w.y, w.z, a.x, a.y, a.z, accel_variance, gyro_variance = content
+    for i in (0, 4, 8):
+        msg.linear_acceleration_covariance[i] = accel_variance
+        msg.angular_velocity_covariance[i] = gyro_variance
+    return msg
+
+
+def _fill_clock(msg: Clock, stamp: Time, content=None) -> Clock:
+    msg.clock = stamp
+    return msg
+
+
+_FILL = {'joint_states': _fill_joint_state, 'deck/pose': _fill_pose,
+         'deck/twist': _fill_twist, 'deck/imu': _fill_imu, '/clock': _fill_clock}
+
 
 def joint_state(stamp, y: np.ndarray, n: int, out: JointState | None = None) -> JointState:
     """Spindle angle theta and speed omega; ball angles phi_i and rates phi_i' [rad, rad/s]."""
-    msg = JointState() if out is None else out
-    N = n_coords(n)
-    msg.header.stamp = _stamp(stamp)
-    if len(msg.name) != n + 1:
-        msg.name = joint_names(n)
-    msg.position = [float(y[0])] + y[7:N].tolist()
-    msg.velocity = [float(y[N])] + y[N + 7:].tolist()
-    return msg
+    return _fill_joint_state(JointState() if out is None else out, _stamp(stamp),
+                             (n,) + joint_state_content(y, n))
 
 
 def deck_pose(stamp, y: np.ndarray, out: PoseStamped | None = None) -> PoseStamped:
     """Position of C (X, Y, Z) [m] and the deck orientation R = Rz(gamma) Rx(alpha) Ry(beta)
     in frame ``base``."""
-    msg = PoseStamped() if out is None else out
-    msg.header.stamp = _stamp(stamp)
-    msg.header.frame_id = FRAME_BASE
-    p, o = msg.pose.position, msg.pose.orientation
-    p.x, p.y, p.z = float(y[1]), float(y[2]), float(y[3])
-    o.x, o.y, o.z, o.w = euler_quaternion(float(y[4]), float(y[5]), float(y[6]))
-    return msg
-
-
-def _set3(vec, values) -> None:
-    vec.x, vec.y, vec.z = float(values[0]), float(values[1]), float(values[2])
+    return _fill_pose(PoseStamped() if out is None else out, _stamp(stamp),
+                      deck_pose_content(y))
 
 
 def deck_twist(stamp, y: np.ndarray, n: int, out: TwistStamped | None = None
                ) -> TwistStamped:
     """Velocity of C [m/s] and angular velocity Eq. (10) [rad/s], both in deck axes."""
-    msg = TwistStamped() if out is None else out
-    N = n_coords(n)
-    v, w = deck_velocity(y[:N], y[N:])
-    msg.header.stamp = _stamp(stamp)
-    msg.header.frame_id = FRAME_DECK
-    _set3(msg.twist.linear, v)
-    _set3(msg.twist.angular, w)
-    return msg
+    return _fill_twist(TwistStamped() if out is None else out, _stamp(stamp),
+                       deck_twist_content(y, n))
 
 
 def deck_imu(stamp, reading, config: ImuConfig, out: Imu | None = None) -> Imu:
     """Specific force [m/s^2] and angular rate [rad/s] in frame ``deck``; no orientation
     (orientation_covariance[0] = -1); diagonal covariances = noise density^2 * rate."""
-    msg = Imu() if out is None else out
-    msg.header.stamp = _stamp(stamp)
-    msg.header.frame_id = FRAME_DECK
-    msg.orientation_covariance[0] = -1.0
-    _set3(msg.linear_acceleration, reading.accel)
-    _set3(msg.angular_velocity, reading.gyro)
-    for i in (0, 4, 8):
-        msg.linear_acceleration_covariance[i] = config.accel_variance
-        msg.angular_velocity_covariance[i] = config.gyro_variance
-    return msg
+    return _fill_imu(Imu() if out is None else out, _stamp(stamp),
+                     deck_imu_content(reading, config))
 
 
 def clock(stamp, out: Clock | None = None) -> Clock:
     """/clock at a stamp."""
-    msg = Clock() if out is None else out
-    msg.clock = _stamp(stamp)
-    return msg
+    return _fill_clock(Clock() if out is None else out, _stamp(stamp))
+
+
+def diagnostics_content(name: str, level: bytes, message: str, values: dict
+                        ) -> tuple[bytes, str, str, str, list[tuple[str, str]]]:
+    """(level, name, message, hardware_id, [(key, value text)]) of the one DiagnosticStatus
+    (floats as repr text)."""
+    return level, name, message, HARDWARE_ID, [(k, _text(v)) for k, v in values.items()]
 
 
 def diagnostics(stamp_ns: int, name: str, level: bytes, message: str,
                 values: dict) -> DiagnosticArray:
     """One DiagnosticStatus (``level`` DiagnosticStatus.OK/WARN/ERROR) with ``values`` as
     key/value text (floats with repr precision)."""
+    level, name, message, hardware_id, pairs = diagnostics_content(name, level, message,
+                                                                   values)
     status = DiagnosticStatus(level=level, name=name, message=message,
-                              hardware_id='abb_ros')
-    status.values = [KeyValue(key=k, value=_text(v)) for k, v in values.items()]
+                              hardware_id=hardware_id)
+    status.values = [KeyValue(key=k, value=v) for k, v in pairs]
     msg = DiagnosticArray(status=[status])
     msg.header.stamp = time_msg(stamp_ns)
     return msg
@@ -146,19 +230,16 @@ def _text(value) -> str:
 def sample_messages(sample: Sample, dt_ns: int, imu_config: ImuConfig, epoch_ns: int = 0,
                     with_clock: bool = False, reuse: dict | None = None
                     ) -> list[tuple[str, object]]:
-    """(topic, message) pairs of one :class:`Sample`, in publishing order: ``/clock``
-    first (when the simulator owns time), then the state topics, then ``deck/imu``.
+    """(topic, message) pairs of one :class:`Sample`, in publishing order (see
+    :func:`sample_contents`).
 
     ``reuse``: {topic: message} filled in place (publish them before the next call)."""
-    stamp = time_msg(sample.stamp_ns(dt_ns, epoch_ns))
+    stamp_ns, contents = sample_contents(sample, dt_ns, imu_config, epoch_ns, with_clock)
+    stamp = time_msg(stamp_ns)
     get = (reuse or {}).get
     out = []
-    if with_clock:
-        out.append(('/clock', clock(stamp, get('/clock'))))
-    if sample.y is not None:
-        out += [('joint_states', joint_state(stamp, sample.y, sample.n, get('joint_states'))),
-                ('deck/pose', deck_pose(stamp, sample.y, get('deck/pose'))),
-                ('deck/twist', deck_twist(stamp, sample.y, sample.n, get('deck/twist')))]
-    if sample.imu is not None:
-        out.append(('deck/imu', deck_imu(stamp, sample.imu, imu_config, get('deck/imu'))))
+    for topic, content in contents:
+        msg = get(topic)
+        out.append((topic, _FILL[topic](TOPIC_TYPES[topic]() if msg is None else msg, stamp,
+                                        content)))
     return out

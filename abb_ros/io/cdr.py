@@ -1,0 +1,199 @@
+"""Fast, exact CDR encoding of the simulator's messages, straight from their plain contents.
+
+The bytes are those of :func:`abb_ros.io.bag.cdr_bytes` applied to the rclpy message that
+:mod:`abb_ros.io.ros_messages` builds from the same contents (test/test_cdr.py checks it byte
+for byte), that is what a raw subscription receives over Fast DDS: the encapsulation header
+``00 01 00 00`` (CDR, little-endian, XCDR1), then the fields in order, each primitive aligned
+to its size relative to the byte after the header, zero padding, no trailing padding;
+strings as uint32 length (with the NUL) + UTF-8 + NUL; sequences as uint32 count + elements
+(an empty sequence is not aligned for its elements).
+
+Names, frames, sequence lengths and covariances are the same from message to message, so
+each message layout is compiled once into one :class:`struct.Struct` whose constant parts are
+prepared bytes (:class:`Layout`): encoding a message is one ``Struct.pack`` call, about 1 us
+instead of building an rclpy message (~25 us) and converting it for rosbags (30-170 us).
+"""
+
+from __future__ import annotations
+
+import functools
+import struct
+
+from abb_ros.io.ros_messages import TOPIC_FRAMES, joint_names, sample_contents
+
+__all__ = ['ENCAPSULATION', 'Layout', 'joint_state', 'pose_stamped', 'twist_stamped', 'imu',
+           'clock', 'diagnostic_array', 'ENCODERS', 'sample_cdr']
+
+ENCAPSULATION = b'\x00\x01\x00\x00'
+"""CDR_LE: representation identifier 0x0001 (big-endian on the wire), options 0."""
+
+_SIZE = {'b': 1, 'B': 1, 'h': 2, 'H': 2, 'i': 4, 'I': 4, 'q': 8, 'Q': 8, 'f': 4, 'd': 8}
+_STAMP = 'iI'   # builtin_interfaces/Time: int32 sec, uint32 nanosec
+
+
+class Layout:
+    """A CDR message layout built field by field, compiled to one ``struct.Struct``.
+
+    Constant fields (strings, sequence counts, fixed values) become prepared bytes; variable
+    fields become struct codes. :meth:`compile` returns the Struct and the tuple of constant
+    chunks (consecutive constants merged): the Struct's arguments are the constant chunks and
+    the variable values in field order.
+    """
+
+    def __init__(self):
+        self._fmt = ['<']
+        self._consts: list[bytes] = []
+        self._pending = bytearray(ENCAPSULATION)   # constant bytes not yet emitted
+        self._pos = 0                              # relative to the byte after the header
+
+    def _align(self, size: int) -> None:
+        pad = -self._pos % size
+        self._pending += bytes(pad)
+        self._pos += pad
+
+    def const(self, code: str, *values) -> 'Layout':
+        """Constant primitive(s) of struct ``code`` (each aligned to its size)."""
+        for value in values:
+            self._align(_SIZE[code])
+            self._pending += struct.pack('<' + code, value)
+            self._pos += _SIZE[code]
+        return self
+
+    def string(self, text: str) -> 'Layout':
+        data = text.encode() + b'\0'
+        self.const('I', len(data))
+        self._pending += data
+        self._pos += len(data)
+        return self
+
+    def strings(self, texts) -> 'Layout':
+        """A string sequence (count, then the strings)."""
+        self.const('I', len(texts))
+        for text in texts:
+            self.string(text)
+        return self
+
+    def var(self, code: str, count: int = 1) -> 'Layout':
+        """``count`` variable primitives of struct ``code``, aligned to their size."""
+        if count == 0:
+            return self
+        self._align(_SIZE[code])
+        if self._pending:
+            self._fmt.append(f'{len(self._pending)}s')
+            self._consts.append(bytes(self._pending))
+            self._pending = bytearray()
+        self._fmt.append(f'{count}{code}')
+        self._pos += _SIZE[code] * count
+        return self
+
+    def sequence(self, code: str, count: int) -> 'Layout':
+        """A variable sequence of a fixed length: the count, then the values."""
+        return self.const('I', count).var(code, count)
+
+    def compile(self) -> tuple[struct.Struct, tuple[bytes, ...]]:
+        fmt, consts = list(self._fmt), list(self._consts)
+        if self._pending:
+            fmt.append(f'{len(self._pending)}s')
+            consts.append(bytes(self._pending))
+        return struct.Struct(''.join(fmt)), tuple(consts)
+
+    def constant_bytes(self) -> bytes:
+        """The message when it has no variable field."""
+        st, consts = self.compile()
+        return st.pack(*consts)
+
+
+def _header(frame_id: str) -> Layout:
+    """std_msgs/Header: a variable stamp and a constant frame."""
+    return Layout().var('i').var('I').string(frame_id)
+
+
+@functools.lru_cache(maxsize=None)
+def _joint_state_layout(n: int):
+    joints = n + 1
+    return (_header(TOPIC_FRAMES['joint_states']).strings(joint_names(n))
+            .sequence('d', joints).sequence('d', joints).const('I', 0).compile())
+
+
+def joint_state(sec: int, nanosec: int, content) -> bytes:
+    """sensor_msgs/JointState of ros_messages.joint_state_content: (n, position, velocity)."""
+    n, position, velocity = content
+    st, (c0, c1, c2, c3) = _joint_state_layout(n)
+    return st.pack(c0, sec, nanosec, c1, *position, c2, *velocity, c3)
+
+
+def _fixed(frame_id: str, doubles: int):
+    return _header(frame_id).var('d', doubles).compile()
+
+
+_POSE = _fixed(TOPIC_FRAMES['deck/pose'], 7)      # Point, Quaternion
+_TWIST = _fixed(TOPIC_FRAMES['deck/twist'], 6)    # Vector3 linear, angular
+
+
+def pose_stamped(sec: int, nanosec: int, content) -> bytes:
+    """geometry_msgs/PoseStamped of ros_messages.deck_pose_content."""
+    st, (c0, c1) = _POSE
+    return st.pack(c0, sec, nanosec, c1, *content)
+
+
+def twist_stamped(sec: int, nanosec: int, content) -> bytes:
+    """geometry_msgs/TwistStamped of ros_messages.deck_twist_content."""
+    st, (c0, c1) = _TWIST
+    return st.pack(c0, sec, nanosec, c1, *content)
+
+
+def _diagonal(value: float) -> tuple[float, ...]:
+    return (value, 0.0, 0.0, 0.0, value, 0.0, 0.0, 0.0, value)
+
+
+@functools.lru_cache(maxsize=8)
+def _imu_layout(accel_variance: float, gyro_variance: float):
+    return (_header(TOPIC_FRAMES['deck/imu'])
+            .const('d', 0.0, 0.0, 0.0, 1.0)                 # orientation: identity (unknown)
+            .const('d', -1.0, *(0.0,) * 8)                  # orientation_covariance[0] = -1
+            .var('d', 3).const('d', *_diagonal(gyro_variance))
+            .var('d', 3).const('d', *_diagonal(accel_variance)).compile())
+
+
+def imu(sec: int, nanosec: int, content) -> bytes:
+    """sensor_msgs/Imu of ros_messages.deck_imu_content."""
+    wx, wy, wz, ax, ay, az, accel_variance, gyro_variance = content
+    st, (c0, c1, c2, c3) = _imu_layout(accel_variance, gyro_variance)
+    return st.pack(c0, sec, nanosec, c1, wx, wy, wz, c2, ax, ay, az, c3)
+
+
+_CLOCK = Layout().var('i').var('I').compile()
+
+
+def clock(sec: int, nanosec: int, content=None) -> bytes:
+    """rosgraph_msgs/Clock."""
+    st, (c0,) = _CLOCK
+    return st.pack(c0, sec, nanosec)
+
+
+def diagnostic_array(sec: int, nanosec: int, content) -> bytes:
+    """diagnostic_msgs/DiagnosticArray with the one status of
+    ros_messages.diagnostics_content (not cached: its texts change every time)."""
+    level, name, message, hardware_id, pairs = content
+    layout = Layout().const('i', sec).const('I', nanosec).string('').const('I', 1)
+    layout.const('B', level[0]).string(name).string(message).string(hardware_id)
+    layout.const('I', len(pairs))
+    for key, value in pairs:
+        layout.string(key).string(value)
+    return layout.constant_bytes()
+
+
+ENCODERS = {'joint_states': joint_state, 'deck/pose': pose_stamped,
+            'deck/twist': twist_stamped, 'deck/imu': imu, '/clock': clock,
+            '/diagnostics': diagnostic_array}
+"""Topic -> encoder(sec, nanosec, content) of ros_messages' content for that topic."""
+
+
+def sample_cdr(sample, dt_ns: int, imu_config, epoch_ns: int = 0, with_clock: bool = False
+               ) -> tuple[int, list[tuple[str, bytes]]]:
+    """(stamp [ns], [(topic, CDR bytes)]) of one sample, as ros_messages.sample_messages
+    would serialise, in the same order."""
+    stamp_ns, contents = sample_contents(sample, dt_ns, imu_config, epoch_ns, with_clock)
+    sec, nanosec = divmod(stamp_ns, 1_000_000_000)
+    return stamp_ns, [(topic, ENCODERS[topic](sec, nanosec, content))
+                      for topic, content in contents]
