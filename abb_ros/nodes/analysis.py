@@ -77,10 +77,10 @@ def declare_parameters(node: Node) -> None:
     for name in DRIVE_NAMES:
         field_name = name[len(ros_params.DRIVE_PREFIX):]
         node.declare_parameter(name, getattr(defaults, field_name),
-                               ros_params._drive_descriptor(field_name))
+                               ros_params.drive_descriptor(field_name))
     spec = ros_params.NODE_PARAMS['max_spindle_speed']
     node.declare_parameter('max_spindle_speed', spec.default,
-                           ros_params._descriptor('max_spindle_speed', spec))
+                           ros_params.descriptor('max_spindle_speed', spec))
     for name, (default, text, low, high, read_only) in OWN_PARAMS.items():
         d = ParameterDescriptor(description=text, read_only=read_only)
         if isinstance(low, int) and isinstance(default, int):

@@ -106,7 +106,7 @@ class SimSettings:
         return self.integration_rate_hz // int(self.imu.rate)
 
 
-def _descriptor(name: str, spec: _P) -> ParameterDescriptor:
+def descriptor(name: str, spec: _P) -> ParameterDescriptor:
     d = ParameterDescriptor(description=spec.description, read_only=spec.read_only)
     if spec.low is None:
         return d
@@ -119,7 +119,7 @@ def _descriptor(name: str, spec: _P) -> ParameterDescriptor:
     return d
 
 
-def _drive_descriptor(name: str) -> ParameterDescriptor:
+def drive_descriptor(name: str) -> ParameterDescriptor:
     spec = PARAM_SPECS[name]
     d = ParameterDescriptor(description=f'{spec.description} [{spec.unit or "-"}]; valid '
                             f'{spec.valid_text()}' + ('; a change applies on ~/reset'
@@ -140,14 +140,14 @@ def declare_all(node) -> tuple[DriveParams, SimSettings]:
     defaults = DriveParams()
     for f in fields(DriveParams):
         node.declare_parameter(DRIVE_PREFIX + f.name, getattr(defaults, f.name),
-                               _drive_descriptor(f.name))
+                               drive_descriptor(f.name))
     drive = DriveParams.from_mapping(
         {f.name: node.get_parameter(DRIVE_PREFIX + f.name).value for f in fields(DriveParams)})
     for name, spec in NODE_PARAMS.items():
         default = spec.default
         if name == 'spindle.initial_speed':
             default = P3_WBAR * drive.omega0
-        node.declare_parameter(name, default, _descriptor(name, spec))
+        node.declare_parameter(name, default, descriptor(name, spec))
     return settings_from(current_values(node))
 
 
