@@ -314,14 +314,16 @@ def simulate(params: DriveParams, omega: float, duration: float, dt: float = DEF
 
 
 def reference_solution(params: DriveParams, y0, t_span, spindle=None, t_eval=None,
-                       rtol: float = 1e-10, atol: float = 1e-13, method: str = 'DOP853'):
+                       rtol: float = 1e-10, atol: float = 1e-13, method: str = 'DOP853',
+                       kern=None):
     """The same equations by scipy's adaptive ``solve_ivp`` (default DOP853, tight
-    tolerances). Returns scipy's OdeResult."""
+    tolerances), right-hand side from ``kern`` (default the compiled kernels). Returns
+    scipy's OdeResult."""
     from scipy.integrate import solve_ivp
     n = params.n
     P = kernels.pack_params(params)
     S = (spindle or ConstantSpeed()).pack(float(y0[n_coords(n)]))
-    kern = kernels.JIT
+    kern = kern or kernels.JIT
     N = n_coords(n)
     qdd = np.empty(N)
     bufs = (np.empty((6, 6)), np.empty((6, max(n, 1))), np.empty(6), np.empty((max(n, 1), 6)),
