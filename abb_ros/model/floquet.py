@@ -129,11 +129,11 @@ def deriv(R, Q, V, dQ, dV):
         for j in range(m):
             dV[i, j] = 0.0
             dQ[i, j] = V[i, j]
-        for l in range(nq):
-            p = R[i, l]
-            s = R[i, nq + l]
+        for k in range(nq):
+            p = R[i, k]
+            s = R[i, nq + k]
             for j in range(m):
-                dV[i, j] += p * Q[l, j] + s * V[l, j]
+                dV[i, j] += p * Q[k, j] + s * V[k, j]
 
 @_jitable
 def axpy(Q, V, h, dQ, dV, Qo, Vo):
@@ -295,7 +295,7 @@ def monodromy_reference(system, rtol=1e-12, atol=1e-12, method='DOP853') -> np.n
 # ---- batched multipliers at balanced equilibria --------------------------------------------
 
 PLANES = {'in': (in_plane_harmonics, 2 * math.pi), 'out': (out_of_plane_harmonics, math.pi)}
-"""Builder of the harmonics and the period in tau for each plane (T_I = 2 pi/omega, T_O = T_I/2)."""
+"""Builder of the harmonics and the period in tau of each plane (T_I = 2 pi/omega, T_O = T_I/2)."""
 
 CHUNK = 2000
 """Points per kernel call (progress is reported per chunk)."""
