@@ -1,0 +1,20 @@
+"""The code follows ament's flake8 rules (99 columns, pyflakes, pycodestyle), checked by ruff."""
+
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def test_code_passes_ruff_with_the_ament_line_length():
+    ruff = shutil.which('ruff', path=str(Path(sys.executable).parent))
+    if ruff is None:
+        pytest.fail('ruff is not installed in the test environment (requirements.txt pins it)')
+    proc = subprocess.run([ruff, 'check', '--output-format', 'concise', 'abb_ros', 'test',
+                           'benchmarks', 'scripts', 'setup.py'], cwd=ROOT, capture_output=True,
+                          text=True, timeout=120)
+    assert proc.returncode == 0, proc.stdout + proc.stderr
