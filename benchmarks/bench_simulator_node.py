@@ -185,7 +185,7 @@ def main():
     base_msgs = headless(min(args.fast_duration, 5.0), with_messages=True)
     print(f'\n[as fast as possible, {fast["window"]:.0f} s window, no subscriber]')
     print(f'  node real-time factor                       {fast["rtf"]:.2f}')
-    print(f'  headless Simulation.advance (20 steps/call) {base:.2f}')
+    print(f'  headless Simulation.advance ({STEPS_PER_MS} steps/call) {base:.2f}')
     print(f'  headless + sampler + messages (no DDS)      {base_msgs:.2f}')
     print(f'  node / headless advance                     {fast["rtf"] / base:.3f}')
     print(f'  CPU of the node process                     {100 * fast["cpu"]:.1f} %')
