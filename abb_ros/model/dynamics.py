@@ -61,9 +61,11 @@ def n_coords(n: int) -> int:
     return 7 + n
 
 
-def _buffers(n):
+def solver_buffers(n: int) -> tuple:
+    """Scratch arrays (A, W, f, B, fb, u) of :func:`abb_ros.model.kernels.accel` for n balls."""
     nb = max(n, 1)
-    return (np.empty((6, 6)), np.empty((6, nb)), np.empty(6), np.empty((nb, 6)), np.empty(nb))
+    return (np.empty((6, 6)), np.empty((6, nb)), np.empty(6), np.empty((nb, 6)), np.empty(nb),
+            np.empty(6))
 
 
 def _check(params: DriveParams, y) -> np.ndarray:
@@ -85,7 +87,7 @@ def lagrange_residual(params: DriveParams, y, qdd, kern=None) -> np.ndarray:
     y = _check(params, y)
     qdd = np.asarray(qdd, dtype=float)
     n = params.n
-    A, W, f, B, fb = _buffers(n)
+    A, W, f, B, fb, _ = solver_buffers(n)
     kern.assemble(y, n, kernels.pack_params(params), float(qdd[0]), A, W, f, B, fb)
     u = qdd[1:7]
     phidd = qdd[7:]
@@ -104,8 +106,7 @@ def accelerations(params: DriveParams, y, t: float = 0.0, spindle=None, kern=Non
     n = params.n
     S = np.zeros(kernels.N_SPINDLE) if spindle is None else np.asarray(spindle, dtype=float)
     qdd = np.empty(n_coords(n))
-    A, W, f, B, fb = _buffers(n)
-    kern.accel(float(t), y, n, kernels.pack_params(params), S, qdd, A, W, f, B, fb, np.empty(6))
+    kern.accel(float(t), y, n, kernels.pack_params(params), S, qdd, *solver_buffers(n))
     return qdd
 
 

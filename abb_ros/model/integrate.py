@@ -19,7 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from abb_ros.model import kernels
-from abb_ros.model.dynamics import n_coords, rbar
+from abb_ros.model.dynamics import n_coords, rbar, solver_buffers
 from abb_ros.model.params import DriveParams, ParamError
 
 __all__ = ['DEFAULT_DT', 'ConstantSpeed', 'Ramp', 'SpindleMotor', 'StateError', 'Simulation',
@@ -155,6 +155,7 @@ class Simulation:
         self.params = params
         self._P = kernels.pack_params(params)
         self._work = kernels.make_work(params.n)
+        self._solver = solver_buffers(params.n)
         self._S = self.spindle.pack(self.omega_cmd)
 
     # ---- inputs -------------------------------------------------------------------------
@@ -219,9 +220,10 @@ class Simulation:
 
     # ---- outputs ------------------------------------------------------------------------
     def accelerations(self) -> np.ndarray:
-        """q'' at the current state, shape (N,)."""
-        from abb_ros.model.dynamics import accelerations
-        return accelerations(self.params, self.y, self.t, self._S, kern=self.kern)
+        """q'' at the current state, shape (N,) (a new array; the solver scratch is reused)."""
+        qdd = np.empty(self.N)
+        self.kern.accel(self.t, self.y, self.params.n, self._P, self._S, qdd, *self._solver)
+        return qdd
 
     @property
     def N(self) -> int:
@@ -326,8 +328,7 @@ def reference_solution(params: DriveParams, y0, t_span, spindle=None, t_eval=Non
     kern = kern or kernels.JIT
     N = n_coords(n)
     qdd = np.empty(N)
-    bufs = (np.empty((6, 6)), np.empty((6, max(n, 1))), np.empty(6), np.empty((max(n, 1), 6)),
-            np.empty(max(n, 1)), np.empty(6))
+    bufs = solver_buffers(n)
 
     def fun(t, y):
         dy = np.empty(2 * N)
