@@ -4,7 +4,8 @@ Each subcommand lives in ``abb_ros/commands/<name>.py`` and provides
 ``add_arguments(parser)`` and ``run(args) -> dict``. The dict is the summary: printed as
 one JSON object with ``--json``, as ``key: value`` lines otherwise. Bad input
 (:class:`~abb_ros.model.params.ParamError`, :class:`UsageError`) exits with code 2 and a
-message naming the parameter and its valid range.
+message naming the parameter and its valid range; a simulation whose state blows up
+(:class:`~abb_ros.model.integrate.StateError`) exits with code 1 and says when.
 """
 
 from __future__ import annotations
@@ -15,6 +16,7 @@ import json
 import sys
 
 from abb_ros.commands import UsageError
+from abb_ros.model.integrate import StateError
 from abb_ros.model.params import ParamError, parse_value
 
 __all__ = ['main', 'parse_settings', 'UsageError', 'SUBCOMMANDS']
@@ -78,6 +80,10 @@ def main(argv=None) -> int:
     except (ParamError, UsageError) as exc:
         print(f'abb-sim {args.command}: error: {exc}', file=sys.stderr)
         return 2
+    except StateError as exc:   # the physics blew up: say so, keep what was written
+        print(f'abb-sim {args.command}: simulation stopped: {exc} (check the parameters: '
+              'a very stiff or undamped drive may need a smaller step)', file=sys.stderr)
+        return 1
     except KeyboardInterrupt:
         print(f'abb-sim {args.command}: interrupted', file=sys.stderr)
         return 130

@@ -77,3 +77,16 @@ def test_out_writes_a_bag_and_refuses_to_overwrite_it(tmp_path):
     assert list(last.name) == ['spindle', 'ball_1', 'ball_2']
     code, _, err = abb_sim('run', '--scenario', 'p3', '--duration', '0.1', '--out', str(out))
     assert code == 2 and '--overwrite' in err
+
+
+def test_a_run_that_blows_up_stops_with_a_clear_message_and_a_readable_bag(tmp_path):
+    """k = 1e9 N/m is a valid washer, but its mode (~1.5e5 rad/s) is far beyond a 10 kHz RK4:
+    the run stops at once, exit code 1, no traceback, and the bag written so far is closed."""
+    from abb_ros.io.bag import read_bag
+    out = tmp_path / 'stiff'
+    code, stdout, err = abb_sim('run', '--set', 'k=1e9', '--duration', '0.1', '--out', str(out),
+                                '--no-progress')
+    assert code == 1 and stdout == ''
+    assert 'simulation stopped' in err and 'envelope' in err and 'Traceback' not in err
+    topics = {topic for topic, _, _ in read_bag(out)}
+    assert '/joint_states' in topics          # the initial sample was written, then closed
