@@ -93,7 +93,18 @@ def run_scenario(scenario: Scenario, dt: float = DEFAULT_DT, publish_dt: float =
     sim.trajectory(0, publish_every)
     compile_time = time.perf_counter() - t_compile
     start = time.perf_counter()
-    pending = [s for s in [sampler.sample_now()] if s is not None and bag is not None]
+
+    def write(samples):
+        count = 0
+        for sample in samples:
+            stamp_ns, encoded = cdr.sample_cdr(sample, dt_ns, imu_config, with_clock=True)
+            for topic, data in encoded:
+                bag.write(topic, data, stamp_ns)
+            count += len(encoded)
+        return count
+
+    if bag is not None:    # the initial state, at step 0
+        written += write(s for s in [sampler.sample_now()] if s is not None)
     done = 0
     while done < total:
         while commands and commands[0].t <= sim.t + 1e-12:
@@ -108,13 +119,7 @@ def run_scenario(scenario: Scenario, dt: float = DEFAULT_DT, publish_dt: float =
             times.extend(sim.t0 + (sim.steps - publish_every * np.arange(chunk - 1, -1, -1)) * dt)
         else:
             for _ in range(chunk):
-                for sample in pending + sampler.next_period():
-                    stamp_ns, encoded = cdr.sample_cdr(sample, dt_ns, imu_config,
-                                                       with_clock=True)
-                    for topic, data in encoded:
-                        bag.write(topic, data, stamp_ns)
-                    written += len(encoded)
-                pending = []
+                written += write(sampler.next_period())
                 times.append(sim.t)
                 states.append(sim.y[None, :].copy())
         done += chunk
