@@ -97,8 +97,8 @@ def test_p4_not_balanced_but_far_smaller_residual_than_without_abb():
     without = _last(rbar_no, res_no.t, 2.0).max()
     assert with_abb > 1e-4
     assert without > 3 * with_abb
-    # the balls gather opposite the imbalance, as far as they can go
-    assert np.all(np.abs(((phi[-1] + 180) % 360) - 180) > 170 - 180 + 180 - 10)
+    # the balls gather opposite the imbalance, as far as they can go (measured +-176.3 deg)
+    assert np.all(np.abs(((phi[-1] + 180) % 360) - 180) > 160)
 
 
 def test_ten_balls_balance_from_both_starts_at_different_configurations():
