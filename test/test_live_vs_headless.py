@@ -90,7 +90,8 @@ def record_live(scenario, namespace: str) -> dict[str, list[bytes]]:
         while not (states and stamp_of(states[-1]) - stamp_of(states[0]) >= SPAN_NS):
             if time.monotonic() > deadline or proc.poll() is not None:
                 proc.kill()
-                pytest.fail(f'{sum(map(len, got.values()))} messages within {DEADLINE_S} s; '
+                pytest.fail(f'timed out after {DEADLINE_S} s: {sum(map(len, got.values()))} '
+                            'messages; '
                             f'node output:\n{proc.communicate()[0]}')
             executor.spin_once(timeout_sec=0.05)
     finally:

@@ -49,7 +49,8 @@ class Publisher:
             if all(p.get_subscription_count() > 0 for p in self.pubs.values()):
                 return
             time.sleep(0.05)
-        raise AssertionError('the recorder did not subscribe to every topic in time')
+        raise AssertionError(f'timed out after {timeout} s waiting for the recorder to subscribe '
+                             'to every topic')
 
     def close(self):
         self.node.destroy_node()
