@@ -25,6 +25,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.optimize import brentq
 
+from abb_ros.model.linear import in_plane_harmonics
 from abb_ros.model.params import DriveParams
 
 __all__ = ['in_plane_matrices_static', 'mean_tangential_force', 'locked_ball_angle']
@@ -33,16 +34,11 @@ _SAMPLES = 256  # points per revolution for the mean of Q (exact for the harmoni
 
 
 def in_plane_matrices_static(params: DriveParams):
-    """Constant parts of the in-plane mass, damping, stiffness matrices for (X, Y, gamma)."""
-    p = params
-    d = p.d
-    kab = p.a ** 2 + p.b ** 2 + 4 * d ** 2
-    Mt = p.total_mass
-    I_g = p.J_z + p.J_Pz + p.M_P * d ** 2 + p.M * p.eps ** 2 + p.n * p.m * p.R ** 2
-    M = np.array([[Mt, 0, p.M_P * d], [0, Mt, 0], [p.M_P * d, 0, I_g]])
-    C = np.array([[4 * p.c, 0, 4 * d * p.c], [0, 4 * p.c, 0], [4 * d * p.c, 0, kab * p.c]])
-    K = np.array([[4 * p.k, 0, 4 * d * p.k], [0, 4 * p.k, 0], [4 * d * p.k, 0, kab * p.k]])
-    return M, C, K
+    """Constant mass, damping, stiffness matrices of the deck's in-plane motion (X, Y, gamma):
+    the harmonic-0 deck block of the linearised Eqs. (27), (28), (32) (abb_ros.model.linear),
+    which does not depend on the ball angles."""
+    harmonics = in_plane_harmonics(params, 0.0, np.zeros(params.n))
+    return tuple(H[0, :3, :3] for H in harmonics)
 
 
 def mean_tangential_force(params: DriveParams, omega: float, phi_lock: float) -> float:
