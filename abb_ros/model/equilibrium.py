@@ -21,6 +21,12 @@ Dirichlet kernel, monotone on that interval). For n = 2 this is exactly the corr
 with the paper's sign convention phi_1* = -phi_2* < 0.
 Any other configuration may be passed explicitly as ``phi_star`` and is checked against Eq. (26).
 
+With eps = 0 the balanced equilibria form a continuous family (any rotation of a balanced
+configuration), so the linearisation has a neutral mode and |lambda|max = 1 exactly; the maps
+then show the bottom row of Fig. 6 (epsbar = 0) as not 'balanced and stable', although the
+drive stays balanced. For small eps > 0 the restoring effect is weak (|lambda|max ~ 1 - 1e-5 at
+epsbar = 1e-4).
+
 No balanced equilibrium exists when n m R < M eps (the balls cannot cancel the imbalance) or
 when n = 1 and m R != M eps; the result then says so (``exists = False`` and a reason),
 never NaN.
