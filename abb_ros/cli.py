@@ -1,4 +1,4 @@
-"""`abb-sim`: the command line of abb_ros (design.md).
+"""`abb-sim`: the command line of abb_ros (docs/architecture.md).
 
 Each subcommand lives in ``abb_ros/commands/<name>.py`` and provides
 ``add_arguments(parser)`` and ``run(args) -> dict``. The dict is the summary: printed as
@@ -15,11 +15,11 @@ import importlib
 import json
 import sys
 
-from abb_ros.commands import UsageError
+from abb_ros.commands.api import UsageError
 from abb_ros.model.integrate import StateError
-from abb_ros.model.params import ParamError, parse_value
+from abb_ros.model.params import ParamError
 
-__all__ = ['main', 'parse_settings', 'UsageError', 'SUBCOMMANDS']
+__all__ = ['main', 'SUBCOMMANDS']
 
 SUBCOMMANDS = {
     'run': 'headless simulation (no DDS) written to a rosbag2 MCAP directory',
@@ -30,18 +30,6 @@ SUBCOMMANDS = {
 }
 
 
-def parse_settings(items) -> dict:
-    """``['k=4000', 'wbar=2.7']`` -> ``{'k': 4000.0, 'wbar': 2.7}`` (values checked later)."""
-    settings = {}
-    for item in items or []:
-        if '=' not in item:
-            raise UsageError(f'--set expects key=value, got {item!r}')
-        key, text = item.split('=', 1)
-        key = key.strip()
-        settings[key] = parse_value(key, text.strip())
-    return settings
-
-
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog='abb-sim', description='Optical disk drive with an automatic ball balancer.')
@@ -49,19 +37,12 @@ def build_parser() -> argparse.ArgumentParser:
     for name, help_text in SUBCOMMANDS.items():
         p = sub.add_parser(name, help=help_text, description=help_text)
         p.add_argument('--json', action='store_true', help='print one JSON object on stdout')
-        module = _load(name)
-        if module is not None:
-            module.add_arguments(p)
+        _load(name).add_arguments(p)
     return parser
 
 
 def _load(name):
-    try:
-        return importlib.import_module(f'abb_ros.commands.{name}')
-    except ModuleNotFoundError as exc:
-        if exc.name == f'abb_ros.commands.{name}':
-            return None
-        raise
+    return importlib.import_module(f'abb_ros.commands.{name}')
 
 
 def _print_human(summary: dict) -> None:
@@ -73,8 +54,6 @@ def main(argv=None) -> int:
     parser = build_parser()
     args = parser.parse_args(argv)
     module = _load(args.command)
-    if module is None:
-        parser.error(f'subcommand {args.command!r} is not available in this build')
     try:
         summary = module.run(args)
     except (ParamError, UsageError) as exc:

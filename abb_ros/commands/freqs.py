@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from abb_ros.cli import parse_settings
+from abb_ros.commands.api import parse_settings
 from abb_ros.model.linear import natural_frequencies
 from abb_ros.model.params import DriveParams, apply_settings
 

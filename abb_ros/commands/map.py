@@ -11,7 +11,7 @@ import sys
 
 import numpy as np
 
-from abb_ros.cli import UsageError, parse_settings
+from abb_ros.commands.api import UsageError, parse_settings
 from abb_ros.model.floquet import MAP_AXES, stability_map
 from abb_ros.model.params import DriveParams, ParamError
 

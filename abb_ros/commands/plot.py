@@ -23,7 +23,7 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> dict:
-    from abb_ros.cli import UsageError
+    from abb_ros.commands.api import UsageError
     from abb_ros.io import plots
 
     if args.R is not None and not args.R > 0:

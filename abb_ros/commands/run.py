@@ -32,7 +32,7 @@ def _wrap_deg(phi):
 
 
 def run(args) -> dict:
-    from abb_ros.cli import UsageError, parse_settings
+    from abb_ros.commands.api import UsageError, parse_settings
     from abb_ros.io.headless import run_scenario
     from abb_ros.io.scenario import load_scenario
     from abb_ros.model.params import ParamError

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import math
 
-from abb_ros.cli import UsageError, parse_settings
+from abb_ros.commands.api import UsageError, parse_settings
 from abb_ros.model.floquet import point_stability
 from abb_ros.model.params import DriveParams, ParamError, apply_settings
 
