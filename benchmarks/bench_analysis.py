@@ -25,13 +25,13 @@ from pathlib import Path
 
 import numpy as np
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
-from abb_ros.model.floquet import point_stability  # noqa: E402
-from abb_ros.model.params import DriveParams  # noqa: E402
-from abb_ros.model.speed_bands import assess, speed_table  # noqa: E402
-from abb_ros.nodes.analysis import status_delays  # noqa: E402
+from abb_ros.model.floquet import point_stability
+from abb_ros.model.params import DriveParams
+from abb_ros.model.speed_bands import assess, speed_table
+from abb_ros.testing.latency import status_delays
+
+ROOT = Path(__file__).resolve().parents[1]
 
 P3 = DriveParams(c=0.66, m=0.03 * 0.026)
 

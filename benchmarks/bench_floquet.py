@@ -14,16 +14,14 @@ from __future__ import annotations
 
 import argparse
 import os
-import sys
 import time
 
 import numpy as np
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), '..'))
 
-from abb_ros.model import floquet as F  # noqa: E402
-from abb_ros.model.linear import in_plane  # noqa: E402
-from abb_ros.model.params import DriveParams, apply_settings  # noqa: E402
+from abb_ros.model import floquet as F
+from abb_ros.model.linear import in_plane
+from abb_ros.model.params import DriveParams, apply_settings
 
 TOLS = (1e-4, 1e-5, 1e-6, 1e-7, 1e-8)
 

@@ -6,8 +6,8 @@ topic at 1 kHz (joint_states, deck/pose, deck/twist, deck/imu, /clock), in this 
   2. ``abb-sim run --out`` (messages encoded by abb_ros.io.cdr, MCAP writing and closing
      included): wall time, real-time factor, messages/s, ratio to the baseline;
   3. the same loop with the previous path (rclpy messages from ros_messages, serialised by
-     abb_ros.io.bag.cdr_bytes) for the gain;
-and the cost per message of each part (encoding, rclpy + cdr_bytes, BagWriter.write).
+     rclpy's serialize_message) for the gain;
+and the cost per message of each part (encoding, rclpy + serialize_message, BagWriter.write).
 
     .venv/bin/python benchmarks/bench_headless.py [--duration 10] [--scenario p3_n10]
 """
@@ -24,17 +24,19 @@ import tempfile
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
-from abb_ros import cli  # noqa: E402
-from abb_ros.io import cdr, ros_messages  # noqa: E402
-from abb_ros.io.bag import BagWriter, cdr_bytes  # noqa: E402
-from abb_ros.io.headless import PUBLISH_DT, STATE_TOPIC_TYPES, run_scenario  # noqa: E402
-from abb_ros.io.scenario import load_scenario  # noqa: E402
-from abb_ros.model.integrate import DEFAULT_DT, Simulation, initial_state  # noqa: E402
-from abb_ros.model.sampling import PlantSampler  # noqa: E402
-from abb_ros.model.sensors import TYPICAL_IMU, ImuModel  # noqa: E402
+from rclpy.serialization import serialize_message
+
+from abb_ros import cli
+from abb_ros.io import cdr, ros_messages
+from abb_ros.io.bag_writer import BagWriter
+from abb_ros.app.headless import PUBLISH_DT, STATE_TOPIC_TYPES, run_scenario
+from abb_ros.io.scenario import load_scenario
+from abb_ros.model.integrate import DEFAULT_DT, Simulation, initial_state
+from abb_ros.model.sampling import PlantSampler
+from abb_ros.model.sensors import TYPICAL_IMU, ImuModel
+
+ROOT = Path(__file__).resolve().parents[1]
 
 DT_NS = int(round(DEFAULT_DT * 1e9))
 EVERY = int(round(PUBLISH_DT / DEFAULT_DT))
@@ -62,7 +64,7 @@ def sampler_for(scenario) -> PlantSampler:
 
 
 def previous_path(scenario, out: Path) -> tuple[float, int]:
-    """The headless loop before abb_ros.io.cdr: rclpy messages, serialised by cdr_bytes."""
+    """The headless loop before abb_ros.io.cdr: rclpy messages, serialised by rclpy."""
     sampler = sampler_for(scenario)
     periods = int(round(scenario.duration / PUBLISH_DT))
     written = 0
@@ -76,7 +78,7 @@ def previous_path(scenario, out: Path) -> tuple[float, int]:
                 pending = []
                 for topic, msg in ros_messages.sample_messages(sample, DT_NS, TYPICAL_IMU,
                                                                with_clock=True):
-                    bag.write(topic, msg, sample.stamp_ns(DT_NS))
+                    bag.write(topic, serialize_message(msg), sample.stamp_ns(DT_NS))
                     written += 1
     return time.perf_counter() - wall0, written
 
@@ -109,8 +111,8 @@ def per_message_costs(scenario, periods: int = 2000) -> dict[str, float]:
     messages = timed('contents + rclpy messages', lambda: [
         ros_messages.sample_messages(s, DT_NS, TYPICAL_IMU, with_clock=True)
         for s in samples])
-    timed('cdr_bytes(rclpy message) (rosbags)', lambda: [
-        cdr_bytes(m) for pairs in messages for _, m in pairs])
+    timed('serialize_message(rclpy message) (rclpy)', lambda: [
+        serialize_message(m) for pairs in messages for _, m in pairs])
     with tempfile.TemporaryDirectory() as tmp, BagWriter(Path(tmp) / 'bag') as bag:
         for topic, type_name in STATE_TOPIC_TYPES.items():
             bag.add_topic(topic, type_name)
@@ -157,7 +159,7 @@ def main():
 
     row('no bag (baseline)', base_loop, base_wall, with_messages=False)
     row('abb-sim run --out (fast CDR encoder)', with_bag['wall_time_s'], bag_wall)
-    row('previous: rclpy messages + cdr_bytes', old_wall)
+    row('previous: rclpy messages + serialize_message', old_wall)
     print(f'\n  {messages} messages, bag {size / 1e6:.1f} MB; the fast encoder is '
           f'{old_wall / with_bag["wall_time_s"]:.2f}x faster than the previous path')
     print('  loop: integration + messages + BagWriter.write (RunResult.wall_time); command: '

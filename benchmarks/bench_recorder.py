@@ -21,7 +21,6 @@ import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 
 
 def joint_state(i):
@@ -34,11 +33,13 @@ def bench_writers(n):
     from mcap.writer import Writer as McapWriter
     from mcap_ros2.writer import Writer as Ros2Writer
 
+    from rclpy.serialization import serialize_message
+
     from abb_ros.io import msgdefs
-    from abb_ros.io.bag import BagWriter, cdr_bytes
+    from abb_ros.io.bag_writer import BagWriter
 
     msgs = [joint_state(i) for i in range(n)]
-    payloads = [cdr_bytes(m) for m in msgs]
+    payloads = [serialize_message(m) for m in msgs]
     dicts = [{'header': {'stamp': {'sec': 0, 'nanosec': 0}, 'frame_id': ''},
               'name': list(m.name), 'position': list(m.position), 'velocity': list(m.velocity),
               'effort': []} for m in msgs]
@@ -54,7 +55,6 @@ def bench_writers(n):
             results[kind] = n / (time.perf_counter() - t0)
 
         ours('BagWriter, CDR bytes (recorder)', payloads)
-        ours('BagWriter, rclpy messages (headless)', msgs)
 
         t0 = time.perf_counter()
         with open(Path(tmp) / 'baseline.mcap', 'wb') as f:
@@ -88,7 +88,7 @@ def bench_recorder(seconds, rate):
     from rclpy.node import Node
     from sensor_msgs.msg import Imu, JointState
 
-    from abb_ros.io.bag import iter_raw
+    from abb_ros.io.bag_reader import iter_raw
 
     os.environ.setdefault('ROS_DOMAIN_ID', str(random.randint(1, 101)))
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')

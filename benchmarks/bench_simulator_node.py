@@ -21,24 +21,24 @@ import sys
 import time
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT))
 os.environ.setdefault('ROS_DOMAIN_ID', str(random.randint(1, 101)))
 os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 
-import numpy as np  # noqa: E402
-import rclpy  # noqa: E402
-from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
-from rclpy.executors import SingleThreadedExecutor  # noqa: E402
-from rclpy.node import Node  # noqa: E402
-from rclpy.qos import QoSProfile  # noqa: E402
-from sensor_msgs.msg import JointState  # noqa: E402
+import numpy as np
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.qos import QoSProfile
+from sensor_msgs.msg import JointState
 
-from abb_ros.io import ros_messages  # noqa: E402
-from abb_ros.model.integrate import DEFAULT_DT, Simulation, SpindleMotor  # noqa: E402
-from abb_ros.model.params import DriveParams  # noqa: E402
-from abb_ros.model.sampling import PlantSampler  # noqa: E402
-from abb_ros.model.sensors import TYPICAL_IMU, ImuModel  # noqa: E402
+from abb_ros.io import ros_messages
+from abb_ros.model.integrate import DEFAULT_DT, Simulation, SpindleMotor
+from abb_ros.model.params import DriveParams
+from abb_ros.model.sampling import PlantSampler
+from abb_ros.model.sensors import TYPICAL_IMU, ImuModel
+
+ROOT = Path(__file__).resolve().parents[1]
 
 N_BALLS = 10
 RATE_HZ = int(round(1.0 / DEFAULT_DT))

@@ -11,9 +11,7 @@ import argparse
 import os
 import sys
 
-sys.path.insert(0, os.path.join(os.path.dirname(__file__), '..'))
-
-from abb_ros.cli import main as abb_sim  # noqa: E402
+from abb_ros.cli import main as abb_sim
 
 OUT = os.path.join(os.path.dirname(__file__), '..', 'docs', 'figures')
 

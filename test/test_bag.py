@@ -28,8 +28,10 @@ from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64
 
 from abb_ros.io import msgdefs
-from abb_ros.io.bag import (BagError, BagWriteError, BagWriter, cdr_bytes, is_finished,
-                            read_bag, read_drive_params, recover)
+from abb_ros.io.bag_reader import is_finished, read_bag, read_drive_params
+from abb_ros.io.bag_recovery import recover
+from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
+from cdr_reference import cdr_bytes
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -73,7 +75,7 @@ def write_samples(path, repeat=3, **kwargs):
         bag.set_drive_params({'R': 0.015, 'n': 2})
         for i in range(repeat):
             for j, (topic, _, msg) in enumerate(samples):
-                bag.write(topic, msg, 1_000_000_000 + 1000 * i + j)
+                bag.write(topic, cdr_bytes(msg), 1_000_000_000 + 1000 * i + j)
     return samples
 
 
@@ -178,15 +180,15 @@ def test_bad_input_gets_a_clear_error(tmp_path):
     with BagWriter(tmp_path / 'b') as bag:
         bag.add_topic('joint_states', 'sensor_msgs/msg/JointState')
         with pytest.raises(BagError, match='add_topic'):
-            bag.write('deck/pose', PoseStamped(), 1)
-        with pytest.raises(BagError, match='carries sensor_msgs/msg/JointState'):
-            bag.write('joint_states', Float64(), 1)
+            bag.write('deck/pose', cdr_bytes(PoseStamped()), 1)
+        with pytest.raises(BagError, match='takes the CDR bytes'):
+            bag.write('joint_states', JointState(), 1)
         with pytest.raises(msgdefs.MessageTypeError, match='pkg/msg/Name'):
             bag.add_topic('x', 'JointState')
         with pytest.raises(msgdefs.MessageTypeError, match='not installed'):
             bag.add_topic('x', 'no_such_msgs/msg/Thing')
     with pytest.raises(BagError, match='closed'):
-        bag.write('joint_states', JointState(), 1)
+        bag.write('joint_states', cdr_bytes(JointState()), 1)
     with pytest.raises(BagError, match='does not exist'):
         list(read_bag(tmp_path / 'missing'))
 
@@ -215,12 +217,12 @@ def test_disk_full_closes_the_bag_cleanly_readable_up_to_the_last_chunk(tmp_path
     written = 0
     with pytest.raises(BagWriteError) as info:
         for i in range(100_000):
-            bag.write('spindle/speed_cmd', Float64(data=float(i)), 1000 + i)
+            bag.write('spindle/speed_cmd', cdr_bytes(Float64(data=float(i))), 1000 + i)
             written += 1
     assert info.value.errno == errno.ENOSPC and 'readable' in str(info.value)
     assert bag.closed
     with pytest.raises(BagError, match='closed after a write error'):
-        bag.write('spindle/speed_cmd', Float64(), 0)
+        bag.write('spindle/speed_cmd', cdr_bytes(Float64()), 0)
     values = [m.data for _, m, _ in read_bag(path)]
     # What was read is exactly the prefix written, and only the chunk being written was lost
     # (a 4 KiB chunk holds < 4096 / 12 Float64 payloads). The message of the failed call may be
@@ -233,13 +235,13 @@ def test_disk_full_closes_the_bag_cleanly_readable_up_to_the_last_chunk(tmp_path
 
 
 KILLED_WRITER = textwrap.dedent('''
-    import os, signal, sys
-    from std_msgs.msg import Float64
-    from abb_ros.io.bag import BagWriter
+    import os, signal, struct, sys
+    from abb_ros.io.bag_writer import BagWriter
     bag = BagWriter(sys.argv[1], chunk_size=2048)
     bag.add_topic('spindle/speed_cmd', 'std_msgs/msg/Float64')
     for i in range(5000):
-        bag.write('spindle/speed_cmd', Float64(data=float(i)), 1000 + i)
+        # std_msgs/Float64 in CDR: encapsulation header, then the double.
+        bag.write('spindle/speed_cmd', struct.pack('<4sd', b'\\0\\1\\0\\0', i), 1000 + i)
     os.kill(os.getpid(), signal.SIGKILL)
 ''')
 

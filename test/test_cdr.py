@@ -1,6 +1,6 @@
 """abb_ros.io.cdr encodes exactly what the rclpy messages of ros_messages serialise to.
 
-The reference is abb_ros.io.bag.cdr_bytes (rosbags' CDR), which test_bag checks against the
+The reference is cdr_reference.cdr_bytes (rosbags' CDR), which test_bag checks against the
 bytes a raw subscription receives over Fast DDS. Equality is exact (byte for byte): both
 encode the same float objects, so there is no tolerance.
 """
@@ -12,7 +12,7 @@ import pytest
 from diagnostic_msgs.msg import DiagnosticStatus
 
 from abb_ros.io import cdr, ros_messages
-from abb_ros.io.bag import cdr_bytes
+from cdr_reference import cdr_bytes
 from abb_ros.model.dynamics import n_coords
 from abb_ros.model.sampling import Sample
 from abb_ros.model.sensors import TYPICAL_IMU, ImuConfig, ImuReading

@@ -1,4 +1,4 @@
-"""`abb-sim stability`, `abb-sim freqs` and `abb-sim map` (design.md, command line)."""
+"""`abb-sim stability`, `abb-sim freqs` and `abb-sim map`."""
 
 import json
 import os

@@ -1,4 +1,4 @@
-"""The package installs the way ``colcon build`` and ``ros2 run abb_ros <exe>`` expect (design.md).
+"""The package installs the way ``colcon build`` and ``ros2 run abb_ros <exe>`` expect.
 
 The checkout is built once per module with colcon (no symlink install) into a temporary prefix.
 The tests then check the ament layout, resolve the package through ament_index_python in the
@@ -22,7 +22,7 @@ import pytest
 REPO = Path(__file__).resolve().parents[1]
 PACKAGE = 'abb_ros'
 EXECUTABLES = ('simulator', 'analysis', 'recorder')
-# Table 1 drive of config/cdrom_table1.yaml has n = 2 balls (design.md: joint names).
+# Table 1 drive of config/cdrom_table1.yaml has n = 2 balls.
 TABLE1_JOINTS = ['spindle', 'ball_1', 'ball_2']
 
 # Timeouts are upper bounds for a loaded 2-core CI machine, not expectations: the build takes
@@ -136,7 +136,7 @@ def test_installed_simulator_publishes_joint_states_and_stops_cleanly_on_sigint(
 
     prefix = install / PACKAGE
     params = prefix / 'share' / PACKAGE / 'config' / 'cdrom_table1.yaml'
-    # A namespace of its own: topic names are relative (design.md), and no other run can answer.
+    # A namespace of its own: topic names are relative, and no other run can answer.
     namespace = f'/layout_{uuid.uuid4().hex[:8]}'
     log_path = tmp_path / 'simulator.log'
     received = []

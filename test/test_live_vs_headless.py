@@ -3,7 +3,7 @@
 The node runs as a subprocess at real_time_factor 0 (it owns time: stamps start at 0 and it
 publishes /clock) with scenario P3's parameters passed exactly (repr of the floats), the
 default IMU settings and seed; this test records its topics over DDS (raw CDR bytes, a
-private Context, reliable keep-all). ``abb_ros.io.headless.run_scenario`` writes the same
+private Context, reliable keep-all). ``abb_ros.app.headless.run_scenario`` writes the same
 scenario to a bag with the fast encoder (abb_ros.io.cdr). For every topic, the messages with
 the same header stamp must be byte-identical: same integrator, same step (1e-4 s both ways),
 same sampling schedule, same IMU noise sequence, same message contents. No tolerance: there
@@ -30,8 +30,9 @@ from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
 from abb_ros.io import ros_messages
-from abb_ros.io.bag import BagWriter, iter_raw
-from abb_ros.io.headless import STATE_TOPIC_TYPES, run_scenario
+from abb_ros.io.bag_reader import iter_raw
+from abb_ros.io.bag_writer import BagWriter
+from abb_ros.app.headless import STATE_TOPIC_TYPES, run_scenario
 from abb_ros.io.scenario import load_scenario
 from abb_ros.model.sensors import TYPICAL_IMU
 from abb_ros.nodes.simulator import make_executor

@@ -7,7 +7,7 @@ Runs the shipped scenarios (config/scenarios) with the paper's initial condition
 import numpy as np
 import pytest
 
-from abb_ros.io.headless import run_scenario
+from abb_ros.app.headless import run_scenario
 from abb_ros.io.scenario import load_scenario
 from abb_ros.model.steady import locked_ball_angle
 

@@ -13,8 +13,9 @@ from scipy.spatial.transform import Rotation
 from sensor_msgs.msg import JointState
 
 from abb_ros.cli import main
-from abb_ros.io.bag import BagWriter
-from abb_ros.io.plots import euler_from_quaternion, load_time_response
+from abb_ros.io.bag_writer import BagWriter
+from cdr_reference import cdr_bytes
+from abb_ros.plots.time_response import euler_from_quaternion, load_time_response
 
 R_RACE = 0.015
 PHI_END = np.radians(106.0)
@@ -50,8 +51,8 @@ def write_run(path, amplitude=3e-5, store_params=True, stamp=True):
             joints = JointState(name=['spindle', 'ball_1', 'ball_2'],
                                 position=[100.0 * t, PHI_END * settle, -PHI_END * settle])
             joints.header = pose.header
-            bag.write('deck/pose', pose, ns + 1000)
-            bag.write('joint_states', joints, ns + 2000)
+            bag.write('deck/pose', cdr_bytes(pose), ns + 1000)
+            bag.write('joint_states', cdr_bytes(joints), ns + 2000)
     return times
 
 

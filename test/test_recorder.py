@@ -19,7 +19,7 @@ from rosbags.highlevel import AnyReader
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
-from abb_ros.io.bag import is_finished, read_bag
+from abb_ros.io.bag_reader import is_finished, read_bag
 
 pytestmark = pytest.mark.ros
 ROOT = Path(__file__).resolve().parents[1]

@@ -67,7 +67,8 @@ def _res(text):
 def run(args) -> dict:
     import time
     from tqdm import tqdm
-    from abb_ros.io.mapplot import plot_map
+    from abb_ros.io.map_file import save_map
+    from abb_ros.plots.maps import plot_map
     if args.x == args.y:
         raise UsageError('--x and --y must differ')
     nx, ny = _res(args.res)
@@ -81,6 +82,6 @@ def run(args) -> dict:
         smap = stability_map(base, args.x, xs, args.y, ys, settings, args.plane, bar.update)
     wall = time.perf_counter() - t0
     data = args.data or os.path.splitext(args.out)[0] + '.npz'
-    smap.save(data)
+    save_map(smap, data)
     plot_map(smap, args.out, kind='surface' if args.surface else 'regions')
     return {**smap.summary(), 'png': args.out, 'data': data, 'wall_s': wall}

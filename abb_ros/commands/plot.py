@@ -6,7 +6,7 @@ from pathlib import Path
 
 import numpy as np
 
-from abb_ros.io.bag import BagError
+from abb_ros.io.bag_writer import BagError
 
 
 def add_arguments(parser) -> None:
@@ -24,7 +24,7 @@ def add_arguments(parser) -> None:
 
 def run(args) -> dict:
     from abb_ros.commands.api import UsageError
-    from abb_ros.io import plots
+    from abb_ros.plots import time_response as plots
 
     if args.R is not None and not args.R > 0:
         raise UsageError(f'--R must be > 0 m, got {args.R}')

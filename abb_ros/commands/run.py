@@ -33,7 +33,7 @@ def _wrap_deg(phi):
 
 def run(args) -> dict:
     from abb_ros.commands.api import UsageError, parse_settings
-    from abb_ros.io.headless import run_scenario
+    from abb_ros.app.headless import run_scenario
     from abb_ros.io.scenario import load_scenario
     from abb_ros.model.params import ParamError
 
@@ -50,7 +50,7 @@ def run(args) -> dict:
         scenario.duration = float(args.duration)
     bag = None
     if args.out:
-        from abb_ros.io.bag import BagError, BagWriter
+        from abb_ros.io.bag_writer import BagError, BagWriter
         try:
             bag = BagWriter(args.out, overwrite=args.overwrite)
         except (BagError, FileExistsError) as exc:

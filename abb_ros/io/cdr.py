@@ -1,12 +1,12 @@
 """Fast, exact CDR encoding of the simulator's messages, straight from their plain contents.
 
-The bytes are those of :func:`abb_ros.io.bag.cdr_bytes` applied to the rclpy message that
-:mod:`abb_ros.io.ros_messages` builds from the same contents (test/test_cdr.py checks it byte
-for byte), that is what a raw subscription receives over Fast DDS: the encapsulation header
-``00 01 00 00`` (CDR, little-endian, XCDR1), then the fields in order, each primitive aligned
-to its size relative to the byte after the header, zero padding, no trailing padding;
-strings as uint32 length (with the NUL) + UTF-8 + NUL; sequences as uint32 count + elements
-(an empty sequence is not aligned for its elements).
+The bytes are those of the tests' reference encoder (test/cdr_reference.py, rosbags' CDR)
+applied to the rclpy message that :mod:`abb_ros.io.ros_messages` builds from the same contents
+(test/test_cdr.py checks it byte for byte), that is what a raw subscription receives over Fast
+DDS: the encapsulation header ``00 01 00 00`` (CDR, little-endian, XCDR1), then the fields in
+order, each primitive aligned to its size relative to the byte after the header, zero padding,
+no trailing padding; strings as uint32 length (with the NUL) + UTF-8 + NUL; sequences as uint32
+count + elements (an empty sequence is not aligned for its elements).
 
 Names, frames, sequence lengths and covariances are the same from message to message, so
 each message layout is compiled once into one :class:`struct.Struct` whose constant parts are

@@ -444,23 +444,6 @@ class StabilityMap:
     fixed: dict
     limits: dict
 
-    def save(self, path) -> None:
-        """NPZ (arrays + fixed parameters as JSON) or CSV (x, y, lam_max, status; '#' header)."""
-        import json
-        path = str(path)
-        if path.endswith('.csv'):
-            X, Y = np.meshgrid(self.x_values, self.y_values)
-            rows = np.column_stack([X.ravel(), Y.ravel(), self.lam.ravel(), self.status.ravel()])
-            header = (f'stability map, plane={self.plane}; fixed: {json.dumps(self.fixed)}; '
-                      f'limits: {json.dumps(self.limits)}; status 0 balanced, 1 unstable, '
-                      f'2 no balanced equilibrium (lam_max inf)\n{self.x},{self.y},lam_max,status')
-            np.savetxt(path, rows, delimiter=',', header=header, fmt='%.10g')
-        else:
-            np.savez_compressed(path, x_name=self.x, y_name=self.y, x_values=self.x_values,
-                                y_values=self.y_values, lam_max=self.lam, status=self.status,
-                                plane=self.plane, fixed_json=json.dumps(self.fixed),
-                                limits_json=json.dumps(self.limits))
-
     def summary(self) -> dict:
         n = self.status.size
         return {'x': self.x, 'y': self.y, 'plane': self.plane, 'points': int(n),

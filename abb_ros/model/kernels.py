@@ -34,7 +34,8 @@ N_SPINDLE = 7
 SPINDLE_CONSTANT, SPINDLE_MOTOR, SPINDLE_RAMP = 0, 1, 2
 
 # Envelope of sane states; outside it the small-angle model is meaningless and the
-# integration stops (design.md, Errors). Deck translations in m, angles in rad, rates in rad/s.
+# integration stops (docs/architecture.md, Errors). Deck translations in m, angles in rad,
+# rates in rad/s.
 MAX_TRANSLATION = 0.02
 MAX_ANGLE = 0.3
 MAX_BALL_RATE = 1.0e5

@@ -1,6 +1,6 @@
 """Deck kinematics and the IMU model (accelerometer + gyro on the feeding deck).
 
-Pure numpy, no rclpy. Frames as in design.md: ``base`` is the inertial XYZ of the paper,
+Pure numpy, no rclpy. Frames as in docs/ros_api.md: ``base`` is the inertial XYZ of the paper,
 ``deck`` the deck body frame xyz with origin at C. The Euler sequence of Eqs. (1)-(2),
 ``x = T_beta T_alpha T_gamma X``, makes the deck-to-base rotation
 

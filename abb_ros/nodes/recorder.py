@@ -23,7 +23,7 @@ from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from abb_ros.io import msgdefs
-from abb_ros.io.bag import DEFAULT_CHUNK_SIZE, BagError, BagWriteError, BagWriter
+from abb_ros.io.bag_writer import DEFAULT_CHUNK_SIZE, BagError, BagWriteError, BagWriter
 
 DEFAULT_TOPICS = ['joint_states', 'deck/pose', 'deck/twist', 'deck/imu', 'stability/margin',
                   '/diagnostics', 'spindle/speed_cmd']

@@ -34,7 +34,7 @@ from abb_ros.model.integrate import Simulation, SpindleMotor, StateError, initia
 from abb_ros.model.sampling import PlantSampler
 from abb_ros.model.sensors import ImuModel
 from abb_ros.nodes import ros_params
-from abb_ros.nodes.lifecycle import run_node
+from abb_ros.nodes.entry_point import run_node
 
 NODE_NAME = 'abb_simulator'
 QOS_DEPTH = 10

@@ -1,4 +1,4 @@
-"""rosbag2-compatible MCAP bags (ROS 2 Jazzy, metadata version 9): writer and reader.
+"""rosbag2-compatible MCAP bags (ROS 2 Jazzy, metadata version 9): the writer.
 
 A bag is a directory holding ``metadata.yaml`` and ``<dirname>_0.mcap``, laid out as Jazzy's
 ``rosbag2_storage_mcap`` writes it: profile ``ros2``; one schema per message type, encoding
@@ -7,7 +7,8 @@ encoding ``cdr``, with channel metadata ``offered_qos_profiles`` (YAML text, met
 names) and ``topic_type_hash`` (RIHS01); at close a metadata record ``rosbag2`` whose key
 ``serialized_metadata`` is the bag metadata as YAML (``ros_distro: jazzy``). The drive
 parameters go into a metadata record ``abb_ros`` (key ``drive_params``, JSON, SI) and into
-``custom_data`` of ``metadata.yaml``.
+``custom_data`` of ``metadata.yaml``. Reading is :mod:`abb_ros.io.bag_reader`, finishing a
+bag whose writer died is :mod:`abb_ros.io.bag_recovery`.
 
 Crash safety: messages are grouped into zstd-compressed chunks written whole to the OS when a
 chunk is full and at least every ``flush_period`` seconds; ``metadata.yaml`` is written at open
@@ -20,7 +21,6 @@ from __future__ import annotations
 
 import dataclasses
 import errno
-import functools
 import json
 import os
 import shutil
@@ -28,9 +28,6 @@ import time
 from pathlib import Path
 
 import yaml
-from mcap.exceptions import EndOfFile, McapError
-from mcap.records import Channel, Message, Metadata, Schema
-from mcap.stream_reader import StreamReader
 from mcap.writer import CompressionType, Writer
 
 from abb_ros.io import msgdefs
@@ -183,9 +180,8 @@ class BagWriter:
     """Write a rosbag2 (Jazzy) MCAP bag directory.
 
     ``with BagWriter(path) as bag: bag.add_topic('joint_states', 'sensor_msgs/msg/JointState');
-    bag.write('joint_states', msg_or_cdr_bytes, log_time_ns)``. Messages are rclpy message
-    objects (serialised by :func:`cdr_bytes`) or CDR bytes as a raw subscription delivers
-    them; both give the same bytes in the bag.
+    bag.write('joint_states', cdr_bytes, log_time_ns)``. Messages are their CDR bytes, as a
+    raw subscription delivers them or :mod:`abb_ros.io.cdr` encodes them.
     """
 
     def __init__(self, path, overwrite: bool = False, chunk_size: int = DEFAULT_CHUNK_SIZE,
@@ -256,18 +252,16 @@ class BagWriter:
 
     def write(self, topic: str, message, log_time_ns: int, publish_time_ns: int | None = None
               ) -> None:
-        """Append one message (rclpy message or CDR bytes) received at ``log_time_ns``."""
+        """Append one message (its CDR bytes) received at ``log_time_ns``."""
         self._check_open()
         entry = self._topics.get(topic) or self._topics.get(topic_name(topic))
         if entry is None:
             raise BagError(f'topic {topic!r} was not added to the bag (call add_topic first)')
-        if isinstance(message, (bytes, bytearray, memoryview)):
-            data = bytes(message)
-        else:
-            if msgdefs.type_name_of(message) != entry.type:
-                raise BagError(f'topic {entry.name} carries {entry.type}, got a '
-                               f'{msgdefs.type_name_of(message)}')
-            data = cdr_bytes(message)
+        if not isinstance(message, (bytes, bytearray, memoryview)):
+            raise BagError(f'topic {entry.name}: write() takes the CDR bytes of a message '
+                           f'(as a raw subscription delivers them), got a '
+                           f'{type(message).__name__}')
+        data = bytes(message)
         log_time_ns = int(log_time_ns)
         self._guard(self._mcap.add_message, channel_id=entry.channel_id, log_time=log_time_ns,
                     data=data, sequence=entry.count,
@@ -369,204 +363,3 @@ class BagWriter:
                 f' after a write error: {self.error}' if self.error else ''))
 
 
-# ---- reading -------------------------------------------------------------------------------
-
-def bag_files(path) -> list[Path]:
-    """The MCAP files of a bag directory (per its metadata.yaml) or of a single .mcap path."""
-    path = Path(path)
-    if path.is_file():
-        return [path]
-    if not path.is_dir():
-        raise BagError(f'{path} does not exist')
-    meta = path / 'metadata.yaml'
-    if meta.exists():
-        try:
-            info = yaml.safe_load(meta.read_text())['rosbag2_bagfile_information']
-            storage = info.get('storage_identifier', STORAGE_ID)
-            names = [Path(p).name for p in info['relative_file_paths']]
-        except (yaml.YAMLError, KeyError, TypeError) as exc:
-            raise BagError(f'{meta} is not rosbag2 metadata: {exc}') from None
-        if storage != STORAGE_ID:
-            raise BagError(f'{path} is a {storage!r} bag; only MCAP bags can be read')
-        files = [path / n for n in names]
-    else:
-        files = sorted(path.glob('*.mcap'))
-    missing = [str(f) for f in files if not f.exists()]
-    if missing or not files:
-        raise BagError(f'{path}: no MCAP file found' + (f' ({missing[0]})' if missing else ''))
-    return files
-
-
-def iter_records(path, emit_chunks: bool = False):
-    """MCAP records of a bag in file order; a truncated last chunk (crash) ends the stream."""
-    for file in bag_files(path):
-        with open(file, 'rb') as stream:
-            reader = StreamReader(stream, emit_chunks=emit_chunks, validate_crcs=True)
-            try:
-                yield from reader.records
-            except EndOfFile:
-                pass
-            except McapError as exc:
-                raise BagError(f'{file}: {exc}') from exc
-
-
-def iter_raw(path, topics=None):
-    """Yield (topic, type_name, cdr_bytes, log_time_ns) for the messages of a bag."""
-    wanted = None if topics is None else {topic_name(t) for t in topics}
-    schemas: dict[int, str] = {}
-    channels: dict[int, tuple[str, str]] = {}
-    for record in iter_records(path):
-        if isinstance(record, Message):
-            topic, type_name = channels.get(record.channel_id, (None, None))
-            if topic is not None and (wanted is None or topic in wanted):
-                yield topic, type_name, record.data, record.log_time
-        elif isinstance(record, Channel):
-            channels[record.id] = (record.topic, schemas.get(record.schema_id, ''))
-        elif isinstance(record, Schema):
-            schemas[record.id] = record.name
-
-
-def read_bag(path, topics=None):
-    """Yield (topic, rclpy message, log_time_ns) for the messages of a bag, in file order."""
-    from rclpy.serialization import deserialize_message
-    for topic, type_name, data, log_time in iter_raw(path, topics):
-        yield topic, deserialize_message(data, msgdefs.message_class(type_name)), log_time
-
-
-def read_metadata(path) -> dict[str, dict[str, str]]:
-    """The MCAP metadata records of a bag by name (the last record of a name wins)."""
-    found: dict[str, dict[str, str]] = {}
-    for record in iter_records(path, emit_chunks=True):
-        if isinstance(record, Metadata):
-            found[record.name] = dict(record.metadata)
-    return found
-
-
-def read_drive_params(path) -> dict | None:
-    """The drive parameters (SI) that the writer stored, or None."""
-    record = read_metadata(path).get(DRIVE_METADATA)
-    if not record or 'drive_params' not in record:
-        return None
-    return json.loads(record['drive_params'])
-
-
-# ---- CDR -----------------------------------------------------------------------------------
-
-@functools.lru_cache(maxsize=1)
-def _typestore():
-    from rosbags.typesys import Stores, get_typestore
-    return get_typestore(Stores.ROS2_JAZZY)
-
-
-_DTYPES = {'bool': 'bool', 'byte': 'uint8', 'octet': 'uint8', 'char': 'uint8', 'uint8': 'uint8',
-           'int8': 'int8', 'int16': 'int16', 'uint16': 'uint16', 'int32': 'int32',
-           'uint32': 'uint32', 'int64': 'int64', 'uint64': 'uint64', 'float32': 'float32',
-           'float64': 'float64'}
-
-
-def _scalar(value):
-    return value[0] if isinstance(value, bytes) else value
-
-
-def _field_converter(desc):
-    import numpy as np
-    from rosbags.interfaces import Nodetype
-    kind, detail = desc
-    if kind == Nodetype.NAME:
-        return _converter(detail)
-    if kind == Nodetype.BASE:
-        return (lambda v: v) if detail[0] == 'string' else _scalar
-    (sub_kind, sub_detail), _ = detail
-    if sub_kind == Nodetype.BASE and sub_detail[0] != 'string':
-        dtype = np.dtype(_DTYPES[sub_detail[0]])
-        if dtype == np.uint8:
-            return _uint8_array
-        return lambda v: np.asarray(v, dtype=dtype)
-    element = _field_converter((sub_kind, sub_detail))
-    return lambda v: [element(x) for x in v]
-
-
-def _uint8_array(value):
-    import numpy as np
-    if isinstance(value, (bytes, bytearray)):
-        return np.frombuffer(bytes(value), dtype=np.uint8)
-    return np.asarray([_scalar(x) for x in value], dtype=np.uint8)
-
-
-@functools.lru_cache(maxsize=None)
-def _converter(type_name: str):
-    """rclpy message -> rosbags message object of the same type, field by field."""
-    store = _typestore()
-    msgdef = store.get_msgdef(type_name)
-    fields = [(name, _field_converter(desc)) for name, desc in msgdef.fields]
-    cls = msgdef.cls
-
-    def convert(msg):
-        return cls(**{name: conv(getattr(msg, name)) for name, conv in fields})
-    return convert
-
-
-def cdr_bytes(message) -> bytes:
-    """The CDR bytes of an rclpy message, as a Fast DDS publisher puts them on the wire.
-
-    ``rclpy.serialization.serialize_message`` sizes its buffer by Fast CDR's estimate, so its
-    output can end in stray bytes and leaves padding uninitialised (not reproducible). The
-    message is serialised instead with rosbags' CDR (exact length, zero padding), which gives
-    the bytes that a raw subscription receives (test_bag checks this over DDS).
-    """
-    type_name = msgdefs.type_name_of(message)
-    obj = _converter(type_name)(message)
-    return bytes(_typestore().serialize_cdr(obj, type_name, little_endian=True))
-
-
-def is_finished(path) -> bool:
-    """True when every MCAP file of the bag ends in a footer and magic (closed cleanly)."""
-    for file in bag_files(path):
-        with open(file, 'rb') as f:
-            f.seek(0, os.SEEK_END)
-            if f.tell() < 45:
-                return False
-            f.seek(-8, os.SEEK_END)
-            if f.read(8) != b'\x89MCAP0\r\n':
-                return False
-    return True
-
-
-def recover(path) -> int:
-    """Finish a bag whose writer died (SIGKILL, power loss, full disk), in place.
-
-    Keeps every message up to the last complete chunk, adds the summary, the 'rosbag2'
-    metadata record and the final ``metadata.yaml`` (what ``ros2 bag reindex`` does for a
-    rosbag2 bag), so that readers which need a summary (rosbags, ``ros2 bag info``) open it.
-    Returns the number of messages kept.
-    """
-    path = Path(path)
-    work = path.parent / f'.{path.name}.recovering'
-    if work.exists():
-        shutil.rmtree(work)
-    schemas: dict[int, Schema] = {}
-    channels: dict[int, Channel] = {}
-    with BagWriter(work / path.name) as out:
-        for record in iter_records(path):
-            if isinstance(record, Message) and record.channel_id in channels:
-                channel = channels[record.channel_id]
-                out.write(channel.topic, record.data, record.log_time, record.publish_time)
-            elif isinstance(record, Schema):
-                schemas[record.id] = record
-            elif isinstance(record, Channel):
-                channels[record.id] = record
-                qos = yaml.safe_load(record.metadata.get('offered_qos_profiles') or '[]')
-                out.add_topic(record.topic, schemas[record.schema_id].name, qos=qos or None,
-                              type_hash=record.metadata.get('topic_type_hash'))
-            elif isinstance(record, Metadata) and record.name == DRIVE_METADATA:
-                out.set_drive_params(json.loads(record.metadata['drive_params']))
-            elif isinstance(record, Metadata) and record.name != 'rosbag2':
-                out.add_metadata(record.name, record.metadata)
-        kept = out.message_count
-    old = bag_files(path)
-    for file in old:
-        file.unlink()
-    for item in (work / path.name).iterdir():
-        os.replace(item, path / item.name)
-    shutil.rmtree(work)
-    return kept

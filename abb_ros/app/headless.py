@@ -65,7 +65,7 @@ def run_scenario(scenario: Scenario, dt: float = DEFAULT_DT, publish_dt: float =
                  progress=None) -> RunResult:
     """Integrate ``scenario`` for its duration.
 
-    bag : abb_ros.io.bag.BagWriter, optional
+    bag : abb_ros.io.bag_writer.BagWriter, optional
         Receives every message (with ``/clock``, as the node does when it owns time).
     progress : callable(float), optional
         Called with the simulated seconds done after each chunk (for a progress bar).

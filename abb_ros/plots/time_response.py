@@ -12,7 +12,7 @@ import re
 
 import numpy as np
 
-from abb_ros.io.bag import read_bag, read_drive_params
+from abb_ros.io.bag_reader import read_bag, read_drive_params
 from abb_ros.model.params import DriveParams
 
 MAX_POINTS = 20000  # per curve; longer series are decimated for drawing

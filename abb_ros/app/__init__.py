@@ -1,0 +1,1 @@
+"""Applications of the model without ROS: the headless run (abb-sim run)."""

@@ -1,0 +1,109 @@
+"""rosbag2 MCAP bags: reading what :mod:`abb_ros.io.bag_writer` (or rosbag2) wrote."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import yaml
+from mcap.exceptions import EndOfFile, McapError
+from mcap.records import Channel, Message, Metadata, Schema
+from mcap.stream_reader import StreamReader
+
+from abb_ros.io import msgdefs
+from abb_ros.io.bag_writer import DRIVE_METADATA, STORAGE_ID, BagError, topic_name
+
+
+def bag_files(path) -> list[Path]:
+    """The MCAP files of a bag directory (per its metadata.yaml) or of a single .mcap path."""
+    path = Path(path)
+    if path.is_file():
+        return [path]
+    if not path.is_dir():
+        raise BagError(f'{path} does not exist')
+    meta = path / 'metadata.yaml'
+    if meta.exists():
+        try:
+            info = yaml.safe_load(meta.read_text())['rosbag2_bagfile_information']
+            storage = info.get('storage_identifier', STORAGE_ID)
+            names = [Path(p).name for p in info['relative_file_paths']]
+        except (yaml.YAMLError, KeyError, TypeError) as exc:
+            raise BagError(f'{meta} is not rosbag2 metadata: {exc}') from None
+        if storage != STORAGE_ID:
+            raise BagError(f'{path} is a {storage!r} bag; only MCAP bags can be read')
+        files = [path / n for n in names]
+    else:
+        files = sorted(path.glob('*.mcap'))
+    missing = [str(f) for f in files if not f.exists()]
+    if missing or not files:
+        raise BagError(f'{path}: no MCAP file found' + (f' ({missing[0]})' if missing else ''))
+    return files
+
+
+def iter_records(path, emit_chunks: bool = False):
+    """MCAP records of a bag in file order; a truncated last chunk (crash) ends the stream."""
+    for file in bag_files(path):
+        with open(file, 'rb') as stream:
+            reader = StreamReader(stream, emit_chunks=emit_chunks, validate_crcs=True)
+            try:
+                yield from reader.records
+            except EndOfFile:
+                pass
+            except McapError as exc:
+                raise BagError(f'{file}: {exc}') from exc
+
+
+def iter_raw(path, topics=None):
+    """Yield (topic, type_name, cdr_bytes, log_time_ns) for the messages of a bag."""
+    wanted = None if topics is None else {topic_name(t) for t in topics}
+    schemas: dict[int, str] = {}
+    channels: dict[int, tuple[str, str]] = {}
+    for record in iter_records(path):
+        if isinstance(record, Message):
+            topic, type_name = channels.get(record.channel_id, (None, None))
+            if topic is not None and (wanted is None or topic in wanted):
+                yield topic, type_name, record.data, record.log_time
+        elif isinstance(record, Channel):
+            channels[record.id] = (record.topic, schemas.get(record.schema_id, ''))
+        elif isinstance(record, Schema):
+            schemas[record.id] = record.name
+
+
+def read_bag(path, topics=None):
+    """Yield (topic, rclpy message, log_time_ns) for the messages of a bag, in file order."""
+    from rclpy.serialization import deserialize_message
+    for topic, type_name, data, log_time in iter_raw(path, topics):
+        yield topic, deserialize_message(data, msgdefs.message_class(type_name)), log_time
+
+
+def read_metadata(path) -> dict[str, dict[str, str]]:
+    """The MCAP metadata records of a bag by name (the last record of a name wins)."""
+    found: dict[str, dict[str, str]] = {}
+    for record in iter_records(path, emit_chunks=True):
+        if isinstance(record, Metadata):
+            found[record.name] = dict(record.metadata)
+    return found
+
+
+def read_drive_params(path) -> dict | None:
+    """The drive parameters (SI) that the writer stored, or None."""
+    record = read_metadata(path).get(DRIVE_METADATA)
+    if not record or 'drive_params' not in record:
+        return None
+    return json.loads(record['drive_params'])
+
+
+def is_finished(path) -> bool:
+    """True when every MCAP file of the bag ends in a footer and magic (closed cleanly)."""
+    for file in bag_files(path):
+        with open(file, 'rb') as f:
+            f.seek(0, os.SEEK_END)
+            if f.tell() < 45:
+                return False
+            f.seek(-8, os.SEEK_END)
+            if f.read(8) != b'\x89MCAP0\r\n':
+                return False
+    return True
+
+

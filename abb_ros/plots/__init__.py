@@ -1,0 +1,1 @@
+"""Figures (PNG, matplotlib Agg): time responses from bags, stability maps."""

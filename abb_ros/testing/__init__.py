@@ -1,0 +1,1 @@
+"""Helpers for tests of controllers and nodes against the plant (no ROS needed to import)."""
