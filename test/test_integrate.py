@@ -41,8 +41,8 @@ def test_default_step_agrees_with_tight_reference(p3_reference):
     """At the node's 10 kHz step the deck coordinates agree with DOP853 (rtol 1e-12) to 1e-6
     of the initial 0.3 mm displacement and the ball angles to 2e-5 deg over the first 0.2 s,
     the fastest part of the transient (measured: 4e-8 relative and 6e-6 deg). This is the
-    accuracy the README promises for the default step; RK4 at 20 kHz would be 16x tighter
-    and twice the cost, for no visible difference in any output."""
+    accuracy docs/verification.md promises for the default step; RK4 at 20 kHz would be 16x
+    tighter and twice the cost, for no visible difference in any output."""
     params, omega, T, ref = p3_reference
     err = _rk4_error(params, omega, DEFAULT_DT, T, ref)
     assert err[1:4].max() < 1e-6 * 0.3e-3

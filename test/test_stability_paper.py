@@ -42,9 +42,9 @@ def test_no_balance_without_ball_drag_on_fig5a(settings):
 
 def test_without_ball_drag_a_narrow_balanced_window_exists_at_lower_washer_damping():
     # A deviation from the paper's 'both dampings are essential' (Section 4), documented in
-    # the README: with Dbar = 0 and zeta <= 0.1 the linearised Eqs. (27)-(33) have a balanced
-    # window between wbar ~ 1.43 and 1.8, below the gamma mode (587 rad/s, wbar 1.96), where
-    # the deck damping reaches the balls through the gamma coupling of Eqs. (32)-(33).
+    # docs/verification.md: with Dbar = 0 and zeta <= 0.1 the linearised Eqs. (27)-(33) have a
+    # balanced window between wbar ~ 1.43 and 1.8, below the gamma mode (587 rad/s, wbar 1.96),
+    # where the deck damping reaches the balls through the gamma coupling of Eqs. (32)-(33).
     lam = _lam({'Dbar': 0.0, 'zeta': METAL, 'mbar': 0.05})
     window = WBAR[lam < 1.0]
     assert window.size and 1.4 < window.min() and window.max() < 1.85

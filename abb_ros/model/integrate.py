@@ -26,7 +26,7 @@ __all__ = ['DEFAULT_DT', 'ConstantSpeed', 'Ramp', 'SpindleMotor', 'StateError', 
            'initial_state', 'reference_solution', 'Trajectory', 'simulate']
 
 DEFAULT_DT = 1.0 / 10000.0
-"""Default fixed step [s] (10 kHz); see README 'Physics and verification' for the accuracy
+"""Default fixed step [s] (10 kHz); see docs/verification.md for the accuracy
 study that chose it."""
 
 INITIAL_DECK = (0.3e-3, 0.3e-3, 0.3e-3, 0.0, 0.0, 0.0)

@@ -3,7 +3,7 @@
 A thin rclpy adapter: :class:`abb_ros.model.integrate.Simulation` integrates, a
 :class:`abb_ros.model.sampling.PlantSampler` decides when the state and the IMU are due,
 :mod:`abb_ros.io.ros_messages` builds the messages (the same functions as the headless
-``abb-sim run``). Topics, parameters and services: README 'ROS graph'.
+``abb-sim run``). Topics, parameters and services: docs/ros_api.md.
 
 Time: stamps are ``epoch + steps * dt`` in integer nanoseconds. With real_time_factor 1 at
 start-up the epoch is the wall clock at start (rounded to a step), so stamps follow wall
