@@ -1,0 +1,56 @@
+"""The figures of the documentation: every image a Markdown file shows exists, and every PNG in
+docs/figures is shown somewhere (scripts/make_figures.py regenerates them)."""
+
+import re
+from pathlib import Path
+
+REPO = Path(__file__).resolve().parent.parent
+FIGURES = REPO / 'docs' / 'figures'
+MARKDOWN_IMAGE = re.compile(r'!\[[^\]]*\]\(\s*<?([^)\s>]+)')
+HTML_IMAGE = re.compile(r'<img\b[^>]*\bsrc\s*=\s*["\']([^"\']+)["\']', re.IGNORECASE)
+NOT_SHOWN = frozenset()
+"""PNGs in docs/figures that no Markdown file needs to show (none today)."""
+
+
+def markdown_files():
+    """README.md and every Markdown file of the repository outside hidden and build dirs."""
+    return sorted(p for p in REPO.rglob('*.md')
+                  if not any(part.startswith('.') or part in ('build', 'install', 'log')
+                             for part in p.relative_to(REPO).parts))
+
+
+def image_references():
+    """(markdown file, target as written, resolved path) for every local image."""
+    refs = []
+    for md in markdown_files():
+        text = md.read_text(encoding='utf-8')
+        for target in MARKDOWN_IMAGE.findall(text) + HTML_IMAGE.findall(text):
+            if re.match(r'^[a-z]+:', target):
+                continue  # http(s):, data: -- not files of the repository
+            path = target.split('#')[0].split('?')[0]
+            refs.append((md, target, (md.parent / path).resolve()))
+    return refs
+
+
+def test_the_image_patterns_find_markdown_and_html_images():
+    text = '![a](docs/x.png) and <img width="300" src="docs/y.png"> and [link](z.png)'
+    assert MARKDOWN_IMAGE.findall(text) + HTML_IMAGE.findall(text) == ['docs/x.png',
+                                                                       'docs/y.png']
+
+
+def test_every_figure_referenced_in_the_markdown_files_exists():
+    refs = image_references()
+    assert refs, 'no image found in any Markdown file'
+    missing = [f'{md.relative_to(REPO)}: {target}' for md, target, path in refs
+               if not path.is_file()]
+    assert not missing, 'images that do not exist:\n' + '\n'.join(missing)
+
+
+def test_every_png_under_docs_figures_is_shown_in_a_markdown_file():
+    shown = {path for _, _, path in image_references()}
+    pngs = {p.resolve() for p in FIGURES.rglob('*.png')}
+    assert pngs, 'docs/figures holds no PNG'
+    orphans = sorted(str(p.relative_to(REPO)) for p in pngs - shown
+                     if str(p.relative_to(REPO)) not in NOT_SHOWN)
+    assert not orphans, ('PNGs no Markdown file shows (show them or add them to NOT_SHOWN):\n'
+                         + '\n'.join(orphans))
