@@ -108,17 +108,20 @@ def make_maps(names, res, replot) -> None:
 
 
 def _title(head, scenario_name, sets):
+    """The figure, the scenario, and its parameters as ``abb-sim run`` applies them."""
+    from abb_ros.commands.api import parse_settings
     from abb_ros.io.scenario import load_scenario
     from abb_ros.plots.labels import parameter_text
     scenario = load_scenario(scenario_name)
     if sets:
-        scenario = scenario.with_settings(dict(s.split('=') for s in sets))
+        scenario = scenario.with_settings(parse_settings(sets))
     params = scenario.params
     return (f'{head} (scenario {scenario_name})\n'
             + parameter_text(params, params.wbar(scenario.omega)))
 
 
 def make_time_responses(names, workdir: Path) -> None:
+    """Run the scenarios into bags in ``workdir`` (a bag already there is reused), plot."""
     from abb_ros.plots import time_response as plots
     needed = list(dict.fromkeys(run for name in names for run in TIME_FIGURES[name][1]))
     responses = {}
@@ -129,10 +132,13 @@ def make_time_responses(names, workdir: Path) -> None:
         argv = ['run', '--scenario', scenario, '--out', str(bag)]
         for s in sets:
             argv += ['--set', s]
-        summary = _abb_sim(argv)
-        angles = ', '.join(f'{a:.2f}' for a in summary['ball_angles_deg'])
-        print(f'  final rbar {summary["final_rbar"]:.3g}, ball angles [{angles}] deg, '
-              f'real-time factor {summary["real_time_factor"]:.1f}', file=sys.stderr)
+        if bag.exists():
+            print(f'  reusing {bag}', file=sys.stderr)
+        else:
+            summary = _abb_sim(argv)
+            angles = ', '.join(f'{a:.2f}' for a in summary['ball_angles_deg'])
+            print(f'  final rbar {summary["final_rbar"]:.3g}, ball angles [{angles}] deg, '
+                  f'real-time factor {summary["real_time_factor"]:.1f}', file=sys.stderr)
         responses[run] = plots.load_time_response(bag)
     TIME_DIR.mkdir(parents=True, exist_ok=True)
     for name in names:
@@ -159,6 +165,9 @@ def main() -> int:
     ap.add_argument('--res', default='160x120', help='map grid NxM (default 160x120)')
     ap.add_argument('--replot', action='store_true',
                     help='redraw the maps from their NPZ files, without recomputing')
+    ap.add_argument('--bags', metavar='DIR',
+                    help='keep the time-response bags in DIR and reuse those already there '
+                         '(default: a temporary directory)')
     args = ap.parse_args()
     unknown = [f for f in args.figures if f not in MAPS and f not in TIME_FIGURES]
     if unknown:
@@ -170,8 +179,12 @@ def main() -> int:
              if f in TIME_FIGURES and args.only != 'maps']
     t0 = time.perf_counter()
     make_maps(maps, args.res, args.replot)
-    with tempfile.TemporaryDirectory(prefix='abb_figures_') as workdir:
-        make_time_responses(times, Path(workdir))
+    if args.bags:
+        Path(args.bags).mkdir(parents=True, exist_ok=True)
+        make_time_responses(times, Path(args.bags))
+    else:
+        with tempfile.TemporaryDirectory(prefix='abb_figures_') as workdir:
+            make_time_responses(times, Path(workdir))
     print(f'{len(maps) + len(times)} figures in {time.perf_counter() - t0:.0f} s',
           file=sys.stderr)
     return 0

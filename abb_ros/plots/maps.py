@@ -39,21 +39,21 @@ def plot_map(smap, path, title=None, kind='regions') -> None:
         ax.plot_surface(X, Y, Z, cmap='viridis', linewidth=0, antialiased=True)
         ax.set_zlabel(r'$|\lambda|_{max}$')
     else:
-        fig, ax = plt.subplots(figsize=(6.0, 4.6))
+        fig, ax = plt.subplots(figsize=(6.0, 5.4))
         balanced = (smap.status == BALANCED).astype(float)
         ax.contourf(X, Y, balanced, levels=[0.5, 1.5], colors='none', hatches=['..'])
         ax.contour(X, Y, balanced, levels=[0.5], colors='k', linewidths=0.8)
+        limits = []
         for name, value in smap.limits.items():
             if smap.y == name.replace('_lim', ''):
-                ax.axhline(value, color='k', linewidth=1.5)
-                ax.annotate(f'{LIMIT_LABELS[name]} = {value:.2g}', (smap.x_values[0], value),
-                            xytext=(4, 4), textcoords='offset points', fontsize=9,
-                            bbox=dict(facecolor='white', edgecolor='k', linewidth=0.5))
+                limits.append(ax.axhline(value, color='k', linewidth=1.5,
+                                         label=_limit_text(name, value)))
             elif smap.x == name.replace('_lim', ''):
-                ax.axvline(value, color='k', linewidth=1.5)
+                limits.append(ax.axvline(value, color='k', linewidth=1.5,
+                                         label=_limit_text(name, value)))
         ax.set_xlim(smap.x_values[0], smap.x_values[-1])
         ax.set_ylim(smap.y_values[0], smap.y_values[-1])
-        _region_legend(ax, smap.plane)
+        _region_legend(ax, smap.plane, limits)
     ax.set_xlabel(LABELS[smap.x])
     ax.set_ylabel(LABELS[smap.y])
     ax.set_title(title or map_title(smap), fontsize=10)
@@ -62,13 +62,18 @@ def plot_map(smap, path, title=None, kind='regions') -> None:
     plt.close(fig)
 
 
-def _region_legend(ax, plane) -> None:
-    """Dotted / blank legend below the axes, where it covers no data."""
+def _limit_text(name, value) -> str:
+    side = 'below' if name == 'mbar_lim' else 'above'
+    return f'{LIMIT_LABELS[name]} = {value:.2g}: no balanced equilibrium {side}'
+
+
+def _region_legend(ax, plane, limits) -> None:
+    """Dotted / blank / limit-line legend below the axes, where it covers no data."""
     from matplotlib.patches import Patch
     dotted, blank = REGION_NAMES[plane]
     ax.legend(handles=[Patch(facecolor='white', edgecolor='k', hatch='..', label=dotted),
-                       Patch(facecolor='white', edgecolor='k', label=blank)],
-              loc='upper center', bbox_to_anchor=(0.5, -0.14), ncol=2, fontsize=8,
+                       Patch(facecolor='white', edgecolor='k', label=blank), *limits],
+              loc='upper center', bbox_to_anchor=(0.5, -0.12), ncol=1, fontsize=8,
               frameon=False)
 
 
