@@ -10,8 +10,8 @@ Everything goes through what a user runs: the maps through ``abb-sim map`` (the 
 printed before each map), the time responses through ``abb-sim run --scenario NAME --out BAG``
 (bags in a temporary directory; "without ABB" is ``--set n=0``) and the plot functions of
 :mod:`abb_ros.plots.time_response`, which ``abb-sim plot`` uses. ``--replot`` redraws the maps
-from their NPZ files without recomputing them. Progress goes to stderr. About two minutes on
-two shared cores (maps ~1 min, time responses ~1 min).
+from their NPZ files without recomputing them; ``--bags DIR`` keeps the runs and reuses them.
+Progress goes to stderr. Timings measured: docs/verification.md, 'Regenerating the figures'.
 """
 
 from __future__ import annotations
