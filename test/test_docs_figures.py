@@ -54,3 +54,20 @@ def test_every_png_under_docs_figures_is_shown_in_a_markdown_file():
                      if str(p.relative_to(REPO)) not in NOT_SHOWN)
     assert not orphans, ('PNGs no Markdown file shows (show them or add them to NOT_SHOWN):\n'
                          + '\n'.join(orphans))
+
+
+def test_figure_titles_name_the_key_parameters_and_the_washers():
+    from abb_ros.model.params import DriveParams, apply_settings
+    from abb_ros.plots.labels import parameter_text
+    p3, omega = apply_settings(DriveParams(), {'mbar': 0.03, 'c': 0.66, 'wbar': 2.7})
+    text = parameter_text(p3, p3.wbar(omega))
+    assert text == (r'$\bar{\omega}$ = 2.7, $\zeta$ = 0.025 (metal washers), '
+                    r'$\bar{\varepsilon}$ = 0.0167, $\bar{m}$ = 0.03, n = 2')
+    # The paper's "zeta = 0.1 (for rubber washers)" is c = 2.64 kg/s; Table 1 says 2.53.
+    rubber, _ = apply_settings(DriveParams(), {'zeta': 0.1})
+    assert '(rubber washers)' in parameter_text(rubber)
+    odd, _ = apply_settings(DriveParams(), {'zeta': 0.05})
+    assert 'washers' not in parameter_text(odd)
+    without = parameter_text(p3.replace(n=0), omit=('wbar',))
+    assert without.endswith('n = 0 (without ABB)') and r'\bar{m}' not in without
+    assert r'\bar{m}' not in parameter_text(p3, 2.7, omit=('mbar', 'wbar'))
