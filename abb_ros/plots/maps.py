@@ -8,9 +8,13 @@ surface (Fig. 4a).
 
 from __future__ import annotations
 
-LABELS = {'wbar': r'$\bar{\omega}$', 'zeta': r'$\zeta$', 'Dbar': r'$\bar{D}$',
-          'epsbar': r'$\bar{\varepsilon}$', 'mbar': r'$\bar{m}$'}
+from abb_ros.plots.labels import SYMBOLS as LABELS, parameter_text
+
 LIMIT_LABELS = {'mbar_lim': r'$\bar{m}_{lim}$', 'epsbar_lim': r'$\bar{\varepsilon}_{lim}$'}
+REGION_NAMES = {'in': ('balanced and stable', 'unbalanced or no balanced equilibrium'),
+                'out': ('out-of-plane stable',
+                        'out-of-plane unstable or no balanced equilibrium')}
+"""Legend entries (dotted, blank) per plane: an out-of-plane map says nothing of balancing."""
 SURFACE_CLIP = 2.0
 """|lambda|max above this is drawn at this height on the surface plot (unbalanced anyway)."""
 
@@ -35,32 +39,48 @@ def plot_map(smap, path, title=None, kind='regions') -> None:
         ax.plot_surface(X, Y, Z, cmap='viridis', linewidth=0, antialiased=True)
         ax.set_zlabel(r'$|\lambda|_{max}$')
     else:
-        fig, ax = plt.subplots(figsize=(6.0, 4.6))
+        fig, ax = plt.subplots(figsize=(6.0, 5.4))
         balanced = (smap.status == BALANCED).astype(float)
         ax.contourf(X, Y, balanced, levels=[0.5, 1.5], colors='none', hatches=['..'])
         ax.contour(X, Y, balanced, levels=[0.5], colors='k', linewidths=0.8)
+        limits = []
         for name, value in smap.limits.items():
             if smap.y == name.replace('_lim', ''):
-                ax.axhline(value, color='k', linewidth=1.5)
-                ax.annotate(LIMIT_LABELS[name], (smap.x_values[-1], value), xytext=(-30, 4),
-                            textcoords='offset points')
+                limits.append(ax.axhline(value, color='k', linewidth=1.5,
+                                         label=_limit_text(name, value)))
             elif smap.x == name.replace('_lim', ''):
-                ax.axvline(value, color='k', linewidth=1.5)
+                limits.append(ax.axvline(value, color='k', linewidth=1.5,
+                                         label=_limit_text(name, value)))
         ax.set_xlim(smap.x_values[0], smap.x_values[-1])
         ax.set_ylim(smap.y_values[0], smap.y_values[-1])
-        ax.text(0.02, 0.97, 'dotted: balanced, stable   blank: unbalanced',
-                transform=ax.transAxes, va='top', fontsize=8,
-                bbox=dict(facecolor='white', edgecolor='none', alpha=0.8))
+        _region_legend(ax, smap.plane, limits)
     ax.set_xlabel(LABELS[smap.x])
     ax.set_ylabel(LABELS[smap.y])
-    plane = 'in-plane' if smap.plane == 'in' else 'out-of-plane'
-    ax.set_title(title or f'Stability, {plane} ({_fixed_text(smap)})', fontsize=10)
+    ax.set_title(title or map_title(smap), fontsize=10)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
 
 
-def _fixed_text(smap) -> str:
-    """The settings held fixed over the map; the rest are Table 1 values."""
-    parts = [f'{k}={v:.3g}' for k, v in smap.fixed['settings'].items()]
-    return ', '.join(parts + ['others Table 1'])
+def _limit_text(name, value) -> str:
+    side = 'below' if name == 'mbar_lim' else 'above'
+    return f'{LIMIT_LABELS[name]} = {value:.2g}: no balanced equilibrium {side}'
+
+
+def _region_legend(ax, plane, limits) -> None:
+    """Dotted / blank / limit-line legend below the axes, where it covers no data."""
+    from matplotlib.patches import Patch
+    dotted, blank = REGION_NAMES[plane]
+    ax.legend(handles=[Patch(facecolor='white', edgecolor='k', hatch='..', label=dotted),
+                       Patch(facecolor='white', edgecolor='k', label=blank), *limits],
+              loc='upper center', bbox_to_anchor=(0.5, -0.12), ncol=1, fontsize=8,
+              frameon=False)
+
+
+def map_title(smap) -> str:
+    """Plane and the parameters held fixed over the map (the rest are Table 1 values)."""
+    from abb_ros.model.params import DriveParams
+    params = DriveParams(**smap.fixed['SI'])
+    wbar = smap.fixed['settings'].get('wbar')
+    plane = 'In-plane' if smap.plane == 'in' else 'Out-of-plane'
+    return f'{plane} stability: ' + parameter_text(params, wbar, omit=(smap.x, smap.y))

@@ -15,6 +15,8 @@ import numpy as np
 from abb_ros.io.bag_reader import read_bag, read_drive_params
 from abb_ros.model.params import DriveParams
 
+LEGEND_OUTSIDE = dict(loc='upper left', bbox_to_anchor=(1.01, 1.0), fontsize=8, borderaxespad=0)
+"""Legends right of the axes, where they cover no data."""
 MAX_POINTS = 20000  # per curve; longer series are decimated for drawing
 _BALL = re.compile(r'^ball_(\d+)$')
 
@@ -144,7 +146,7 @@ def plot_rbar_and_balls(resp: TimeResponse, out, title: str = '') -> None:
         for i, row in enumerate(deg):
             ax_phi.plot(t, row, lw=0.8, label=rf'$\phi_{{{i + 1}}}$')
         if len(deg) <= 4:
-            ax_phi.legend(loc='best', fontsize=8)
+            ax_phi.legend(**LEGEND_OUTSIDE)
     else:
         ax_phi.text(0.5, 0.5, 'no joint_states in the bag', ha='center',
                     transform=ax_phi.transAxes)
@@ -157,10 +159,12 @@ def plot_rbar_and_balls(resp: TimeResponse, out, title: str = '') -> None:
     _finish(fig, title, out)
 
 
-DECK_PANELS = (('(a) X', 'X (mm)', 1e3), ('(b) Y', 'Y (mm)', 1e3), ('(c) Z', 'Z (mm)', 1e3),
-               (r'(d) $\alpha$', r'$\alpha$ (deg)', np.degrees(1.0)),
-               (r'(e) $\beta$', r'$\beta$ (deg)', np.degrees(1.0)),
-               (r'(f) $\gamma$', r'$\gamma$ (deg)', np.degrees(1.0)))
+DECK_PANELS = (('(a) X, in-plane', 'X (mm)', 1e3), ('(b) Y, in-plane', 'Y (mm)', 1e3),
+               ('(c) Z, out-of-plane', 'Z (mm)', 1e3),
+               (r'(d) $\alpha$, out-of-plane', r'$\alpha$ (deg)', np.degrees(1.0)),
+               (r'(e) $\beta$, out-of-plane', r'$\beta$ (deg)', np.degrees(1.0)),
+               (r'(f) $\gamma$, in-plane', r'$\gamma$ (deg)', np.degrees(1.0)))
+"""Panels (a)-(f) of Figs. 12, 13: title, axis label, scale from SI."""
 
 
 def plot_deck_coordinates(resp: TimeResponse, out, title: str = '') -> None:
@@ -196,7 +200,7 @@ def plot_abb_comparison(with_abb: TimeResponse, without_abb: TimeResponse, out,
     for ax in axes:
         ax.set_ylabel(r'$\bar r$')
         ax.grid(alpha=0.3)
-        ax.legend(loc='upper right', fontsize=8)
+        ax.legend(**LEGEND_OUTSIDE)
     axes[1].set_xlabel('time (s)')
     _finish(fig, title, out)
 
