@@ -126,7 +126,9 @@ def _imu_samples(capsys, tmp_path, name, *settings):
     argv = ['run', '--scenario', 'p3', '--duration', '0.05', '--no-progress', '--out', str(out)]
     for s in settings:
         argv += ['--set', s]
-    assert main(argv) == 0, capsys.readouterr().err
+    code = main(argv)
+    assert code == 0, capsys.readouterr().err
+    capsys.readouterr()
     return [(m.linear_acceleration.x, m.linear_acceleration.y, m.linear_acceleration.z,
              m.angular_velocity.x, m.angular_velocity.y, m.angular_velocity.z)
             for topic, m, _ in read_bag(out) if topic == '/deck/imu']

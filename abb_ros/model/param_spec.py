@@ -24,8 +24,8 @@ from abb_ros.model.sensors import TYPICAL_IMU, ImuConfig
 
 __all__ = [
     'ParamError', 'ParamSpec', 'SPECS', 'DRIVE_PREFIX', 'DRIVE_SPECS', 'NODES', 'COMMANDS',
-    'specs_for', 'spec_for_command', 'cli_names', 'imu_config', 'check_rates', 'markdown', 'MAX_BALLS',
-    'RUBBER_C', 'METAL_C',
+    'specs_for', 'spec_for_command', 'cli_names', 'imu_config', 'check_rates', 'markdown',
+    'MAX_BALLS', 'RUBBER_C', 'METAL_C',
 ]
 
 RUBBER_C = 2.53
@@ -131,15 +131,16 @@ class ParamSpec:
             if not isinstance(value, str) or (self.choices and value not in self.choices):
                 raise ParamError(name, value, self.valid_text())
             return value
+        value = _plain(value)
         if self.type == DOUBLE_ARRAY:
-            ok = isinstance(value, (list, tuple)) and len(value) == self.length and all(
+            ok = isinstance(value, list) and len(value) == self.length and all(
                 _is_number(x) and math.isfinite(x) for x in value)
             if not ok:
-                raise ParamError(name, _plain(value), self.valid_text())
+                raise ParamError(name, value, self.valid_text())
             return [float(x) for x in value]
-        if not (isinstance(value, (list, tuple)) and all(isinstance(x, str) for x in value)):
-            raise ParamError(name, _plain(value), self.valid_text())
-        return list(value)
+        if not (isinstance(value, list) and all(isinstance(x, str) for x in value)):
+            raise ParamError(name, value, self.valid_text())
+        return value
 
     def _number(self, name, value):
         if not _is_number(value):
@@ -165,8 +166,10 @@ class ParamSpec:
 
 
 def _plain(value):
-    """A list for an array (rclpy gives array.array), else the value."""
-    return list(value) if hasattr(value, 'tolist') or isinstance(value, tuple) else value
+    """A list for a sequence (rclpy gives array.array for arrays), else the value."""
+    if isinstance(value, (str, bytes, dict)) or not hasattr(value, '__len__'):
+        return value
+    return list(value)
 
 
 _ALL_CLI = COMMANDS

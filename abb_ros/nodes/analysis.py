@@ -3,8 +3,8 @@
 Tells a controller, before the balls show it, whether the current operating point can be
 balanced. A thin rclpy adapter over :mod:`abb_ros.model.speed_bands`:
 
-* parameters ``drive.*`` are declared exactly as the simulator declares them
-  (one spec, :mod:`abb_ros.model.param_spec`), so both load the same YAML; at start-up and whenever the
+* parameters ``drive.*`` are declared exactly as the simulator declares them (one spec,
+  :mod:`abb_ros.model.param_spec`), so both load the same YAML; at start-up and whenever the
   simulator (parameter ``simulator_node``, resolved in this node's namespace) declares or
   changes ``drive.*`` or ``max_spindle_speed``, the values are copied into this node's own
   parameters (from ``/parameter_events``, and once by GetParameters for a simulator that was
