@@ -118,7 +118,10 @@ def main(args=None) -> int:
         pass
     except RecordingStopped:
         code = 1
-    except (BagError, ParamError) as exc:
+    except ParamError as exc:
+        print(f'abb_recorder: invalid parameter: {exc}', file=sys.stderr)
+        code = 2
+    except BagError as exc:
         print(f'abb_recorder: error: {exc}', file=sys.stderr)
         code = 2
     finally:

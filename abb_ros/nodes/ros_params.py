@@ -13,6 +13,7 @@ the nodes' set-parameters callbacks refuse bad values with the ParamError text.
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
@@ -49,8 +50,9 @@ def descriptor(spec: ParamSpec) -> ParameterDescriptor:
         d.integer_range = [IntegerRange(from_value=int(spec.low), to_value=int(spec.high),
                                         step=0)]
     elif spec.type == DOUBLE and spec.low is not None:
+        high = math.inf if spec.high is None else float(spec.high)
         d.floating_point_range = [FloatingPointRange(from_value=float(spec.low),
-                                                     to_value=float(spec.high), step=0.0)]
+                                                     to_value=high, step=0.0)]
     return d
 
 
