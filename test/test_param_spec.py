@@ -134,6 +134,7 @@ def _imu_samples(capsys, tmp_path, name, *settings):
             for topic, m, _ in read_bag(out) if topic == '/deck/imu']
 
 
+@pytest.mark.slow
 def test_run_set_imu_noise_zero_gives_a_noiseless_imu_in_the_bag(capsys, tmp_path):
     silent = [f'imu.{k}=0' for k in ('accel_noise_density', 'accel_bias',
                                      'accel_bias_random_walk', 'gyro_noise_density',
