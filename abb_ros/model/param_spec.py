@@ -48,13 +48,19 @@ DOUBLE_ARRAY, STRING_ARRAY = 'double_array', 'string_array'
 class ParamError(ValueError):
     """A parameter value outside its valid range (or of the wrong type).
 
-    Attributes ``name`` (the parameter), ``value`` and ``valid`` (the range, as text).
+    Attributes ``name`` (the parameter), ``value``, ``valid`` (the range, as text) and
+    ``why``.
     """
+
+    def renamed(self, name: str) -> 'ParamError':
+        """The same error naming ``name`` (e.g. the ROS name drive.k of the SI name k)."""
+        return ParamError(name, self.value, self.valid, self.why)
 
     def __init__(self, name: str, value: Any, valid: str, why: str = ''):
         self.name = name
         self.value = value
         self.valid = valid
+        self.why = why
         msg = f'parameter {name!r} = {value!r} is invalid: valid range is {valid}'
         if why:
             msg += f' ({why})'
@@ -383,7 +389,8 @@ def markdown() -> str:
              '(config/cdrom_table1.yaml, config/simulator.yaml); an integer literal for a '
              'double is taken as that double, at start-up and at run time. Invalid values '
              'or types at start-up end the node with exit code 2 and one line naming the '
-             'parameter; at run time the change is refused with the same text. '
+             'parameter; at run time an invalid value is refused with the same text (a wrong '
+             'type with rclpy\'s type error). '
              '`abb-sim` subcommands take the names in the `abb-sim --set` column (drive '
              'parameters without `drive.`), besides `omega` [rad/s] and the Eq. (39) names '
              'wbar, zeta, Dbar, epsbar, mbar.', '']

@@ -28,7 +28,7 @@ from abb_ros.model.sensors import ImuConfig
 
 __all__ = ['DRIVE_PREFIX', 'SIMULATOR_PARAMS', 'SimSettings', 'declare', 'declare_all',
            'coerce_on_set', 'descriptor', 'settings_from', 'current_values', 'validate_change',
-           'validate_merged', 'P3_WBAR']
+           'validate_merged', 'with_ros_names', 'P3_WBAR']
 
 P3_WBAR = 2.7
 """Default initial speed: the paper's point P3, wbar = 2.7 (with the drive's omega0)."""
@@ -124,7 +124,7 @@ def declare_all(node) -> tuple[DriveParams, SimSettings]:
     values."""
     drive_specs = {k: s for k, s in SIMULATOR_PARAMS.items() if k.startswith(DRIVE_PREFIX)}
     declare(node, drive_specs)
-    drive = DriveParams.from_mapping(
+    drive = with_ros_names(DriveParams.from_mapping)(
         {s.short: node.get_parameter(k).value for k, s in drive_specs.items()})
     declare(node, {k: s for k, s in SIMULATOR_PARAMS.items() if k not in drive_specs},
             {'spindle.initial_speed': P3_WBAR * drive.omega0})
@@ -161,6 +161,18 @@ def settings_from(values: Mapping[str, Any]) -> tuple[DriveParams, SimSettings]:
     return drive, settings
 
 
+def with_ros_names(function):
+    """``function`` whose ParamError names the ROS parameter (drive.k, not the SI name k)."""
+    def wrapped(*args, **kwargs):
+        try:
+            return function(*args, **kwargs)
+        except ParamError as err:
+            if DRIVE_PREFIX + err.name in SIMULATOR_PARAMS:
+                raise err.renamed(DRIVE_PREFIX + err.name) from None
+            raise
+    return wrapped
+
+
 def validate_merged(values: dict, parameters, build) -> SetParametersResult:
     """The proposed ``parameters`` merged into ``values`` ({ROS name: value}) must be accepted
     by ``build(values)`` (which raises ParamError otherwise). No side effects."""
@@ -169,7 +181,7 @@ def validate_merged(values: dict, parameters, build) -> SetParametersResult:
         if p.name in values:
             values[p.name] = p.value
     try:
-        build(values)
+        with_ros_names(build)(values)
     except ParamError as err:
         return SetParametersResult(successful=False, reason=str(err))
     except (TypeError, ValueError) as err:
