@@ -265,7 +265,7 @@ def test_refused_parameter_change_returns_the_reason_and_the_node_keeps_running(
     range passes the simulator's rules but leaves nothing to analyse."""
     results = graph.set_params('abb_analysis', drive__k=0.0)
     assert not results[0].successful
-    assert "'k'" in results[0].reason and 'valid range is (0, inf)' in results[0].reason
+    assert "'drive.k'" in results[0].reason and 'valid range is (0, inf)' in results[0].reason
     results = graph.set_params('abb_analysis', max_spindle_speed=0.0)
     assert not results[0].successful
     assert 'max_spindle_speed' in results[0].reason and 'speed range' in results[0].reason

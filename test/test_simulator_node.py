@@ -349,7 +349,7 @@ def test_refused_parameter_change_names_the_parameter_and_its_range(plant_factor
     plant.wait(lambda: states, 'joint_states')
     (k_zero,) = plant.set_params(**{'drive.k': 0.0})  # inside the ROS range [0, inf)
     assert not k_zero.successful
-    assert "'k'" in k_zero.reason and '(0, inf) N/m' in k_zero.reason
+    assert "'drive.k'" in k_zero.reason and '(0, inf) N/m' in k_zero.reason
     (rate,) = plant.set_params(publish_rate_hz=7)
     assert not rate.successful and 'divisor of integration_rate_hz' in rate.reason
     (pos,) = plant.set_params(**{'imu.position': [0.0, 1.0]})

@@ -18,7 +18,7 @@ def add_arguments(parser) -> None:
 
 def run(args) -> dict:
     base = DriveParams.from_yaml(args.config) if args.config else DriveParams()
-    params, _ = apply_settings(base, parse_settings(args.set))
+    params, _ = apply_settings(base, parse_settings(args.set, 'freqs'))
     freqs = natural_frequencies(params)
     out = {f'omega_{k}_rad_s': v for k, v in freqs.items()}
     out['omega0_rad_s'] = params.omega0

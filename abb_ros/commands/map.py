@@ -75,7 +75,7 @@ def run(args) -> dict:
     xs = np.linspace(*_range(args.range_x, args.x, args.plane), nx)
     ys = np.linspace(*_range(args.range_y, args.y, args.plane), ny)
     base = DriveParams.from_yaml(args.config) if args.config else DriveParams()
-    settings = parse_settings(args.set)
+    settings = parse_settings(args.set, 'map')
     t0 = time.perf_counter()
     with tqdm(total=nx * ny, unit='pt', file=sys.stderr, disable=args.no_progress,
               desc=f'{args.plane}-plane map') as bar:

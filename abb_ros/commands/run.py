@@ -2,11 +2,15 @@
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 
 import numpy as np
 
-from abb_ros.model.params import DriveParams
+from abb_ros.model.params import DIMENSIONLESS_NAMES, PARAM_SPECS, DriveParams
+
+DRIVE_SETTINGS = ('omega',) + DIMENSIONLESS_NAMES + tuple(PARAM_SPECS)
+"""--set names that go to the scenario's drive (the others are node parameters)."""
 
 DEFAULT_SCENARIO = 'p3'
 
@@ -19,12 +23,45 @@ def add_arguments(parser):
                         'file (default: %(default)s)')
     parser.add_argument('--set', action='append', default=[], metavar='KEY=VALUE',
                         help='SI (k, c, eps, m, n, omega, ...) or Eq. (39) name (wbar, zeta, '
-                        'Dbar, epsbar, mbar); repeatable')
+                        'Dbar, epsbar, mbar), or a simulator node parameter that applies '
+                        'headless (imu.*, seed, spindle.*, integration_rate_hz, '
+                        'publish_rate_hz; spindle.max_accel/tau select the motor model); '
+                        'repeatable (docs/parameters.md)')
     parser.add_argument('--duration', type=float, help='simulated seconds (default: scenario)')
     parser.add_argument('--out', help='write a rosbag2 MCAP directory here')
     parser.add_argument('--overwrite', action='store_true', help='replace an existing --out')
     parser.add_argument('--no-abb', action='store_true', help='the drive without balls (n = 0)')
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
+
+
+def _run_options(node: dict) -> dict:
+    """run_scenario's keyword arguments for the node parameters given with --set."""
+    from abb_ros.model.param_spec import check_rates, imu_config
+    check_rates(node)
+    options = {}
+    if 'integration_rate_hz' in node:
+        options['dt'] = 1.0 / node['integration_rate_hz']
+    if 'publish_rate_hz' in node:
+        options['publish_dt'] = 1.0 / node['publish_rate_hz']
+    if any(k.startswith('imu.') for k in node):
+        options['imu_config'] = imu_config(node)
+    if 'seed' in node:
+        options['seed'] = node['seed']
+    return options
+
+
+def _spindle(spindle, node: dict):
+    """The scenario's spindle with spindle.max_accel / spindle.tau applied (a constant-speed
+    spindle becomes the motor of the simulator node, with its defaults for the other)."""
+    from abb_ros.model.integrate import SpindleMotor
+    from abb_ros.model.param_spec import specs_for
+    changes = {k[len('spindle.'):]: v for k, v in node.items() if k.startswith('spindle.')}
+    if not changes:
+        return spindle
+    if not isinstance(spindle, SpindleMotor):
+        specs = specs_for('simulator')
+        spindle = SpindleMotor(specs['spindle.max_accel'].default, specs['spindle.tau'].default)
+    return dataclasses.replace(spindle, **changes)
 
 
 def _wrap_deg(phi):
@@ -39,11 +76,15 @@ def run(args) -> dict:
 
     base = DriveParams.from_yaml(args.config) if args.config else None
     scenario = load_scenario(args.scenario, base=base)
-    settings = parse_settings(args.set)
+    settings = parse_settings(args.set, 'run')
     if args.no_abb:
         settings['n'] = 0
+    node = {k: settings.pop(k) for k in list(settings) if k not in DRIVE_SETTINGS}
+    if 'spindle.initial_speed' in node:
+        settings['omega'] = node.pop('spindle.initial_speed')
     if settings:
         scenario = scenario.with_settings(settings)
+    scenario.spindle = _spindle(scenario.spindle, node)
     if args.duration is not None:
         if not (np.isfinite(args.duration) and args.duration > 0):
             raise ParamError('duration', args.duration, '(0, inf) s')
@@ -64,7 +105,8 @@ def run(args) -> dict:
                    desc=f'abb-sim run {scenario.name}', leave=False,
                    bar_format='{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]')
     try:
-        result = run_scenario(scenario, bag=bag, progress=bar.update if bar else None)
+        result = run_scenario(scenario, bag=bag, progress=bar.update if bar else None,
+                              **_run_options(node))
     finally:
         if bar is not None:
             bar.close()

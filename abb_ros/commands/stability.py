@@ -24,7 +24,7 @@ def add_arguments(parser) -> None:
 def operating_point(args):
     """(DriveParams, omega) from --config and --set; omega is required."""
     base = DriveParams.from_yaml(args.config) if args.config else DriveParams()
-    params, omega = apply_settings(base, parse_settings(args.set))
+    params, omega = apply_settings(base, parse_settings(args.set, 'stability'))
     if omega is None:
         raise UsageError('give the spindle speed with --set wbar=... or --set omega=... [rad/s]')
     if omega <= 0:

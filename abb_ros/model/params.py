@@ -21,85 +21,21 @@ import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
+from abb_ros.model.param_spec import (DRIVE_SPECS, MAX_BALLS, METAL_C, RUBBER_C, ParamError,
+                                      ParamSpec)
+
 __all__ = [
     'ParamError', 'DriveParams', 'PARAM_SPECS', 'DIMENSIONLESS_NAMES', 'METAL_C', 'RUBBER_C',
-    'apply_settings', 'parse_value', 'omega_from_wbar',
+    'apply_settings', 'parse_value', 'omega_from_wbar', 'MAX_BALLS',
 ]
 
-RUBBER_C = 2.53
-"""Washer damping c of rubber suspension washers [kg/s] (Table 1)."""
-METAL_C = 0.66
-"""Washer damping c of metal suspension washers [kg/s] (Table 1)."""
-
-MAX_BALLS = 64
-"""Largest ball count accepted (the race of a real drive holds about 10)."""
+PARAM_SPECS: dict[str, ParamSpec] = {s.short: s for s in DRIVE_SPECS}
+"""{SI name: spec} of the drive parameters (abb_ros/model/param_spec.py)."""
 
 
-class ParamError(ValueError):
-    """A parameter value outside its valid range.
+def _default(name):
+    return PARAM_SPECS[name].default
 
-    Attributes ``name`` (the parameter), ``value`` and ``valid`` (the range, as text).
-    """
-
-    def __init__(self, name: str, value: Any, valid: str, why: str = ''):
-        self.name = name
-        self.value = value
-        self.valid = valid
-        msg = f'parameter {name!r} = {value!r} is invalid: valid range is {valid}'
-        if why:
-            msg += f' ({why})'
-        super().__init__(msg)
-
-
-@dataclass(frozen=True)
-class _Spec:
-    unit: str
-    description: str
-    low: float          # bound
-    low_open: bool      # True: value must be > low, False: >= low
-    high: float = math.inf
-
-    def valid_text(self) -> str:
-        lo = f'({self.low:g}' if self.low_open else f'[{self.low:g}'
-        hi = 'inf)' if math.isinf(self.high) else f'{self.high:g}]'
-        return f'{lo}, {hi} {self.unit}'.rstrip()
-
-    def check(self, name: str, value: Any) -> None:
-        if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise ParamError(name, value, self.valid_text(), 'not a number')
-        if not math.isfinite(value):
-            raise ParamError(name, value, self.valid_text(), 'not finite')
-        if value < self.low or (self.low_open and value == self.low) or value > self.high:
-            raise ParamError(name, value, self.valid_text())
-
-
-_POS = dict(low=0.0, low_open=True)
-_NONNEG = dict(low=0.0, low_open=False)
-
-PARAM_SPECS: dict[str, _Spec] = {
-    'a': _Spec('m', 'width of the feeding deck, a', **_POS),
-    'b': _Spec('m', 'length of the feeding deck, b', **_POS),
-    'd': _Spec('m', 'distance between C (spindle axis) and P (deck mass centre), d',
-               low=-1.0, low_open=False, high=1.0),
-    'R': _Spec('m', 'mean (pitch) radius of the ball race, R', **_POS),
-    'M_P': _Spec('kg', 'mass of the feeding-deck assembly, M_P', **_POS),
-    'M': _Spec('kg', 'mass of the equivalent rotor, M', **_POS),
-    'm': _Spec('kg', 'mass of one balancing ball, m', **_POS),
-    'J_Px': _Spec('kg m^2', 'deck moment of inertia about x through P, J_Px', **_POS),
-    'J_Py': _Spec('kg m^2', 'deck moment of inertia about y through P, J_Py', **_POS),
-    'J_Pz': _Spec('kg m^2', 'deck moment of inertia about z through P, J_Pz', **_POS),
-    'J_x': _Spec('kg m^2', 'rotor moment of inertia about x, J_x', **_POS),
-    'J_y': _Spec('kg m^2', 'rotor moment of inertia about y, J_y', **_POS),
-    'J_z': _Spec('kg m^2', 'rotor moment of inertia about the spin axis z, J_z', **_POS),
-    'k': _Spec('N/m', 'stiffness of one suspension washer, k', **_POS),
-    'c': _Spec('kg/s', 'damping of one suspension washer, c (rubber 2.53, metal 0.66)',
-               **_NONNEG),
-    'D': _Spec('kg m^2/s', 'viscous drag coefficient of one ball in the race fluid, D',
-               **_NONNEG),
-    'eps': _Spec('m', 'mass eccentricity of the rotor, epsilon', **_NONNEG),
-    'n': _Spec('', 'number of balancing balls, n (0 = drive without ABB)',
-               low=0, low_open=False, high=MAX_BALLS),
-}
 
 DIMENSIONLESS_NAMES = ('mbar', 'epsbar', 'zeta', 'Dbar', 'wbar')
 """Eq. (39) names accepted by :func:`apply_settings`, applied in this order."""
@@ -112,28 +48,28 @@ class DriveParams:
     Defaults are Table 1 of the paper with rubber washers, eps = 0.25 mm and n = 2.
     """
 
-    a: float = 0.070
-    b: float = 0.110
-    d: float = 0.030
-    R: float = 0.015
-    M_P: float = 0.150
-    M: float = 0.026
-    m: float = 0.43e-3
-    J_Px: float = 1.43e-4
-    J_Py: float = 0.31e-4
-    J_Pz: float = 1.74e-4
-    J_x: float = 1.46e-6
-    J_y: float = 1.46e-6
-    J_z: float = 2.93e-6
-    k: float = 3972.0
-    c: float = RUBBER_C
-    D: float = 5e-6
-    eps: float = 0.25e-3
-    n: int = 2
+    a: float = _default('a')
+    b: float = _default('b')
+    d: float = _default('d')
+    R: float = _default('R')
+    M_P: float = _default('M_P')
+    M: float = _default('M')
+    m: float = _default('m')
+    J_Px: float = _default('J_Px')
+    J_Py: float = _default('J_Py')
+    J_Pz: float = _default('J_Pz')
+    J_x: float = _default('J_x')
+    J_y: float = _default('J_y')
+    J_z: float = _default('J_z')
+    k: float = _default('k')
+    c: float = _default('c')
+    D: float = _default('D')
+    eps: float = _default('eps')
+    n: int = _default('n')
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
-            PARAM_SPECS[f.name].check(f.name, getattr(self, f.name))
+            PARAM_SPECS[f.name].check(getattr(self, f.name), f.name)
         if abs(self.J_x - self.J_y) > 1e-9 * max(self.J_x, self.J_y):
             raise ParamError('J_y', self.J_y, f'equal to J_x = {self.J_x:g} kg m^2',
                              'the equations of motion (Eqs. 21, 22) hold for an axisymmetric '

@@ -3,8 +3,8 @@
 Tells a controller, before the balls show it, whether the current operating point can be
 balanced. A thin rclpy adapter over :mod:`abb_ros.model.speed_bands`:
 
-* parameters ``drive.*`` are declared exactly as the simulator declares them
-  (:mod:`abb_ros.nodes.ros_params`), so both load the same YAML; at start-up and whenever the
+* parameters ``drive.*`` are declared exactly as the simulator declares them (one spec,
+  :mod:`abb_ros.model.param_spec`), so both load the same YAML; at start-up and whenever the
   simulator (parameter ``simulator_node``, resolved in this node's namespace) declares or
   changes ``drive.*`` or ``max_spindle_speed``, the values are copied into this node's own
   parameters (from ``/parameter_events``, and once by GetParameters for a simulator that was
@@ -24,10 +24,8 @@ from __future__ import annotations
 import math
 import sys
 import time
-from dataclasses import fields
 
-from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
-                                ParameterEvent, SetParametersResult)
+from rcl_interfaces.msg import ParameterEvent, SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
@@ -37,6 +35,7 @@ from std_msgs.msg import Float64
 
 from abb_ros.io import ros_messages
 from abb_ros.model import speed_bands
+from abb_ros.model.param_spec import DRIVE_PREFIX, specs_for
 from abb_ros.model.params import DriveParams, ParamError
 from abb_ros.nodes import ros_params
 from abb_ros.nodes.entry_point import run_node
@@ -47,46 +46,23 @@ QOS_DEPTH = 10
 SYNC_PERIOD_S = 1.0
 WARN_THROTTLE_S = 5.0
 
-DRIVE_NAMES = tuple(ros_params.DRIVE_PREFIX + f.name for f in fields(DriveParams))
+PARAMS = specs_for('analysis')
+"""{ROS name: spec}: drive.* and max_spindle_speed as the simulator has them, then this
+node's own (abb_ros/model/param_spec.py)."""
+DRIVE_NAMES = tuple(name for name in PARAMS if name.startswith(DRIVE_PREFIX))
 FOLLOWED = DRIVE_NAMES + ('max_spindle_speed',)
 """Simulator parameters this node copies."""
 
-OWN_PARAMS = {
-    'simulator_node': ('abb_simulator', 'node whose drive.* and max_spindle_speed are followed '
-                       '(relative names resolve in this node\'s namespace); fixed at start-up',
-                       None, None, True),
-    'publish_rate_hz': (50.0, 'largest rate of stability/margin and the status [Hz]',
-                        0.1, 1000.0, False),
-    'heartbeat_s': (1.0, 'status republished at least this often [s]', 0.01, 3600.0, False),
-    'table_points': (speed_bands.TABLE_POINTS, 'speeds in the |lambda|max table over '
-                     '0..max_spindle_speed []', 16, 20000, False),
-}
-"""Parameters only this node has: default, description, closed range, read-only."""
-
 
 def declare_parameters(node: Node) -> None:
-    """drive.* and max_spindle_speed as the simulator declares them, then OWN_PARAMS."""
-    defaults = DriveParams()
-    for name in DRIVE_NAMES:
-        field_name = name[len(ros_params.DRIVE_PREFIX):]
-        node.declare_parameter(name, getattr(defaults, field_name),
-                               ros_params.drive_descriptor(field_name))
-    spec = ros_params.NODE_PARAMS['max_spindle_speed']
-    node.declare_parameter('max_spindle_speed', spec.default,
-                           ros_params.descriptor('max_spindle_speed', spec))
-    for name, (default, text, low, high, read_only) in OWN_PARAMS.items():
-        d = ParameterDescriptor(description=text, read_only=read_only)
-        if isinstance(low, int) and isinstance(default, int):
-            d.integer_range = [IntegerRange(from_value=low, to_value=high, step=0)]
-        elif low is not None:
-            d.floating_point_range = [FloatingPointRange(from_value=float(low),
-                                                         to_value=float(high), step=0.0)]
-        node.declare_parameter(name, default, d)
+    """Declare PARAMS (start-up values checked, int -> double accepted; ParamError)."""
+    ros_params.declare(node, PARAMS)
+    ros_params.coerce_on_set(node, PARAMS)
 
 
 def config_from(values: dict) -> tuple[DriveParams, float, int]:
     """(drive, max_spindle_speed [rad/s], table_points) from {ROS name: value}; ParamError."""
-    drive = DriveParams.from_mapping({k[len(ros_params.DRIVE_PREFIX):]: v
+    drive = DriveParams.from_mapping({k[len(DRIVE_PREFIX):]: v
                                       for k, v in values.items() if k in DRIVE_NAMES})
     omega_max = values['max_spindle_speed']
     if not (math.isfinite(omega_max) and omega_max > 0):

@@ -17,17 +17,17 @@ import time
 
 import rclpy
 import rclpy.logging
-from rcl_interfaces.msg import IntegerRange, ParameterDescriptor
 from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from abb_ros.io import msgdefs
-from abb_ros.io.bag_writer import DEFAULT_CHUNK_SIZE, BagError, BagWriteError, BagWriter
+from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
+from abb_ros.model.param_spec import ParamError, specs_for
+from abb_ros.nodes import ros_params
 
-DEFAULT_TOPICS = ['joint_states', 'deck/pose', 'deck/twist', 'deck/imu', 'stability/margin',
-                  '/diagnostics', 'spindle/speed_cmd']
-DEFAULT_QUEUE_DEPTH = 1000  # 1 s of messages at 1 kHz before the middleware drops any
+PARAMS = specs_for('recorder')
+"""{ROS name: spec} of the recorder's parameters (abb_ros/model/param_spec.py)."""
 
 
 class RecordingStopped(Exception):
@@ -53,26 +53,9 @@ class Recorder(Node):
 
     def __init__(self, **kwargs):
         super().__init__('abb_recorder', **kwargs)
-        topics = self.declare_parameter(
-            'topics', DEFAULT_TOPICS,
-            ParameterDescriptor(description='topics to record')).value
-        output = self.declare_parameter(
-            'output', '', ParameterDescriptor(
-                description='bag directory (must not exist); empty: abb_bag_<date>-<time>')).value
-        chunk_size = self.declare_parameter(
-            'chunk_size', DEFAULT_CHUNK_SIZE, ParameterDescriptor(
-                description='MCAP chunk size [bytes]; a crash loses at most one chunk',
-                integer_range=[IntegerRange(from_value=256, to_value=1 << 30, step=1)])).value
-        compression = self.declare_parameter(
-            'compression', 'zstd', ParameterDescriptor(
-                description='chunk compression: zstd, lz4 or none')).value
-        self._depth = self.declare_parameter(
-            'queue_depth', DEFAULT_QUEUE_DEPTH, ParameterDescriptor(
-                description='subscription queue depth [messages]',
-                integer_range=[IntegerRange(from_value=1, to_value=100000, step=1)])).value
-        period = self.declare_parameter(
-            'discovery_period', 0.5, ParameterDescriptor(
-                description='how often the graph is searched for new topics [s]')).value
+        ros_params.declare(self, PARAMS)
+        topics, output, chunk_size, compression, self._depth, period = (
+            self.get_parameter(name).value for name in PARAMS)
         self.bag = BagWriter(output or default_output(), chunk_size=chunk_size,
                              compression=compression)
         self._wanted = {self.resolve_topic_name(t) for t in topics}
@@ -135,6 +118,9 @@ def main(args=None) -> int:
         pass
     except RecordingStopped:
         code = 1
+    except ParamError as exc:
+        print(f'abb_recorder: invalid parameter: {exc}', file=sys.stderr)
+        code = 2
     except BagError as exc:
         print(f'abb_recorder: error: {exc}', file=sys.stderr)
         code = 2

@@ -1,81 +1,93 @@
-"""The simulator's ROS parameters: declaration with descriptors, and validation.
+"""ROS parameters from the one spec (abb_ros/model/param_spec.py): descriptors, the declare
+loop of the nodes, int -> double coercion, and the simulator's validated settings.
 
-``drive.<name>`` are the physical parameters of :class:`abb_ros.model.params.DriveParams`
-(SI, Table 1 defaults, the same names as config/cdrom_table1.yaml); the node's own
-parameters are listed in :data:`NODE_PARAMS`. :func:`settings_from` turns a flat mapping of
-parameter values into validated (DriveParams, SimSettings) and raises ParamError: the
-set-parameters callback uses it on the proposed values merged with the current ones, so
-a change is refused with the same text the CLI prints.
+:func:`declare` declares a node's parameters with descriptors derived from their specs. It
+checks the start-up values (``-p``, ``--params-file``) against the spec before rclpy sees
+them: an integer literal for a double (``-p drive.k:=4000``) is taken as that double (4000.0);
+any other wrong type or bad value raises ParamError naming the ROS parameter, which ends the
+node with exit code 2 (:func:`abb_ros.nodes.entry_point.run_node`). At run time
+:func:`coerce_on_set` does the same int -> double conversion before rclpy's type check, and
+the nodes' set-parameters callbacks refuse bad values with the ParamError text.
+:func:`settings_from` turns the simulator's values into validated (DriveParams, SimSettings).
 """
 
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Any, Mapping
 
 from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
                                 SetParametersResult)
+from rclpy.parameter import Parameter
 
-from abb_ros.model.params import PARAM_SPECS, DriveParams, ParamError
-from abb_ros.model.integrate import DEFAULT_DT
-from abb_ros.model.sensors import TYPICAL_IMU, ImuConfig
+from abb_ros.model.param_spec import (DOUBLE, DOUBLE_ARRAY, DRIVE_PREFIX, INTEGER, ParamSpec,
+                                      check_rates, imu_config, specs_for)
+from abb_ros.model.params import DriveParams, ParamError
+from abb_ros.model.sensors import ImuConfig
 
-__all__ = ['DRIVE_PREFIX', 'NODE_PARAMS', 'SimSettings', 'declare_all', 'settings_from',
-           'current_values', 'validate_change', 'P3_WBAR']
+__all__ = ['DRIVE_PREFIX', 'SIMULATOR_PARAMS', 'SimSettings', 'declare', 'declare_all',
+           'coerce_on_set', 'descriptor', 'settings_from', 'current_values', 'validate_change',
+           'validate_merged', 'with_ros_names', 'P3_WBAR']
 
-DRIVE_PREFIX = 'drive.'
 P3_WBAR = 2.7
 """Default initial speed: the paper's point P3, wbar = 2.7 (with the drive's omega0)."""
 
-
-@dataclass(frozen=True)
-class _P:
-    default: Any
-    description: str
-    low: float | None = None
-    high: float | None = None
-    read_only: bool = False
+SIMULATOR_PARAMS: dict[str, ParamSpec] = specs_for('simulator')
+"""{ROS name: spec} of every simulator parameter, drive.* first."""
 
 
-_INF = math.inf
-NODE_PARAMS: dict[str, _P] = {
-    'integration_rate_hz': _P(int(round(1.0 / DEFAULT_DT)), 'fixed RK4 step rate [Hz]; 1e9 '
-                              'must be a multiple of '
-                              'it (integer-nanosecond step); fixed at start-up', 10, 10**7,
-                              read_only=True),
-    'publish_rate_hz': _P(1000, 'rate of joint_states, deck/pose, deck/twist and /clock [Hz]; '
-                          'must divide integration_rate_hz', 1, 10**6),
-    'real_time_factor': _P(1.0, 'simulated seconds per wall second (1 = wall clock, HIL); '
-                           '0 = as fast as possible []', 0.0, 1000.0),
-    'start_paused': _P(False, 'start with integration paused (use ~/pause, ~/step)',
-                       read_only=True),
-    'max_spindle_speed': _P(1500.0, 'largest accepted spindle/speed_cmd [rad/s]', 0.0, _INF),
-    'spindle.initial_speed': _P(None, 'spindle speed at start and after ~/reset [rad/s]; '
-                                'default wbar = 2.7 (P3) with the drive omega0', 0.0, _INF),
-    'spindle.max_accel': _P(2000.0, 'spindle motor acceleration limit [rad/s^2]', 0.0, _INF),
-    'spindle.tau': _P(0.05, 'spindle motor speed-loop time constant [s]', 0.0, _INF),
-    'seed': _P(0, 'seed of the IMU noise generator (applies on ~/reset)', 0, 2**31 - 1),
-    'imu.rate_hz': _P(int(TYPICAL_IMU.rate), 'IMU output rate [Hz]; must divide '
-                      'integration_rate_hz', 1, 10**6),
-    'imu.position': _P([0.0, 0.0, 0.0], 'IMU mounting point on the deck, deck axes from C '
-                       '[m] (3 finite values)'),
-    'imu.gravity': _P(False, 'add gravity (-Z of base) to the specific force (the paper '
-                      'neglects it)'),
-    'imu.accel_noise_density': _P(TYPICAL_IMU.accel_noise_density,
-                                  'accelerometer white noise [m/s^2/sqrt(Hz)]', 0.0, _INF),
-    'imu.accel_bias': _P(TYPICAL_IMU.accel_bias, 'accelerometer turn-on bias std [m/s^2]',
-                         0.0, _INF),
-    'imu.accel_bias_random_walk': _P(TYPICAL_IMU.accel_bias_random_walk,
-                                     'accelerometer bias random walk [m/s^3/sqrt(Hz)]',
-                                     0.0, _INF),
-    'imu.gyro_noise_density': _P(TYPICAL_IMU.gyro_noise_density,
-                                 'gyro white noise [rad/s/sqrt(Hz)]', 0.0, _INF),
-    'imu.gyro_bias': _P(TYPICAL_IMU.gyro_bias, 'gyro turn-on bias std [rad/s]', 0.0, _INF),
-    'imu.gyro_bias_random_walk': _P(TYPICAL_IMU.gyro_bias_random_walk,
-                                    'gyro bias random walk [rad/s^2/sqrt(Hz)]', 0.0, _INF),
-}
-"""The node's own parameters: default, description with units, closed range, read-only."""
+def descriptor(spec: ParamSpec) -> ParameterDescriptor:
+    """The ROS descriptor of ``spec``. ROS ranges are closed: an open bound (k > 0) is
+    checked by the spec in the set-parameters callback."""
+    valid = spec.valid_text()
+    text = f'{spec.description} [{spec.unit or "-"}]; valid {valid}'
+    if spec.applies:
+        text += f'; takes effect {spec.applies}'
+    d = ParameterDescriptor(description=text, read_only=spec.read_only,
+                            additional_constraints=f'valid {valid}')
+    if spec.type == INTEGER and spec.low is not None:
+        d.integer_range = [IntegerRange(from_value=int(spec.low), to_value=int(spec.high),
+                                        step=0)]
+    elif spec.type == DOUBLE and spec.low is not None:
+        high = math.inf if spec.high is None else float(spec.high)
+        d.floating_point_range = [FloatingPointRange(from_value=float(spec.low),
+                                                     to_value=high, step=0.0)]
+    return d
+
+
+def declare(node, specs: Mapping[str, ParamSpec], defaults: Mapping[str, Any] = None) -> None:
+    """Declare ``specs`` on ``node`` ({ROS name: spec}; ``defaults`` replace spec defaults).
+
+    The start-up overrides are checked first (strict types; an int for a double becomes the
+    double); raises ParamError naming the ROS parameter and what is valid."""
+    defaults = defaults or {}
+    overrides = node._parameter_overrides   # rclpy's -p / --params-file values, by name
+    for name, spec in specs.items():
+        if name in overrides:
+            value = spec.check(overrides[name].value, name, strict=True)
+            overrides[name] = Parameter(name, value=value)
+        node.declare_parameter(name, defaults.get(name, spec.default), descriptor(spec))
+
+
+def coerce_on_set(node, specs: Mapping[str, ParamSpec]) -> None:
+    """Accept an integer for a double parameter at run time too (``ros2 param set ... 4000``):
+    a pre-set callback re-types it as a double before rclpy compares it with the declared
+    type. Other wrong types are refused by rclpy's type check."""
+    int_types = {DOUBLE: Parameter.Type.INTEGER, DOUBLE_ARRAY: Parameter.Type.INTEGER_ARRAY}
+
+    def coerce(parameters):
+        out = []
+        for p in parameters:
+            spec = specs.get(p.name)
+            if spec is not None and int_types.get(spec.type) == p.type_:
+                value = p.value
+                value = float(value) if spec.type == DOUBLE else [float(x) for x in value]
+                p = Parameter(p.name, value=value)
+            out.append(p)
+        return out
+
+    node.add_pre_set_parameters_callback(coerce)
 
 
 @dataclass(frozen=True)
@@ -106,91 +118,59 @@ class SimSettings:
         return self.integration_rate_hz // int(self.imu.rate)
 
 
-def descriptor(name: str, spec: _P) -> ParameterDescriptor:
-    d = ParameterDescriptor(description=spec.description, read_only=spec.read_only)
-    if spec.low is None:
-        return d
-    if isinstance(spec.low, int) and not isinstance(spec.default, float):
-        d.integer_range = [IntegerRange(from_value=int(spec.low), to_value=int(spec.high),
-                                        step=0)]
-    else:
-        d.floating_point_range = [FloatingPointRange(from_value=float(spec.low),
-                                                     to_value=float(spec.high), step=0.0)]
-    return d
-
-
-def drive_descriptor(name: str) -> ParameterDescriptor:
-    spec = PARAM_SPECS[name]
-    d = ParameterDescriptor(description=f'{spec.description} [{spec.unit or "-"}]; valid '
-                            f'{spec.valid_text()}' + ('; a change applies on ~/reset'
-                                                      if name == 'n' else ''))
-    if name == 'n':
-        d.integer_range = [IntegerRange(from_value=int(spec.low), to_value=int(spec.high),
-                                        step=1)]
-    else:
-        # ROS ranges are closed; an open bound (e.g. k > 0) is checked by DriveParams.
-        d.floating_point_range = [FloatingPointRange(from_value=float(spec.low),
-                                                     to_value=float(spec.high), step=0.0)]
-    return d
-
-
 def declare_all(node) -> tuple[DriveParams, SimSettings]:
-    """Declare every parameter on ``node`` (overrides from --params-file / -p win over the
-    defaults) and return them validated; raises ParamError for invalid start-up values."""
-    defaults = DriveParams()
-    for f in fields(DriveParams):
-        node.declare_parameter(DRIVE_PREFIX + f.name, getattr(defaults, f.name),
-                               drive_descriptor(f.name))
-    drive = DriveParams.from_mapping(
-        {f.name: node.get_parameter(DRIVE_PREFIX + f.name).value for f in fields(DriveParams)})
-    for name, spec in NODE_PARAMS.items():
-        default = spec.default
-        if name == 'spindle.initial_speed':
-            default = P3_WBAR * drive.omega0
-        node.declare_parameter(name, default, descriptor(name, spec))
+    """Declare every simulator parameter on ``node`` (overrides from --params-file / -p win
+    over the defaults) and return them validated; raises ParamError for invalid start-up
+    values."""
+    drive_specs = {k: s for k, s in SIMULATOR_PARAMS.items() if k.startswith(DRIVE_PREFIX)}
+    declare(node, drive_specs)
+    drive = with_ros_names(DriveParams.from_mapping)(
+        {s.short: node.get_parameter(k).value for k, s in drive_specs.items()})
+    declare(node, {k: s for k, s in SIMULATOR_PARAMS.items() if k not in drive_specs},
+            {'spindle.initial_speed': P3_WBAR * drive.omega0})
+    coerce_on_set(node, SIMULATOR_PARAMS)
     return settings_from(current_values(node))
 
 
 def current_values(node) -> dict[str, Any]:
     """Every simulator parameter's current value, by ROS name."""
-    names = [DRIVE_PREFIX + f.name for f in fields(DriveParams)] + list(NODE_PARAMS)
-    return {name: node.get_parameter(name).value for name in names}
+    return {name: node.get_parameter(name).value for name in SIMULATOR_PARAMS}
 
 
 def settings_from(values: Mapping[str, Any]) -> tuple[DriveParams, SimSettings]:
     """Validated parameters from a flat {ROS name: value} mapping; raises ParamError."""
     drive = DriveParams.from_mapping(
         {k[len(DRIVE_PREFIX):]: v for k, v in values.items() if k.startswith(DRIVE_PREFIX)})
-    rate = int(values['integration_rate_hz'])
-    if 1_000_000_000 % rate:
-        raise ParamError('integration_rate_hz', rate, 'a divisor of 1e9 (e.g. 10000, 20000, '
-                         '40000, 50000)', 'the step must be a whole number of nanoseconds')
-    for name in ('publish_rate_hz', 'imu.rate_hz'):
-        if rate % int(values[name]):
-            raise ParamError(name, values[name], f'a divisor of integration_rate_hz = {rate}')
-    position = values['imu.position']
-    if len(position) != 3 or not all(math.isfinite(x) for x in position):
-        raise ParamError('imu.position', list(position), '3 finite values [m]')
-    for name in ('spindle.max_accel', 'spindle.tau'):
-        if values[name] <= 0:
-            raise ParamError(name, values[name], f'(0, inf) {NODE_PARAMS[name].description}')
+    for name, spec in SIMULATOR_PARAMS.items():
+        if not name.startswith(DRIVE_PREFIX):
+            spec.check(values[name], name)
+    check_rates(values)
     if values['spindle.initial_speed'] > values['max_spindle_speed']:
         raise ParamError('spindle.initial_speed', values['spindle.initial_speed'],
                          f'[0, max_spindle_speed = {values["max_spindle_speed"]:g}] rad/s')
-    imu = ImuConfig(position=tuple(float(x) for x in position),
-                    rate=float(values['imu.rate_hz']), gravity=bool(values['imu.gravity']),
-                    **{k: float(values['imu.' + k]) for k in (
-                        'accel_noise_density', 'accel_bias', 'accel_bias_random_walk',
-                        'gyro_noise_density', 'gyro_bias', 'gyro_bias_random_walk')})
     settings = SimSettings(
-        integration_rate_hz=rate, publish_rate_hz=int(values['publish_rate_hz']),
+        integration_rate_hz=int(values['integration_rate_hz']),
+        publish_rate_hz=int(values['publish_rate_hz']),
         real_time_factor=float(values['real_time_factor']),
         start_paused=bool(values['start_paused']),
         max_spindle_speed=float(values['max_spindle_speed']),
         initial_speed=float(values['spindle.initial_speed']),
         spindle_max_accel=float(values['spindle.max_accel']),
-        spindle_tau=float(values['spindle.tau']), seed=int(values['seed']), imu=imu)
+        spindle_tau=float(values['spindle.tau']), seed=int(values['seed']),
+        imu=imu_config(values))
     return drive, settings
+
+
+def with_ros_names(function):
+    """``function`` whose ParamError names the ROS parameter (drive.k, not the SI name k)."""
+    def wrapped(*args, **kwargs):
+        try:
+            return function(*args, **kwargs)
+        except ParamError as err:
+            if DRIVE_PREFIX + err.name in SIMULATOR_PARAMS:
+                raise err.renamed(DRIVE_PREFIX + err.name) from None
+            raise
+    return wrapped
 
 
 def validate_merged(values: dict, parameters, build) -> SetParametersResult:
@@ -201,7 +181,7 @@ def validate_merged(values: dict, parameters, build) -> SetParametersResult:
         if p.name in values:
             values[p.name] = p.value
     try:
-        build(values)
+        with_ros_names(build)(values)
     except ParamError as err:
         return SetParametersResult(successful=False, reason=str(err))
     except (TypeError, ValueError) as err:

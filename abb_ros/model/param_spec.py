@@ -1,0 +1,420 @@
+"""Every parameter of abb_ros, specified once: name, default, unit, range, type, where it applies.
+
+One :class:`ParamSpec` per parameter; :data:`SPECS` lists them all. Derived from it:
+
+* the drive parameters :class:`abb_ros.model.params.DriveParams` (SI, Table 1 defaults);
+* the ROS parameter descriptors and the declare loop of the nodes
+  (:mod:`abb_ros.nodes.ros_params`);
+* the validation: :meth:`ParamSpec.check`, one :class:`ParamError` text everywhere;
+* the names ``abb-sim`` accepts with ``--set`` (:func:`cli_names`);
+* the parameter table docs/parameters.md
+  (``python -m abb_ros.model.param_spec --markdown > docs/parameters.md``).
+
+Pure Python (no rclpy): the model layer.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import dataclass
+from typing import Any, Iterable, Mapping
+
+from abb_ros.model.sensors import TYPICAL_IMU, ImuConfig
+
+__all__ = [
+    'ParamError', 'ParamSpec', 'SPECS', 'DRIVE_PREFIX', 'DRIVE_SPECS', 'NODES', 'COMMANDS',
+    'specs_for', 'spec_for_command', 'cli_names', 'imu_config', 'check_rates', 'markdown',
+    'MAX_BALLS', 'RUBBER_C', 'METAL_C',
+]
+
+RUBBER_C = 2.53
+"""Washer damping c of rubber suspension washers [kg/s] (Table 1)."""
+METAL_C = 0.66
+"""Washer damping c of metal suspension washers [kg/s] (Table 1)."""
+MAX_BALLS = 64
+"""Largest ball count accepted (the race of a real drive holds about 10)."""
+
+DRIVE_PREFIX = 'drive.'
+NODES = ('simulator', 'analysis', 'recorder')
+"""Executables with ROS parameters (``ros2 run abb_ros <node>``)."""
+COMMANDS = ('run', 'stability', 'freqs', 'map')
+"""``abb-sim`` subcommands with ``--set``."""
+
+DOUBLE, INTEGER, BOOL, STRING = 'double', 'integer', 'bool', 'string'
+DOUBLE_ARRAY, STRING_ARRAY = 'double_array', 'string_array'
+
+
+class ParamError(ValueError):
+    """A parameter value outside its valid range (or of the wrong type).
+
+    Attributes ``name`` (the parameter), ``value``, ``valid`` (the range, as text) and
+    ``why``.
+    """
+
+    def renamed(self, name: str) -> 'ParamError':
+        """The same error naming ``name`` (e.g. the ROS name drive.k of the SI name k)."""
+        return ParamError(name, self.value, self.valid, self.why)
+
+    def __init__(self, name: str, value: Any, valid: str, why: str = ''):
+        self.name = name
+        self.value = value
+        self.valid = valid
+        self.why = why
+        msg = f'parameter {name!r} = {value!r} is invalid: valid range is {valid}'
+        if why:
+            msg += f' ({why})'
+        super().__init__(msg)
+
+
+def _is_number(value) -> bool:
+    return isinstance(value, (int, float)) and not isinstance(value, bool)
+
+
+@dataclass(frozen=True)
+class ParamSpec:
+    """One parameter. ``name`` is the ROS name (``drive.k``, ``imu.rate_hz``); ``low``/``high``
+    bound numbers (None: unbounded), ``*_open`` makes a bound exclusive; ``default`` None is
+    computed when declared (documented in ``description``)."""
+
+    name: str
+    default: Any
+    unit: str
+    description: str
+    type: str = DOUBLE
+    low: float | None = None
+    high: float | None = None
+    low_open: bool = False
+    high_open: bool = False
+    read_only: bool = False
+    applies: str = ''
+    nodes: tuple = ()
+    commands: tuple = ()
+    length: int | None = None
+    choices: tuple = ()
+
+    @property
+    def short(self) -> str:
+        """The name without ``drive.``: the SI name of DriveParams and of ``--set``."""
+        return self.name[len(DRIVE_PREFIX):] if self.name.startswith(DRIVE_PREFIX) else self.name
+
+    def valid_text(self) -> str:
+        """What is valid, e.g. ``(0, inf) N/m``."""
+        if self.type in (DOUBLE, INTEGER):
+            low = -math.inf if self.low is None else self.low
+            high = math.inf if self.high is None else self.high
+            fmt = (lambda x: str(int(x))) if self.type == INTEGER else (lambda x: f'{x:g}')
+            lo = '(-inf' if math.isinf(low) else ('(' if self.low_open else '[') + fmt(low)
+            hi = 'inf)' if math.isinf(high) else fmt(high) + (')' if self.high_open else ']')
+            return f'{lo}, {hi} {self.unit}'.rstrip()
+        if self.type == BOOL:
+            return 'true or false'
+        if self.type == STRING:
+            return 'one of ' + ', '.join(self.choices) if self.choices else 'a string'
+        if self.type == DOUBLE_ARRAY:
+            return f'{self.length} finite values [{self.unit}]'
+        return 'a list of strings'
+
+    def check(self, value: Any, name: str | None = None, strict: bool = False) -> Any:
+        """``value`` if valid (an int for a double becomes a float); raises ParamError naming
+        ``name`` (default: this spec's name). ``strict``: a float for an integer is refused
+        even when whole (ROS types), otherwise 2.0 is accepted as 2."""
+        name = name or self.name
+        if self.type == DOUBLE:
+            value = self._number(name, value)
+            return float(value) if isinstance(value, int) else value
+        if self.type == INTEGER:
+            if isinstance(value, float) and not strict and value.is_integer():
+                value = int(value)
+            if isinstance(value, float):
+                raise ParamError(name, value, self.valid_text(), 'not an integer')
+            return self._number(name, value)
+        if self.type == BOOL:
+            if not isinstance(value, bool):
+                raise ParamError(name, value, self.valid_text(), 'not true or false')
+            return value
+        if self.type == STRING:
+            if not isinstance(value, str) or (self.choices and value not in self.choices):
+                raise ParamError(name, value, self.valid_text())
+            return value
+        value = _plain(value)
+        if self.type == DOUBLE_ARRAY:
+            ok = isinstance(value, list) and len(value) == self.length and all(
+                _is_number(x) and math.isfinite(x) for x in value)
+            if not ok:
+                raise ParamError(name, value, self.valid_text())
+            return [float(x) for x in value]
+        if not (isinstance(value, list) and all(isinstance(x, str) for x in value)):
+            raise ParamError(name, value, self.valid_text())
+        return value
+
+    def _number(self, name, value):
+        if not _is_number(value):
+            raise ParamError(name, _plain(value), self.valid_text(), 'not a number')
+        if not math.isfinite(value):
+            raise ParamError(name, value, self.valid_text(), 'not finite')
+        low, high = self.low, self.high
+        if (low is not None and (value < low or (self.low_open and value == low))) or \
+                (high is not None and (value > high or (self.high_open and value == high))):
+            raise ParamError(name, value, self.valid_text())
+        return value
+
+    def parse(self, text: str, name: str | None = None) -> Any:
+        """The value of ``--set name=text`` (YAML syntax, as ``ros2 param set``), checked."""
+        import yaml
+        try:
+            value = yaml.safe_load(text)
+        except yaml.YAMLError:
+            value = text
+        if self.type == STRING:
+            value = text
+        return self.check(value, name or self.short)
+
+
+def _plain(value):
+    """A list for a sequence (rclpy gives array.array for arrays), else the value."""
+    if isinstance(value, (str, bytes, dict)) or not hasattr(value, '__len__'):
+        return value
+    return list(value)
+
+
+_ALL_CLI = COMMANDS
+_BOTH = ('simulator', 'analysis')
+_SIM = ('simulator',)
+_RUN = ('run',)
+
+
+def _drive(name, default, unit, description, **kw):
+    kw.setdefault('low', 0.0)
+    kw.setdefault('low_open', True)
+    return ParamSpec(DRIVE_PREFIX + name, default, unit, description, nodes=_BOTH,
+                     commands=_ALL_CLI, applies='at the next step', **kw)
+
+
+_NONNEG = dict(low=0.0, low_open=False)
+
+DRIVE_SPECS = (
+    _drive('a', 0.070, 'm', 'width of the feeding deck, a'),
+    _drive('b', 0.110, 'm', 'length of the feeding deck, b'),
+    _drive('d', 0.030, 'm', 'distance between C (spindle axis) and P (deck mass centre), d',
+           low=-1.0, low_open=False, high=1.0),
+    _drive('R', 0.015, 'm', 'mean (pitch) radius of the ball race, R'),
+    _drive('M_P', 0.150, 'kg', 'mass of the feeding-deck assembly, M_P'),
+    _drive('M', 0.026, 'kg', 'mass of the equivalent rotor, M'),
+    _drive('m', 0.43e-3, 'kg', 'mass of one balancing ball, m'),
+    _drive('J_Px', 1.43e-4, 'kg m^2', 'deck moment of inertia about x through P, J_Px'),
+    _drive('J_Py', 0.31e-4, 'kg m^2', 'deck moment of inertia about y through P, J_Py'),
+    _drive('J_Pz', 1.74e-4, 'kg m^2', 'deck moment of inertia about z through P, J_Pz'),
+    _drive('J_x', 1.46e-6, 'kg m^2', 'rotor moment of inertia about x, J_x'),
+    _drive('J_y', 1.46e-6, 'kg m^2', 'rotor moment of inertia about y, J_y (equal to J_x)'),
+    _drive('J_z', 2.93e-6, 'kg m^2', 'rotor moment of inertia about the spin axis z, J_z'),
+    _drive('k', 3972.0, 'N/m', 'stiffness of one suspension washer, k'),
+    _drive('c', RUBBER_C, 'kg/s', 'damping of one suspension washer, c (rubber 2.53, metal '
+           '0.66)', **_NONNEG),
+    _drive('D', 5e-6, 'kg m^2/s', 'viscous drag coefficient of one ball in the race fluid, D',
+           **_NONNEG),
+    _drive('eps', 0.25e-3, 'm', 'mass eccentricity of the rotor, epsilon', **_NONNEG),
+    ParamSpec('drive.n', 2, '', 'number of balancing balls, n (0 = drive without ABB)',
+              INTEGER, 0, MAX_BALLS, applies='on ~/reset (simulator)', nodes=_BOTH,
+              commands=_ALL_CLI),
+)
+"""The physical parameters of Table 1 (rubber washers, eps = 0.25 mm, n = 2), SI."""
+
+_INF = math.inf
+_AT_STEP = 'at the next step'
+
+
+def _imu(field, unit, description):
+    return ParamSpec('imu.' + field, getattr(TYPICAL_IMU, field), unit, description,
+                     low=0.0, high=_INF, applies=_AT_STEP, nodes=_SIM, commands=_RUN)
+
+
+SIMULATOR_SPECS = (
+    ParamSpec('integration_rate_hz', 10000, 'Hz', 'fixed RK4 step rate; 1e9 must be a '
+              'multiple of it (integer-nanosecond step)', INTEGER, 10, 10**7, read_only=True,
+              applies='at start-up', nodes=_SIM, commands=_RUN),
+    ParamSpec('publish_rate_hz', 1000, 'Hz', 'rate of joint_states, deck/pose, deck/twist and '
+              '/clock; must divide integration_rate_hz', INTEGER, 1, 10**6, applies=_AT_STEP,
+              nodes=_SIM, commands=_RUN),
+    ParamSpec('real_time_factor', 1.0, '', 'simulated seconds per wall second (1 = wall '
+              'clock, HIL); 0 = as fast as possible', low=0.0, high=1000.0, applies=_AT_STEP,
+              nodes=_SIM),
+    ParamSpec('start_paused', False, '', 'start with integration paused (use ~/pause, ~/step)',
+              BOOL, read_only=True, applies='at start-up', nodes=_SIM),
+    ParamSpec('max_spindle_speed', 1500.0, 'rad/s', 'largest accepted spindle/speed_cmd (the '
+              'analysis: top of its speed table, > 0)', low=0.0, high=_INF, applies=_AT_STEP,
+              nodes=_BOTH),
+    ParamSpec('spindle.initial_speed', None, 'rad/s', 'spindle speed at start and after '
+              '~/reset; default wbar = 2.7 (P3) with the drive omega0; at most '
+              'max_spindle_speed', low=0.0, high=_INF, applies='on ~/reset', nodes=_SIM,
+              commands=_RUN),
+    ParamSpec('spindle.max_accel', 2000.0, 'rad/s^2', 'spindle motor acceleration limit',
+              low=0.0, low_open=True, high=_INF, applies=_AT_STEP, nodes=_SIM, commands=_RUN),
+    ParamSpec('spindle.tau', 0.05, 's', 'spindle motor speed-loop time constant', low=0.0,
+              low_open=True, high=_INF, applies=_AT_STEP, nodes=_SIM, commands=_RUN),
+    ParamSpec('seed', 0, '', 'seed of the IMU noise generator', INTEGER, 0, 2**31 - 1,
+              applies='on ~/reset', nodes=_SIM, commands=_RUN),
+    ParamSpec('imu.rate_hz', int(TYPICAL_IMU.rate), 'Hz', 'IMU output rate; must divide '
+              'integration_rate_hz', INTEGER, 1, 10**6, applies=_AT_STEP, nodes=_SIM,
+              commands=_RUN),
+    ParamSpec('imu.position', [0.0, 0.0, 0.0], 'm', 'IMU mounting point on the deck, deck '
+              'axes from C', DOUBLE_ARRAY, length=3, applies=_AT_STEP, nodes=_SIM,
+              commands=_RUN),
+    ParamSpec('imu.gravity', False, '', 'add gravity (-Z of base) to the specific force (the '
+              'paper neglects it)', BOOL, applies=_AT_STEP, nodes=_SIM, commands=_RUN),
+    _imu('accel_noise_density', 'm/s^2/sqrt(Hz)', 'accelerometer white noise'),
+    _imu('accel_bias', 'm/s^2', 'accelerometer turn-on bias std'),
+    _imu('accel_bias_random_walk', 'm/s^3/sqrt(Hz)', 'accelerometer bias random walk'),
+    _imu('gyro_noise_density', 'rad/s/sqrt(Hz)', 'gyro white noise'),
+    _imu('gyro_bias', 'rad/s', 'gyro turn-on bias std'),
+    _imu('gyro_bias_random_walk', 'rad/s^2/sqrt(Hz)', 'gyro bias random walk'),
+)
+"""The simulator node's own parameters (config/simulator.yaml)."""
+
+_ANA = ('analysis',)
+ANALYSIS_SPECS = (
+    ParamSpec('simulator_node', 'abb_simulator', '', 'node whose drive.* and max_spindle_speed '
+              'are followed (relative names resolve in this node\'s namespace)', STRING,
+              read_only=True, applies='at start-up', nodes=_ANA),
+    ParamSpec('publish_rate_hz', 50.0, 'Hz', 'largest rate of stability/margin and the status',
+              low=0.1, high=1000.0, applies='at once', nodes=_ANA),
+    ParamSpec('heartbeat_s', 1.0, 's', 'status republished at least this often', low=0.01,
+              high=3600.0, applies='at once', nodes=_ANA),
+    ParamSpec('table_points', 300, '', 'speeds in the |lambda|max table over '
+              '0..max_spindle_speed', INTEGER, 16, 20000, applies='at once', nodes=_ANA),
+)
+"""Parameters only the analysis node has."""
+
+_REC = ('recorder',)
+RECORDER_SPECS = (
+    ParamSpec('topics', ['joint_states', 'deck/pose', 'deck/twist', 'deck/imu',
+                         'stability/margin', '/diagnostics', 'spindle/speed_cmd'], '',
+              'topics to record (relative names resolve in the node\'s namespace)',
+              STRING_ARRAY, applies='at start-up', nodes=_REC),
+    ParamSpec('output', '', '', 'bag directory (must not exist); empty: '
+              'abb_bag_<date>-<time>', STRING, applies='at start-up', nodes=_REC),
+    ParamSpec('chunk_size', 768 * 1024, 'bytes', 'MCAP chunk size; a crash loses at most one '
+              'chunk', INTEGER, 256, 1 << 30, applies='at start-up', nodes=_REC),
+    ParamSpec('compression', 'zstd', '', 'chunk compression', STRING,
+              choices=('zstd', 'lz4', 'none'), applies='at start-up', nodes=_REC),
+    ParamSpec('queue_depth', 1000, 'messages', 'subscription queue depth (1 s at 1 kHz)',
+              INTEGER, 1, 100000, applies='at start-up', nodes=_REC),
+    ParamSpec('discovery_period', 0.5, 's', 'how often the graph is searched for new topics',
+              low=0.0, low_open=True, high=_INF, applies='at start-up', nodes=_REC),
+)
+"""The recorder node's parameters."""
+
+SPECS = DRIVE_SPECS + SIMULATOR_SPECS + ANALYSIS_SPECS + RECORDER_SPECS
+"""Every parameter. A name may appear twice for different nodes (publish_rate_hz)."""
+
+
+def specs_for(node: str) -> dict[str, ParamSpec]:
+    """{ROS name: spec} of the parameters ``node`` (one of NODES) declares, in order."""
+    return {s.name: s for s in SPECS if node in s.nodes}
+
+
+def spec_for_command(command: str, name: str) -> ParamSpec | None:
+    """The spec ``--set name=...`` of ``abb-sim command`` refers to (drive by SI name)."""
+    for s in SPECS:
+        if command in s.commands and name in (s.short, s.name):
+            return s
+    return None
+
+
+def cli_names(command: str) -> list[str]:
+    """The spec names ``abb-sim command --set`` accepts (besides omega and Eq. 39 names)."""
+    return [s.short for s in SPECS if command in s.commands]
+
+
+def imu_config(values: Mapping[str, Any]) -> ImuConfig:
+    """ImuConfig from {ROS name: value}; missing ``imu.*`` names take the spec default."""
+    specs = specs_for('simulator')
+
+    def get(name):
+        return values[name] if name in values else specs[name].default
+
+    return ImuConfig(position=tuple(float(x) for x in get('imu.position')),
+                     rate=float(get('imu.rate_hz')), gravity=bool(get('imu.gravity')),
+                     **{k: float(get('imu.' + k)) for k in (
+                         'accel_noise_density', 'accel_bias', 'accel_bias_random_walk',
+                         'gyro_noise_density', 'gyro_bias', 'gyro_bias_random_walk')})
+
+
+def check_rates(values: Mapping[str, Any]) -> None:
+    """The step is a whole number of nanoseconds and the publish and IMU rates divide the
+    step rate ({ROS name: value}, missing names take the spec default); raises ParamError."""
+    specs = specs_for('simulator')
+    rate, publish, imu = (int(values.get(k, specs[k].default)) for k in (
+        'integration_rate_hz', 'publish_rate_hz', 'imu.rate_hz'))
+    if 1_000_000_000 % rate:
+        raise ParamError('integration_rate_hz', rate, 'a divisor of 1e9 (e.g. 10000, 20000, '
+                         '40000, 50000)', 'the step must be a whole number of nanoseconds')
+    for name, value in (('publish_rate_hz', publish), ('imu.rate_hz', imu)):
+        if rate % value:
+            raise ParamError(name, value, f'a divisor of integration_rate_hz = {rate}')
+
+
+def _default_text(spec: ParamSpec) -> str:
+    if spec.default is None:
+        return '(computed)'
+    if isinstance(spec.default, bool):
+        return str(spec.default).lower()
+    if isinstance(spec.default, str):
+        return f"'{spec.default}'"
+    if isinstance(spec.default, list):
+        return '[' + ', '.join(_default_text(ParamSpec('', x, '', '')) for x in
+                               spec.default) + ']'
+    return f'{spec.default:g}' if isinstance(spec.default, float) else str(spec.default)
+
+
+def _table(specs: Iterable[ParamSpec]) -> list[str]:
+    rows = ['| name | type | default | valid | applies | `abb-sim --set` | description |',
+            '|---|---|---|---|---|---|---|']
+    for s in specs:
+        applies = s.applies + (' (read-only)' if s.read_only else '')
+        cli = ', '.join(s.commands) if s.commands else '-'
+        rows.append(f'| `{s.name}` | {s.type} | {_default_text(s)} | {s.valid_text()} | '
+                    f'{applies} | {cli} | {s.description.replace("|", chr(92) + "|")} |')
+    return rows
+
+
+def markdown() -> str:
+    """docs/parameters.md: one table per node, generated from SPECS."""
+    lines = ['# Parameters', '',
+             'Generated from `abb_ros/model/param_spec.py` by',
+             '`python -m abb_ros.model.param_spec --markdown > docs/parameters.md`;',
+             'do not edit by hand (test/test_param_spec.py compares).', '',
+             'Ranges: `[` `]` include the bound, `(` `)` exclude it. ROS nodes take the '
+             'parameters with `--ros-args -p name:=value` or `--params-file` '
+             '(config/cdrom_table1.yaml, config/simulator.yaml); an integer literal for a '
+             'double is taken as that double, at start-up and at run time. Invalid values '
+             'or types at start-up end the node with exit code 2 and one line naming the '
+             'parameter; at run time an invalid value is refused with the same text (a wrong '
+             'type with rclpy\'s type error). '
+             '`abb-sim` subcommands take the names in the `abb-sim --set` column (drive '
+             'parameters without `drive.`), besides `omega` [rad/s] and the Eq. (39) names '
+             'wbar, zeta, Dbar, epsbar, mbar.', '']
+    titles = {'drive': 'Drive (`drive.*`, simulator and analysis nodes)',
+              'simulator': 'Simulator node (`abb_simulator`)',
+              'analysis': 'Analysis node (`abb_analysis`)',
+              'recorder': 'Recorder node (`abb_recorder`)'}
+    groups = {'drive': DRIVE_SPECS, 'simulator': SIMULATOR_SPECS,
+              'analysis': ANALYSIS_SPECS, 'recorder': RECORDER_SPECS}
+    for key, specs in groups.items():
+        lines += ['## ' + titles[key], ''] + _table(specs) + ['']
+    lines.append('The analysis node also declares `drive.*` and `max_spindle_speed` (above) and '
+                 'copies them from the simulator it follows.')
+    return '\n'.join(lines) + '\n'
+
+
+def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else argv
+    if argv != ['--markdown']:
+        print('usage: python -m abb_ros.model.param_spec --markdown', file=sys.stderr)
+        return 2
+    sys.stdout.write(markdown())
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,120 @@
+"""Start-up parameter types of the node executables, over real rclpy and DDS: an integer
+literal for a double is taken as the double, other wrong types end the node with exit
+code 2 and one line naming the parameter and what is valid."""
+
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import rclpy
+from rcl_interfaces.msg import ParameterType
+from rcl_interfaces.srv import GetParameters, SetParameters
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+from rclpy.parameter import Parameter
+
+pytestmark = pytest.mark.ros
+
+ROOT = Path(__file__).resolve().parents[1]
+DEADLINE_S = 30.0
+
+
+def _command(node, params):
+    args = [sys.executable, '-m', f'abb_ros.nodes.{node}', '--ros-args']
+    for p in params:
+        args += ['-p', p]
+    return args
+
+
+def _start_fails(node, *params):
+    proc = subprocess.run(_command(node, params), cwd=ROOT, capture_output=True, text=True,
+                          timeout=120, stdin=subprocess.DEVNULL)
+    return proc.returncode, proc.stderr
+
+
+@pytest.mark.parametrize('node,param,needle', [
+    ('simulator', 'drive.k:=abc', "'drive.k' = 'abc' is invalid: valid range is (0, inf) N/m"),
+    ('simulator', 'drive.n:=2.0', "'drive.n' = 2.0 is invalid: valid range is [0, 64]"),
+    ('simulator', 'seed:=[1, 2]', "'seed'"),
+    ('simulator', 'imu.position:=[0.0, 1.0]', "'imu.position'"),
+    ('simulator', 'drive.k:=-5.0', "'drive.k' = -5.0"),
+    ('analysis', 'drive.k:=abc', "'drive.k' = 'abc' is invalid: valid range is (0, inf) N/m"),
+    ('analysis', 'table_points:=300.0', "'table_points' = 300.0"),
+])
+def test_wrong_start_up_type_or_value_exits_2_with_one_line_naming_it(node, param, needle):
+    code, err = _start_fails(node, param)
+    assert code == 2, err
+    lines = err.strip().splitlines()
+    assert len(lines) == 1, err
+    assert needle in lines[0] and 'Traceback' not in err
+
+
+class _Client:
+    def __init__(self):
+        self.ctx = rclpy.Context()
+        rclpy.init(context=self.ctx)
+        self.node = Node('test_parameter_client', context=self.ctx)
+        self.executor = SingleThreadedExecutor(context=self.ctx)
+        self.executor.add_node(self.node)
+
+    def call(self, kind, name, request):
+        client = self.node.create_client(kind, name)
+        deadline = time.monotonic() + DEADLINE_S
+        while not client.service_is_ready():
+            assert time.monotonic() < deadline, f'no service {name}'
+            self.executor.spin_once(timeout_sec=0.05)
+        future = client.call_async(request)
+        while not future.done():
+            assert time.monotonic() < deadline, f'no reply from {name}'
+            self.executor.spin_once(timeout_sec=0.05)
+        return future.result()
+
+    def get(self, node, name):
+        return self.call(GetParameters, f'/{node}/get_parameters',
+                         GetParameters.Request(names=[name])).values[0]
+
+    def set(self, node, name, value):
+        request = SetParameters.Request(parameters=[Parameter(name, value=value)
+                                                    .to_parameter_msg()])
+        return self.call(SetParameters, f'/{node}/set_parameters', request).results[0]
+
+    def close(self):
+        self.node.destroy_node()
+        rclpy.shutdown(context=self.ctx)
+
+
+@pytest.fixture
+def client():
+    c = _Client()
+    yield c
+    c.close()
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('node,name', [('simulator', 'abb_simulator'),
+                                       ('analysis', 'abb_analysis')])
+def test_integer_literal_for_a_double_parameter_is_accepted(client, tmp_path, node, name):
+    log = open(tmp_path / 'node.log', 'w')
+    proc = subprocess.Popen(_command(node, ['drive.k:=4000', 'real_time_factor:=0.0']
+                                     if node == 'simulator' else ['drive.k:=4000']),
+                            cwd=ROOT, stdout=log, stderr=subprocess.STDOUT,
+                            stdin=subprocess.DEVNULL)
+    try:
+        k = client.get(name, 'drive.k')
+        assert k.type == ParameterType.PARAMETER_DOUBLE and k.double_value == 4000.0
+        # at run time too: an integer for a double is set as the double
+        result = client.set(name, 'drive.k', 5000)
+        assert result.successful, result.reason
+        k = client.get(name, 'drive.k')
+        assert k.type == ParameterType.PARAMETER_DOUBLE and k.double_value == 5000.0
+        # a string is refused, the value stays
+        assert not client.set(name, 'drive.k', 'abc').successful
+        assert client.get(name, 'drive.k').double_value == 5000.0
+    finally:
+        proc.send_signal(signal.SIGINT)
+        code = proc.wait(timeout=30)
+        log.close()
+    assert code == 0, (tmp_path / 'node.log').read_text()
