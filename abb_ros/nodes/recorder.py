@@ -120,7 +120,7 @@ class Recorder(Node):
             except BagWriteError as exc:
                 logger.error(f'finishing the bag failed: {exc.strerror}')
         logger.info(
-            f'{self.bag.message_count} messages on {len(self.bag.topics)} topics in '
+            f'{self.bag.durable_count} messages on {len(self.bag.topics)} topics in '
             f'{self.bag.path}')
 
 
