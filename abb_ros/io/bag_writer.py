@@ -16,7 +16,9 @@ and whenever a topic is added, so a killed recording is a readable bag (without 
 its last complete chunk. A write that the disk refuses (``ENOSPC``) cuts the file back to its
 last whole record and raises :class:`BagWriteError`. ``metadata.yaml`` counts only the messages
 of chunks that reached the file, so it never claims more than the file holds; after a write
-error its ``custom_data`` says ``abb_ros.incomplete`` and why.
+error its ``custom_data`` says ``abb_ros.incomplete`` and why. So that this last metadata.yaml
+can still be written on a full disk, the writer keeps a reserve file (``metadata.reserve.tmp``,
+twice the metadata's size) that it deletes first when a write fails, and at close.
 """
 
 from __future__ import annotations
@@ -45,6 +47,8 @@ DRIVE_METADATA = 'abb_ros'
 INCOMPLETE_KEY = 'abb_ros.incomplete'
 """custom_data key of metadata.yaml marking a bag cut short (its value says why)."""
 _CHUNK_OPCODE = 0x06   # MCAP record opcode of a Chunk
+_RESERVE = 'metadata.reserve.tmp'
+_MIN_RESERVE = 8192    # [bytes]
 _COMPRESSION = {'zstd': CompressionType.ZSTD, 'lz4': CompressionType.LZ4,
                 'none': CompressionType.NONE}
 # rmw's RMW_DURATION_INFINITE as the graph reports it (INT64_MAX ns).
@@ -203,6 +207,7 @@ class BagWriter:
         if not chunk_size > 0:
             raise BagError(f'chunk_size must be > 0 bytes, got {chunk_size!r}')
         self.path = Path(path)
+        self._reserved = 0
         _prepare_directory(self.path, overwrite)
         self.mcap_path = self.path / f'{self.path.name}_0.mcap'
         self._sink = _FileSink(self.mcap_path, opener, self._chunk_written)
@@ -332,6 +337,7 @@ class BagWriter:
         self.closed = True
         self._sink.close()
         self._write_metadata_yaml()
+        (self.path / _RESERVE).unlink(missing_ok=True)
 
     def metadata(self, durable: bool = True) -> dict:
         """The bag metadata (rosbag2's BagMetadata, version 9) as a dict; with ``durable``
@@ -373,6 +379,13 @@ class BagWriter:
             tmp.unlink(missing_ok=True)
             if self.error is None:
                 self._fail(exc)
+            return
+        if not self.closed and self._reserved < max(_MIN_RESERVE, 2 * len(text)):
+            try:
+                (self.path / _RESERVE).write_bytes(bytes(max(_MIN_RESERVE, 2 * len(text))))
+                self._reserved = max(_MIN_RESERVE, 2 * len(text))
+            except OSError:     # the disk is nearly full: keep the reserve there is
+                pass
 
     def _guard(self, fn, *args, **kwargs):
         try:
@@ -391,6 +404,7 @@ class BagWriter:
             self._sink.close()
         except OSError:
             pass
+        (self.path / _RESERVE).unlink(missing_ok=True)   # room for the last metadata.yaml
         self._write_metadata_yaml()
         raise BagWriteError(exc.errno, f'writing {self.mcap_path} failed ({exc.strerror or exc}); '
                             f'the bag is closed, readable up to its last complete chunk')
