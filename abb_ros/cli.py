@@ -18,7 +18,6 @@ import json
 import sys
 
 from abb_ros.commands.api import CommandFailed, UsageError
-from abb_ros.model.integrate import StateError
 from abb_ros.model.params import ParamError
 
 __all__ = ['main', 'SUBCOMMANDS']
@@ -54,6 +53,17 @@ def _load(name):
     return importlib.import_module(f'abb_ros.commands.{name}')
 
 
+class _NotRaised(Exception):
+    """Stands for an exception class whose module no command has imported."""
+
+
+def _state_error():
+    """integrate.StateError if a command imported the integrator (the parser starts without
+    numba: argument errors and --help come at once)."""
+    module = sys.modules.get('abb_ros.model.integrate')
+    return module.StateError if module is not None else _NotRaised
+
+
 def _print_human(summary: dict) -> None:
     for key, value in summary.items():
         print(f'{key}: {value}')
@@ -71,7 +81,7 @@ def main(argv=None) -> int:
     except (ParamError, UsageError) as exc:
         print(f'abb-sim {args.command}: error: {exc}', file=sys.stderr)
         return 2
-    except StateError as exc:   # the physics blew up: say so, keep what was written
+    except _state_error() as exc:   # the physics blew up: say so, keep what was written
         print(f'abb-sim {args.command}: simulation stopped: {exc} (check the parameters: '
               'a very stiff or undamped drive may need a smaller step)', file=sys.stderr)
         return 1

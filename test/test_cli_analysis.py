@@ -83,3 +83,9 @@ def test_map_csv_and_out_of_plane(capsys, tmp_path):
     rows = np.loadtxt(csv, delimiter=',')
     assert rows.shape == (24, 4)
     assert 'fixed' in csv.read_text().splitlines()[0]
+
+
+def test_map_offers_exactly_the_axes_the_stability_map_varies():
+    from abb_ros.commands.map import DEFAULT_RANGES
+    from abb_ros.model.floquet import MAP_AXES
+    assert tuple(DEFAULT_RANGES) == MAP_AXES

@@ -318,7 +318,7 @@ def test_out_on_a_read_only_file_system_is_one_line(tmp_path, capsys, read_only_
     assert list(read_only_dir.iterdir()) == []
 
 
-@pytest.mark.parametrize('command', ['run', 'map', 'plot'])
+@pytest.mark.parametrize('command', ['run', 'map', pytest.param('plot', marks=pytest.mark.slow)])
 def test_out_on_a_full_disk_fails_in_one_line_and_leaves_nothing(tmp_path, capsys, full_dir,
                                                                    command):
     argv = _argv(command, full_dir, tmp_path)

@@ -13,12 +13,12 @@ import numpy as np
 
 from abb_ros.commands.api import (CommandFailed, UsageError, check_output, drive_params,
                                   output_files, parse_settings)
-from abb_ros.model.floquet import MAP_AXES, stability_map
 from abb_ros.model.params import ParamError
 
 DEFAULT_RANGES = {'wbar': (0.2, 3.5), 'zeta': (0.0, 0.15), 'Dbar': (0.0, 1.0),
                   'epsbar': (0.0, 0.05), 'mbar': (0.001, 0.12)}
-"""Axis ranges when --range-x/--range-y are not given (those of the paper's figures)."""
+"""Axis ranges when --range-x/--range-y are not given (those of the paper's figures); its keys
+are the axes a map may vary (floquet.MAP_AXES, not imported here: the parser starts fast)."""
 OUT_OF_PLANE_MBAR = (0.01, 2.5)
 """Fig. 8 needs heavy balls to show the parametric-resonance zone."""
 MAX_POINTS = 1_000_000
@@ -27,8 +27,10 @@ IMAGE_SUFFIXES = ('.png', '.pdf', '.svg')
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument('--x', required=True, choices=MAP_AXES, help='horizontal axis')
-    parser.add_argument('--y', required=True, choices=MAP_AXES, help='vertical axis')
+    parser.add_argument('--x', required=True, choices=tuple(DEFAULT_RANGES),
+                        help='horizontal axis')
+    parser.add_argument('--y', required=True, choices=tuple(DEFAULT_RANGES),
+                        help='vertical axis')
     parser.add_argument('--set', action='append', default=[], metavar='KEY=VALUE',
                         help='fixed parameter (SI or Eq. 39 name); others are Table 1 values')
     parser.add_argument('--config', help='ROS 2 parameter file with drive.* parameters')
@@ -71,6 +73,7 @@ def run(args) -> dict:
     import time
     from tqdm import tqdm
     from abb_ros.io.map_file import save_map
+    from abb_ros.model.floquet import stability_map
     from abb_ros.plots.maps import plot_map
     if args.x == args.y:
         raise UsageError('--x and --y must differ')

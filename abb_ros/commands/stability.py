@@ -9,7 +9,6 @@ from __future__ import annotations
 import math
 
 from abb_ros.commands.api import UsageError, drive_params, parse_settings
-from abb_ros.model.floquet import point_stability
 from abb_ros.model.params import ParamError, apply_settings
 
 
@@ -33,6 +32,7 @@ def operating_point(args):
 
 
 def run(args) -> dict:
+    from abb_ros.model.floquet import point_stability
     params, omega = operating_point(args)
     phi = None
     if args.phi_star:
