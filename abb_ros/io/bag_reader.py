@@ -14,8 +14,9 @@ from abb_ros.io import msgdefs
 from abb_ros.io.bag_writer import DRIVE_METADATA, STORAGE_ID, BagError, topic_name
 from abb_ros.io.safe_yaml import YamlFileError, load_file
 
-METADATA_MAX_BYTES = 64 << 20
-"""Largest metadata.yaml read [bytes] (rosbag2 lists every file and topic in it)."""
+METADATA_MAX_BYTES = 1 << 20
+"""Largest metadata.yaml read [bytes]; rosbag2 lists every file and topic in it, some 200 bytes
+each (safe_yaml.MAX_BYTES gives the parse time)."""
 
 
 def bag_files(path) -> list[Path]:

@@ -135,7 +135,7 @@ def main(args=None) -> int:
         pass
     except RecordingStopped:
         code = 1
-    except BagError as exc:
+    except (BagError, OSError) as exc:    # the output cannot be created (read-only, a file)
         print(f'abb_recorder: error: {exc}', file=sys.stderr)
         code = 2
     finally:
