@@ -138,6 +138,8 @@ SCENARIO_CASES = {
     'a duration of a microsecond': ('duration: 1.0e-6\n', '[0.001, inf) s'),
     'a command without t': ('spindle: {model: motor, commands: [{wbar: 2}]}\n', '{t: seconds'),
     'a negative tau': ('spindle: {model: motor, tau: -1}\n', "'scenario.spindle.tau'"),
+    'a drive parameter that is text': ('drive: {k: stiff}\n', "'k' = 'stiff'"),
+    'a setting out of range': ('set: {zeta: -1}\n', "'zeta' = -1"),
     'malformed YAML': ('set: {wbar: [1, 2}\n', 'malformed YAML'),
     'a list document': ('- p3\n', 'a mapping with keys'),
     'a directory': ('<dir>', 'is a directory'),
@@ -158,7 +160,7 @@ def test_a_bad_scenario_file_is_one_line_naming_the_field(tmp_path, capsys, case
     code = main(['run', '--scenario', str(path), '--out', str(out), '--no-progress'])
     within_a_second(case, t0)
     line = one_error_line(capsys, code, 2)
-    assert needle in line
+    assert needle in line and str(path) in line
     assert not out.exists()
 
 
@@ -390,3 +392,13 @@ def test_metadata_never_counts_messages_of_a_chunk_that_did_not_reach_the_file(t
     assert info['message_count'] == held
     assert info['topics_with_message_count'][0]['message_count'] == held
     assert 'No space left' in info['custom_data'][INCOMPLETE_KEY]
+
+
+def test_every_yaml_file_is_read_through_safe_yaml():
+    """One loader with limits: no other module of the package parses YAML itself."""
+    package = Path(__file__).resolve().parents[1] / 'abb_ros'
+    offenders = [str(p.relative_to(package)) for p in package.rglob('*.py')
+                 if p.name != 'safe_yaml.py' and any(
+                     call in p.read_text() for call in ('yaml.safe_load', 'yaml.load(',
+                                                        'yaml.full_load', 'yaml.unsafe_load'))]
+    assert offenders == []

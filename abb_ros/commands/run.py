@@ -47,7 +47,7 @@ def run(args) -> dict:
     try:
         scenario = load_scenario(args.scenario, base=base)
     except ParamError as exc:
-        if not exc.name.startswith('scenario.'):
+        if exc.name == 'scenario':     # names the file already
             raise
         raise UsageError(f'--scenario {args.scenario}: {exc}') from None
     settings = parse_settings(args.set)
@@ -59,7 +59,12 @@ def run(args) -> dict:
         if not (np.isfinite(args.duration) and args.duration > 0):
             raise ParamError('duration', args.duration, '(0, inf) s')
         scenario.duration = float(args.duration)
-    check_duration(scenario.duration)
+    try:
+        check_duration(scenario.duration)
+    except ParamError as exc:
+        if args.duration is not None:
+            raise
+        raise UsageError(f'--scenario {args.scenario}: {exc}') from None
     bag = None
     if args.out:
         from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter

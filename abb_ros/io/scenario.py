@@ -155,6 +155,9 @@ def load_scenario(name_or_path: str, base: DriveParams | None = None) -> Scenari
         doc = load_file(path)
     except YamlFileError as exc:
         raise ParamError('scenario', str(path), 'a scenario YAML file', exc.why) from None
+    if not isinstance(doc, dict):
+        raise ParamError('scenario', str(path), 'a mapping with keys ' + ', '.join(
+            sorted(_TOP_KEYS)), f'the document is {type(doc).__name__}')
     doc = _mapping('scenario', doc, _TOP_KEYS)
     params = base or DriveParams()
     if doc.get('drive') is not None:
