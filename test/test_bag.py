@@ -300,3 +300,22 @@ def test_message_objects_are_written_as_the_bytes_a_raw_subscription_receives():
         executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown(context=ctx)
+
+
+def test_message_sequence_numbers_count_from_zero_per_topic(tmp_path):
+    from mcap.records import Channel, Message
+
+    from abb_ros.io.bag_reader import iter_records
+    with BagWriter(tmp_path / 'seq') as bag:
+        bag.add_topic('a', 'std_msgs/msg/Float64')
+        bag.add_topic('b', 'std_msgs/msg/Float64')
+        for i in range(3):
+            bag.write('a', bytes(12), i)
+            bag.write('b', bytes(12), i)
+    names, sequences = {}, {}
+    for record in iter_records(tmp_path / 'seq'):
+        if isinstance(record, Channel):
+            names[record.id] = record.topic
+        elif isinstance(record, Message):
+            sequences.setdefault(names[record.channel_id], []).append(record.sequence)
+    assert sequences == {'/a': [0, 1, 2], '/b': [0, 1, 2]}

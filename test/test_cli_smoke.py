@@ -2,7 +2,8 @@
 runs the command and prints one JSON object (everything else is tested in-process through
 ``cli.main``: test_cli_run.py, test_cli_analysis.py, test_plot.py, test_cli_bad_input.py).
 Each starts Python, numba, scipy and matplotlib afresh (5-20 s on a shared 2-core machine): slow,
-except the argument error, which must come at once (the parser imports no numerical code)."""
+except freqs (scipy only) and the argument error, which must come at once (the parser imports no
+numerical code)."""
 
 import json
 import os
@@ -42,7 +43,6 @@ def test_abb_sim_stability():
     assert summary['verdict'] == 'balanced'
 
 
-@pytest.mark.slow
 def test_abb_sim_freqs():
     summary, _ = abb_sim('freqs')
     assert summary['omega_Y_rad_s'] == pytest.approx(298.0, rel=0.04)

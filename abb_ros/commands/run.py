@@ -32,6 +32,11 @@ def add_arguments(parser):
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
 
 
+def _why(exc: OSError) -> str:
+    """What the system said, without the path (the message names the option)."""
+    return os.strerror(exc.errno) if exc.errno else str(exc)
+
+
 def _wrap_deg(phi):
     return ((np.degrees(phi) + 180.0) % 360.0) - 180.0
 
@@ -76,9 +81,9 @@ def run(args) -> dict:
             if not existed:
                 shutil.rmtree(args.out, ignore_errors=True)
             if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
-                raise CommandFailed(f'--out {args.out}: {os.strerror(exc.errno)}; nothing was '
-                                    'written') from None
-            why = os.strerror(exc.errno) if isinstance(exc, OSError) else str(exc)
+                raise CommandFailed(f'--out {args.out}: {_why(exc)}; nothing was written'
+                                    ) from None
+            why = _why(exc) if isinstance(exc, OSError) else str(exc)
             raise UsageError(f'--out {args.out}: {why}'.replace('pass overwrite=True',
                                                                  'pass --overwrite')) from None
     bar = None
@@ -95,8 +100,8 @@ def run(args) -> dict:
         raise
     except BagWriteError as exc:
         shutil.rmtree(args.out, ignore_errors=True)
-        raise CommandFailed(f'--out {args.out}: writing the bag failed '
-                            f'({os.strerror(exc.errno)}); the partial bag was removed') from None
+        raise CommandFailed(f'--out {args.out}: writing the bag failed ({_why(exc)}); '
+                            'the partial bag was removed') from None
     except BaseException:
         if bag is not None:
             bag.mark_incomplete('the run was interrupted')
@@ -110,8 +115,7 @@ def run(args) -> dict:
             except BagWriteError as exc:
                 shutil.rmtree(args.out, ignore_errors=True)
                 raise CommandFailed(f'--out {args.out}: finishing the bag failed '
-                                    f'({os.strerror(exc.errno)}); the partial bag was '
-                                    'removed') from None
+                                    f'({_why(exc)}); the partial bag was removed') from None
     p = scenario.params
     y = result.y[-1]
     N = 7 + p.n

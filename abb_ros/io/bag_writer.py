@@ -287,7 +287,7 @@ class BagWriter:
                                                                          log_time_ns)
         self._end_ns = max(self._end_ns, log_time_ns)
         self._guard(self._mcap.add_message, channel_id=entry.channel_id, log_time=log_time_ns,
-                    data=data, sequence=entry.count,
+                    data=data, sequence=entry.count - 1,
                     publish_time=log_time_ns if publish_time_ns is None else int(publish_time_ns))
         if time.monotonic() >= self._next_flush:
             self.flush()
