@@ -402,3 +402,16 @@ def test_every_yaml_file_is_read_through_safe_yaml():
                      call in p.read_text() for call in ('yaml.safe_load', 'yaml.load(',
                                                         'yaml.full_load', 'yaml.unsafe_load'))]
     assert offenders == []
+
+
+@pytest.mark.parametrize('text, needle', [(ALIAS_BOMB, 'aliases'),
+                                          ('[' * 60000, 'nested deeper than'),
+                                          ('a:\n' + ''.join(' ' * i + f'k{i}:\n'
+                                                            for i in range(1, 40)), 'nested')])
+def test_without_libyaml_the_same_limits_hold(monkeypatch, text, needle):
+    from abb_ros.io import safe_yaml
+    monkeypatch.setattr(safe_yaml, '_LOADER', safe_yaml._PyLoader)
+    t0 = time.perf_counter()
+    with pytest.raises(safe_yaml.YamlFileError, match=needle):
+        safe_yaml.load_text(text)
+    assert time.perf_counter() - t0 < 1.0
