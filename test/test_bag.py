@@ -255,9 +255,13 @@ def test_a_killed_writer_loses_at_most_the_chunk_in_progress(tmp_path):
     # A 2 KiB chunk holds fewer than 2048 / 12 messages (12 CDR bytes each + record overhead).
     assert values == [float(i) for i in range(len(values))]
     assert 5000 - 2048 // 12 <= len(values) < 5000
+    # metadata.yaml, last written when the topic was added, never claims more than the file holds
+    info = yaml.safe_load((path / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert info['message_count'] <= len(values)
     # rosbags needs the summary (footer): recover() adds it, keeping every message.
     assert not is_finished(path)
     assert recover(path) == len(values) and is_finished(path)
+    assert sorted(p.name for p in path.iterdir()) == ['bag_0.mcap', 'metadata.yaml']
     with AnyReader([path]) as reader:
         assert [reader.deserialize(raw, c.msgtype).data for c, _, raw in reader.messages()
                 ] == values

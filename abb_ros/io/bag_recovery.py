@@ -47,7 +47,7 @@ def recover(path) -> int:
                 out.add_metadata(record.name, record.metadata)
         kept = out.message_count
     old = bag_files(path)
-    for file in old:
+    for file in old + sorted(path.glob('*.tmp')):   # and the dead writer's metadata reserve
         file.unlink()
     for item in (work / path.name).iterdir():
         os.replace(item, path / item.name)
