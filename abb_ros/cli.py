@@ -5,7 +5,9 @@ Each subcommand lives in ``abb_ros/commands/<name>.py`` and provides
 one JSON object with ``--json``, as ``key: value`` lines otherwise. Bad input
 (:class:`~abb_ros.model.params.ParamError`, :class:`UsageError`) exits with code 2 and a
 message naming the parameter and its valid range; a simulation whose state blows up
-(:class:`~abb_ros.model.integrate.StateError`) exits with code 1 and says when.
+(:class:`~abb_ros.model.integrate.StateError`), a command that cannot finish
+(:class:`CommandFailed`, e.g. a full disk) or any other refusal of the operating system
+(``OSError``) exits with code 1. Every error is one line on stderr.
 """
 
 from __future__ import annotations
@@ -15,8 +17,7 @@ import importlib
 import json
 import sys
 
-from abb_ros.commands.api import UsageError
-from abb_ros.model.integrate import StateError
+from abb_ros.commands.api import CommandFailed, UsageError
 from abb_ros.model.params import ParamError
 
 __all__ = ['main', 'SUBCOMMANDS']
@@ -30,8 +31,15 @@ SUBCOMMANDS = {
 }
 
 
+class _Parser(argparse.ArgumentParser):
+    """argparse with one-line errors (no usage block): ``abb-sim run: error: ...``, exit 2."""
+
+    def error(self, message):
+        self.exit(2, f'{self.prog}: error: {message} (see {self.prog} --help)\n')
+
+
 def build_parser() -> argparse.ArgumentParser:
-    parser = argparse.ArgumentParser(
+    parser = _Parser(
         prog='abb-sim', description='Optical disk drive with an automatic ball balancer.')
     sub = parser.add_subparsers(dest='command', required=True)
     for name, help_text in SUBCOMMANDS.items():
@@ -45,6 +53,17 @@ def _load(name):
     return importlib.import_module(f'abb_ros.commands.{name}')
 
 
+class _NotRaised(Exception):
+    """Stands for an exception class whose module no command has imported."""
+
+
+def _state_error():
+    """integrate.StateError if a command imported the integrator (the parser starts without
+    numba: argument errors and --help come at once)."""
+    module = sys.modules.get('abb_ros.model.integrate')
+    return module.StateError if module is not None else _NotRaised
+
+
 def _print_human(summary: dict) -> None:
     for key, value in summary.items():
         print(f'{key}: {value}')
@@ -52,16 +71,26 @@ def _print_human(summary: dict) -> None:
 
 def main(argv=None) -> int:
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:    # --help (0) or a usage error, already printed (2)
+        return exc.code if isinstance(exc.code, int) else 2
     module = _load(args.command)
     try:
         summary = module.run(args)
     except (ParamError, UsageError) as exc:
         print(f'abb-sim {args.command}: error: {exc}', file=sys.stderr)
         return 2
-    except StateError as exc:   # the physics blew up: say so, keep what was written
+    except _state_error() as exc:   # the physics blew up: say so, keep what was written
         print(f'abb-sim {args.command}: simulation stopped: {exc} (check the parameters: '
               'a very stiff or undamped drive may need a smaller step)', file=sys.stderr)
+        return 1
+    except CommandFailed as exc:
+        print(f'abb-sim {args.command}: error: {exc}', file=sys.stderr)
+        return 1
+    except OSError as exc:      # refused by the system where no command expected it
+        where = f': {exc.filename}' if exc.filename else ''
+        print(f'abb-sim {args.command}: error: {exc.strerror or exc}{where}', file=sys.stderr)
         return 1
     except KeyboardInterrupt:
         print(f'abb-sim {args.command}: interrupted', file=sys.stderr)

@@ -255,9 +255,13 @@ def test_a_killed_writer_loses_at_most_the_chunk_in_progress(tmp_path):
     # A 2 KiB chunk holds fewer than 2048 / 12 messages (12 CDR bytes each + record overhead).
     assert values == [float(i) for i in range(len(values))]
     assert 5000 - 2048 // 12 <= len(values) < 5000
+    # metadata.yaml, last written when the topic was added, never claims more than the file holds
+    info = yaml.safe_load((path / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert info['message_count'] <= len(values)
     # rosbags needs the summary (footer): recover() adds it, keeping every message.
     assert not is_finished(path)
     assert recover(path) == len(values) and is_finished(path)
+    assert sorted(p.name for p in path.iterdir()) == ['bag_0.mcap', 'metadata.yaml']
     with AnyReader([path]) as reader:
         assert [reader.deserialize(raw, c.msgtype).data for c, _, raw in reader.messages()
                 ] == values
@@ -300,3 +304,22 @@ def test_message_objects_are_written_as_the_bytes_a_raw_subscription_receives():
         executor.shutdown()
         node.destroy_node()
         rclpy.try_shutdown(context=ctx)
+
+
+def test_message_sequence_numbers_count_from_zero_per_topic(tmp_path):
+    from mcap.records import Channel, Message
+
+    from abb_ros.io.bag_reader import iter_records
+    with BagWriter(tmp_path / 'seq') as bag:
+        bag.add_topic('a', 'std_msgs/msg/Float64')
+        bag.add_topic('b', 'std_msgs/msg/Float64')
+        for i in range(3):
+            bag.write('a', bytes(12), i)
+            bag.write('b', bytes(12), i)
+    names, sequences = {}, {}
+    for record in iter_records(tmp_path / 'seq'):
+        if isinstance(record, Channel):
+            names[record.id] = record.topic
+        elif isinstance(record, Message):
+            sequences.setdefault(names[record.channel_id], []).append(record.sequence)
+    assert sequences == {'/a': [0, 1, 2], '/b': [0, 1, 2]}

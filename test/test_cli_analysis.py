@@ -1,9 +1,7 @@
-"""`abb-sim stability`, `abb-sim freqs` and `abb-sim map`."""
+"""`abb-sim stability`, `abb-sim freqs` and `abb-sim map`, in-process through ``cli.main``
+(the console script: test_cli_smoke.py)."""
 
 import json
-import os
-import subprocess
-import sys
 
 import numpy as np
 import pytest
@@ -87,11 +85,7 @@ def test_map_csv_and_out_of_plane(capsys, tmp_path):
     assert 'fixed' in csv.read_text().splitlines()[0]
 
 
-def test_abb_sim_map_prints_progress_on_stderr_and_one_json_object_on_stdout(tmp_path):
-    exe = os.path.join(os.path.dirname(sys.executable), 'abb-sim')
-    proc = subprocess.run([exe, 'map', '--x', 'wbar', '--y', 'zeta', '--res', '5x4',
-                           '--set', 'mbar=0.03', '--out', str(tmp_path / 'f4.png'), '--json'],
-                          capture_output=True, text=True, timeout=300)
-    assert proc.returncode == 0, proc.stderr
-    assert json.loads(proc.stdout)['points'] == 20
-    assert '20/20' in proc.stderr   # tqdm's bar
+def test_map_offers_exactly_the_axes_the_stability_map_varies():
+    from abb_ros.commands.map import DEFAULT_RANGES
+    from abb_ros.model.floquet import MAP_AXES
+    assert tuple(DEFAULT_RANGES) == MAP_AXES

@@ -1,19 +1,24 @@
-"""`abb-sim run`: the headless command line, its JSON summary and its errors (exit code 2)."""
+"""`abb-sim run`: the headless command line, its JSON summary and its errors (exit code 2),
+in-process through ``cli.main`` (the console script: test_cli_smoke.py)."""
 
 import json
-import subprocess
-import sys
 
 import pytest
 
-
-def abb_sim(*args, timeout=300):
-    proc = subprocess.run([sys.executable, '-m', 'abb_ros.cli', *args], capture_output=True,
-                          text=True, timeout=timeout, stdin=subprocess.DEVNULL)
-    return proc.returncode, proc.stdout, proc.stderr
+from abb_ros.cli import main
 
 
-def test_run_p3_prints_one_json_summary():
+@pytest.fixture
+def abb_sim(capsys):
+    """``abb_sim(*args) -> (exit code, stdout, stderr)`` of ``abb-sim`` run in this process."""
+    def run(*args):
+        code = main(list(args))
+        out = capsys.readouterr()
+        return code, out.out, out.err
+    return run
+
+
+def test_run_p3_prints_one_json_summary(abb_sim):
     code, out, err = abb_sim('run', '--scenario', 'p3', '--duration', '3', '--json')
     assert code == 0, err
     summary = json.loads(out)
@@ -24,7 +29,7 @@ def test_run_p3_prints_one_json_summary():
     assert summary['wall_time_s'] > 0 and summary['real_time_factor'] > 0
 
 
-def test_no_abb_and_dimensionless_settings():
+def test_no_abb_and_dimensionless_settings(abb_sim):
     code, out, err = abb_sim('run', '--scenario', 'p3', '--no-abb', '--set', 'wbar=1.5',
                              '--set', 'zeta=0.1', '--duration', '1', '--json')
     assert code == 0, err
@@ -43,14 +48,14 @@ def test_no_abb_and_dimensionless_settings():
     (['--set', 'J_y=1e-5'], "'J_y'"),
     (['--duration', '-1'], "'duration'"),
 ])
-def test_bad_input_exits_2_naming_the_parameter(args, fragment):
+def test_bad_input_exits_2_naming_the_parameter(abb_sim, args, fragment):
     code, out, err = abb_sim('run', *args, '--json', '--no-progress')
     assert code == 2
     assert fragment in err
     assert 'Traceback' not in err and out == ''
 
 
-def test_malformed_scenario_file_is_a_clear_error(tmp_path):
+def test_malformed_scenario_file_is_a_clear_error(abb_sim, tmp_path):
     bad = tmp_path / 'bad.yaml'
     bad.write_text('name: x\nset: {wbar: [1, 2}\n')
     code, _, err = abb_sim('run', '--scenario', str(bad), '--json')
@@ -61,7 +66,7 @@ def test_malformed_scenario_file_is_a_clear_error(tmp_path):
     assert code == 2 and "'scenario.spindle.model'" in err
 
 
-def test_out_writes_a_bag_and_refuses_to_overwrite_it(tmp_path):
+def test_out_writes_a_bag_and_refuses_to_overwrite_it(abb_sim, tmp_path):
     from abb_ros.io.bag_reader import read_bag
     out = tmp_path / 'p3bag'
     code, stdout, err = abb_sim('run', '--scenario', 'p3', '--duration', '0.2', '--out', str(out),
@@ -79,7 +84,7 @@ def test_out_writes_a_bag_and_refuses_to_overwrite_it(tmp_path):
     assert code == 2 and '--overwrite' in err
 
 
-def test_a_run_that_blows_up_stops_with_a_clear_message_and_a_readable_bag(tmp_path):
+def test_a_run_that_blows_up_stops_with_a_clear_message_and_a_readable_bag(abb_sim, tmp_path):
     """k = 1e9 N/m is a valid washer, but its mode (~1.5e5 rad/s) is far beyond a 10 kHz RK4:
     the run stops at once, exit code 1, no traceback, and the bag written so far is closed."""
     from abb_ros.io.bag_reader import read_bag

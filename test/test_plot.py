@@ -78,6 +78,7 @@ def test_rbar_and_ball_angles_are_read_back_from_the_bag(tmp_path):
                                np.array([1, -1]), rtol=1e-12)
 
 
+@pytest.mark.slow   # four figures: about 10 s of matplotlib on a shared 2-core machine
 def test_plot_command_writes_the_figures_and_summarises_the_run(tmp_path, capsys):
     write_run(tmp_path / 'abb')
     write_run(tmp_path / 'no_abb', amplitude=2e-4)
@@ -99,6 +100,7 @@ def test_plot_command_writes_the_figures_and_summarises_the_run(tmp_path, capsys
     assert summary['max_rbar_last_tenth_without_abb'] > 6 * summary['max_rbar_last_tenth']
 
 
+@pytest.mark.slow   # two figures
 def test_without_stored_parameters_R_comes_from_the_option_then_table_1(tmp_path, capsys):
     write_run(tmp_path / 'bag', store_params=False, stamp=False)
     resp = load_time_response(tmp_path / 'bag')

@@ -4,7 +4,6 @@ The recorder runs as a subprocess (``python -m abb_ros.nodes.recorder``) so that
 stopped by signals; the test process publishes through its own rclpy Context.
 """
 
-import os
 import signal
 import subprocess
 import sys
@@ -20,6 +19,8 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
 from abb_ros.io.bag_reader import is_finished, read_bag
+from abb_ros.io.bag_writer import INCOMPLETE_KEY
+from abb_ros.io.safe_yaml import load_file
 
 pytestmark = pytest.mark.ros
 ROOT = Path(__file__).resolve().parents[1]
@@ -163,4 +164,11 @@ def test_a_full_disk_ends_the_recording_with_an_error_and_a_readable_bag(tiny_di
     # The disk held some thousand messages; all that were written are a gapless prefix.
     assert len(values) > 1000
     assert values == [float(k) for k in range(len(values))]
-    assert os.path.exists(bag / 'metadata.yaml')
+    # metadata.yaml counts exactly what the file holds (never the messages still in memory
+    # when the disk refused the chunk), and says that the bag is incomplete and why.
+    info = load_file(bag / 'metadata.yaml')['rosbag2_bagfile_information']
+    assert info['message_count'] == len(values)
+    assert info['files'][0]['message_count'] == len(values)
+    [topic] = info['topics_with_message_count']
+    assert topic['message_count'] == len(values)
+    assert 'No space left on device' in info['custom_data'][INCOMPLETE_KEY]

@@ -21,7 +21,7 @@ from abb_ros.model.integrate import DEFAULT_DT, Simulation, initial_state
 from abb_ros.model.sampling import PlantSampler
 from abb_ros.model.sensors import TYPICAL_IMU, ImuConfig, ImuModel
 
-__all__ = ['RunResult', 'run_scenario', 'STATE_TOPIC_TYPES']
+__all__ = ['RunResult', 'run_scenario', 'check_duration', 'STATE_TOPIC_TYPES']
 
 PUBLISH_DT = 1e-3
 """Publish period of the state topics [s] (the node's default 1 kHz)."""
@@ -52,6 +52,14 @@ class RunResult:
         return span / self.wall_time if self.wall_time > 0 else float('inf')
 
 
+def check_duration(duration: float, publish_dt: float = PUBLISH_DT) -> None:
+    """A run shorter than one publish period would publish nothing: refused."""
+    if not duration >= publish_dt * (1 - 1e-9):
+        from abb_ros.model.params import ParamError
+        raise ParamError('duration', duration, f'[{publish_dt:g}, inf) s',
+                         'shorter than one publish period')
+
+
 def _steps_per(period: float, dt: float, what: str) -> int:
     k = int(round(period / dt))
     if k < 1 or abs(k * dt - period) > 1e-9 * period:
@@ -73,6 +81,7 @@ def run_scenario(scenario: Scenario, dt: float = DEFAULT_DT, publish_dt: float =
     from abb_ros.io import cdr
 
     imu_config = imu_config or TYPICAL_IMU
+    check_duration(scenario.duration, publish_dt)
     p = scenario.params
     y0 = initial_state(p, scenario.omega, phi0=scenario.phi0, deck0=scenario.deck0)
     sim = Simulation(p, scenario.omega, dt, spindle=scenario.spindle, y0=y0)

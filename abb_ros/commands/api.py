@@ -6,14 +6,23 @@ dispatcher imports the subcommands; nothing imports the dispatcher.
 
 from __future__ import annotations
 
-from abb_ros.model.param_spec import ParamError, cli_names, spec_for_command
-from abb_ros.model.params import DIMENSIONLESS_NAMES, PARAM_SPECS, parse_value
+import contextlib
+import os
+from pathlib import Path
 
-__all__ = ['UsageError', 'parse_settings']
+from abb_ros.model.param_spec import ParamError, cli_names, spec_for_command
+from abb_ros.model.params import DIMENSIONLESS_NAMES, PARAM_SPECS, DriveParams, parse_value
+
+__all__ = ['UsageError', 'CommandFailed', 'parse_settings', 'drive_params', 'check_output',
+           'output_files']
 
 
 class UsageError(Exception):
     """Bad command-line input that is not a single parameter (exit code 2)."""
+
+
+class CommandFailed(Exception):
+    """The input was good but the command could not finish, e.g. a full disk (exit code 1)."""
 
 
 def parse_settings(items, command: str | None = None) -> dict:
@@ -37,3 +46,51 @@ def parse_settings(items, command: str | None = None) -> dict:
         else:
             settings[key] = spec.parse(text.strip(), key)
     return settings
+
+
+def drive_params(config) -> DriveParams:
+    """The ``--config`` parameter file's drive parameters (Table 1 without one); an error
+    names the file."""
+    if not config:
+        return DriveParams()
+    try:
+        return DriveParams.from_yaml(config)
+    except ParamError as exc:
+        if exc.name == 'config':
+            raise
+        raise UsageError(f'--config {config}: {exc}') from None
+
+
+def check_output(option: str, path, suffixes=None) -> Path:
+    """Refuse, before any work, an output path whose folder cannot take it."""
+    path = Path(path)
+    if suffixes is not None and path.suffix not in suffixes:
+        raise UsageError(f'{option} {path}: the name must end in one of '
+                         f'{", ".join(sorted(suffixes))}')
+    parent = path.parent
+    while not parent.exists() and parent != parent.parent:
+        parent = parent.parent
+    if not parent.is_dir():
+        raise UsageError(f'{option} {path}: {parent} is not a directory')
+    if not os.access(parent, os.W_OK | os.X_OK):
+        raise UsageError(f'{option} {path}: {parent} is not writable')
+    return path
+
+
+@contextlib.contextmanager
+def output_files(*paths):
+    """Yield temporary names beside ``paths`` (same suffix); on success they replace the
+    paths together, on any error they are removed, so no partial file is left behind."""
+    paths = [Path(p) for p in paths]
+    temps = [p.with_name(f'.{p.stem}.partial{p.suffix}') for p in paths]
+    try:
+        for p in paths:
+            p.parent.mkdir(parents=True, exist_ok=True)
+        yield temps
+        for tmp, final in zip(temps, paths):
+            os.replace(tmp, final)
+    except BaseException:
+        for tmp in temps:
+            with contextlib.suppress(OSError):
+                tmp.unlink()
+        raise

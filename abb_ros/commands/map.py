@@ -1,31 +1,36 @@
 """`abb-sim map`: stability map over two Eq. (39) parameters (PNG + NPZ/CSV data file).
 
 Example (Fig. 7b): ``abb-sim map --x wbar --y mbar --set zeta=0.025 --out fig7b.png``.
-Progress goes to stderr (tqdm); the summary (and --json) to stdout.
+Progress goes to stderr (tqdm); the summary (and --json) to stdout. Both files are written under
+temporary names and renamed together at the end, so a failed write leaves neither behind.
 """
 
 from __future__ import annotations
 
-import os
 import sys
 
 import numpy as np
 
-from abb_ros.commands.api import UsageError, parse_settings
-from abb_ros.model.floquet import MAP_AXES, stability_map
-from abb_ros.model.params import DriveParams, ParamError
+from abb_ros.commands.api import (CommandFailed, UsageError, check_output, drive_params,
+                                  output_files, parse_settings)
+from abb_ros.model.params import ParamError
 
 DEFAULT_RANGES = {'wbar': (0.2, 3.5), 'zeta': (0.0, 0.15), 'Dbar': (0.0, 1.0),
                   'epsbar': (0.0, 0.05), 'mbar': (0.001, 0.12)}
-"""Axis ranges when --range-x/--range-y are not given (those of the paper's figures)."""
+"""Axis ranges when --range-x/--range-y are not given (those of the paper's figures); its keys
+are the axes a map may vary (floquet.MAP_AXES, not imported here: the parser starts fast)."""
 OUT_OF_PLANE_MBAR = (0.01, 2.5)
 """Fig. 8 needs heavy balls to show the parametric-resonance zone."""
 MAX_POINTS = 1_000_000
+DATA_SUFFIXES = ('.npz', '.csv')
+IMAGE_SUFFIXES = ('.png', '.pdf', '.svg')
 
 
 def add_arguments(parser) -> None:
-    parser.add_argument('--x', required=True, choices=MAP_AXES, help='horizontal axis')
-    parser.add_argument('--y', required=True, choices=MAP_AXES, help='vertical axis')
+    parser.add_argument('--x', required=True, choices=tuple(DEFAULT_RANGES),
+                        help='horizontal axis')
+    parser.add_argument('--y', required=True, choices=tuple(DEFAULT_RANGES),
+                        help='vertical axis')
     parser.add_argument('--set', action='append', default=[], metavar='KEY=VALUE',
                         help='fixed parameter (SI or Eq. 39 name); others are Table 1 values')
     parser.add_argument('--config', help='ROS 2 parameter file with drive.* parameters')
@@ -36,7 +41,7 @@ def add_arguments(parser) -> None:
     parser.add_argument('--surface', action='store_true',
                         help='draw |lambda|max as a 3-D surface (Fig. 4a) instead of regions')
     parser.add_argument('--data', help='data file (.npz or .csv); default: --out with .npz')
-    parser.add_argument('--out', required=True, help='PNG file to write')
+    parser.add_argument('--out', required=True, help='PNG (or .pdf, .svg) file to write')
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
 
 
@@ -68,20 +73,27 @@ def run(args) -> dict:
     import time
     from tqdm import tqdm
     from abb_ros.io.map_file import save_map
+    from abb_ros.model.floquet import stability_map
     from abb_ros.plots.maps import plot_map
     if args.x == args.y:
         raise UsageError('--x and --y must differ')
     nx, ny = _res(args.res)
+    out = check_output('--out', args.out, IMAGE_SUFFIXES)
+    data = check_output('--data', args.data or out.with_suffix('.npz'), DATA_SUFFIXES)
     xs = np.linspace(*_range(args.range_x, args.x, args.plane), nx)
     ys = np.linspace(*_range(args.range_y, args.y, args.plane), ny)
-    base = DriveParams.from_yaml(args.config) if args.config else DriveParams()
+    base = drive_params(args.config)
     settings = parse_settings(args.set, 'map')
     t0 = time.perf_counter()
     with tqdm(total=nx * ny, unit='pt', file=sys.stderr, disable=args.no_progress,
               desc=f'{args.plane}-plane map') as bar:
         smap = stability_map(base, args.x, xs, args.y, ys, settings, args.plane, bar.update)
     wall = time.perf_counter() - t0
-    data = args.data or os.path.splitext(args.out)[0] + '.npz'
-    save_map(smap, data)
-    plot_map(smap, args.out, kind='surface' if args.surface else 'regions')
-    return {**smap.summary(), 'png': args.out, 'data': data, 'wall_s': wall}
+    try:
+        with output_files(data, out) as (data_tmp, out_tmp):
+            save_map(smap, data_tmp)
+            plot_map(smap, out_tmp, kind='surface' if args.surface else 'regions')
+    except OSError as exc:
+        raise CommandFailed(f'writing {data} and {out} failed ({exc.strerror or exc}); '
+                            'neither was written') from None
+    return {**smap.summary(), 'png': str(out), 'data': str(data), 'wall_s': wall}

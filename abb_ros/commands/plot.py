@@ -1,7 +1,12 @@
-"""`abb-sim plot BAG --out DIR [--compare BAG2]`: the paper's time-response figures (PNG)."""
+"""`abb-sim plot BAG --out DIR [--compare BAG2]`: the paper's time-response figures (PNG).
+
+The bags are read before anything is written; the figures are written under temporary names
+and renamed together, so a failure leaves no figure (and no folder this command created).
+"""
 
 from __future__ import annotations
 
+import shutil
 from pathlib import Path
 
 import numpy as np
@@ -23,26 +28,38 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> dict:
-    from abb_ros.commands.api import UsageError
+    from abb_ros.commands.api import CommandFailed, UsageError, check_output, output_files
     from abb_ros.plots import time_response as plots
 
-    if args.R is not None and not args.R > 0:
-        raise UsageError(f'--R must be > 0 m, got {args.R}')
+    if args.R is not None and not (args.R > 0 and np.isfinite(args.R)):
+        raise UsageError(f'--R must be a finite radius > 0 m, got {args.R}')
     out = Path(args.out)
+    if out.exists() and not out.is_dir():
+        raise UsageError(f'--out {out}: exists and is not a directory')
+    check_output('--out', out / 'rbar_balls.png')
     try:
-        out.mkdir(parents=True, exist_ok=True)
         resp = plots.load_time_response(args.bag, R=args.R)
         other = (plots.load_time_response(args.compare, R=args.R)
                  if args.compare else None)
     except (BagError, plots.PlotError, OSError) as exc:
         raise UsageError(str(exc)) from None
     figures = [out / 'rbar_balls.png', out / 'deck.png']
-    plots.plot_rbar_and_balls(resp, figures[0], args.title)
-    plots.plot_deck_coordinates(resp, figures[1], args.title)
     if other is not None:
         figures += [out / 'deck_without_abb.png', out / 'abb_comparison.png']
-        plots.plot_deck_coordinates(other, figures[2], f'{args.title} (without ABB)'.strip())
-        plots.plot_abb_comparison(resp, other, figures[3], args.title)
+    created = not out.exists()
+    try:
+        with output_files(*figures) as temps:
+            plots.plot_rbar_and_balls(resp, temps[0], args.title)
+            plots.plot_deck_coordinates(resp, temps[1], args.title)
+            if other is not None:
+                plots.plot_deck_coordinates(other, temps[2],
+                                            f'{args.title} (without ABB)'.strip())
+                plots.plot_abb_comparison(resp, other, temps[3], args.title)
+    except OSError as exc:
+        if created:
+            shutil.rmtree(out, ignore_errors=True)
+        raise CommandFailed(f'writing the figures to {out} failed ({exc.strerror or exc}); '
+                            'none was written') from None
     summary = {
         'figures': [str(f) for f in figures],
         'R_m': resp.R, 'R_source': resp.R_source,

@@ -1,13 +1,20 @@
-"""`abb-sim run`: a scenario integrated headless (no DDS), optionally written to a bag."""
+"""`abb-sim run`: a scenario integrated headless (no DDS), optionally written to a bag.
+
+A run that cannot write its bag (full disk) removes it, exit code 1; a run whose state blows up
+keeps the bag written so far, marked incomplete in its metadata.yaml (exit code 1).
+"""
 
 from __future__ import annotations
 
 import dataclasses
+import errno
+import os
+import shutil
 import sys
 
 import numpy as np
 
-from abb_ros.model.params import DIMENSIONLESS_NAMES, PARAM_SPECS, DriveParams
+from abb_ros.model.params import DIMENSIONLESS_NAMES, PARAM_SPECS
 
 DRIVE_SETTINGS = ('omega',) + DIMENSIONLESS_NAMES + tuple(PARAM_SPECS)
 """--set names that go to the scenario's drive (the others are node parameters)."""
@@ -64,18 +71,29 @@ def _spindle(spindle, node: dict):
     return dataclasses.replace(spindle, **changes)
 
 
+def _why(exc: OSError) -> str:
+    """What the system said, without the path (the message names the option)."""
+    return os.strerror(exc.errno) if exc.errno else str(exc)
+
+
 def _wrap_deg(phi):
     return ((np.degrees(phi) + 180.0) % 360.0) - 180.0
 
 
 def run(args) -> dict:
-    from abb_ros.commands.api import UsageError, parse_settings
-    from abb_ros.app.headless import run_scenario
+    from abb_ros.commands.api import CommandFailed, UsageError, drive_params, parse_settings
+    from abb_ros.app.headless import check_duration, run_scenario
     from abb_ros.io.scenario import load_scenario
+    from abb_ros.model.integrate import StateError
     from abb_ros.model.params import ParamError
 
-    base = DriveParams.from_yaml(args.config) if args.config else None
-    scenario = load_scenario(args.scenario, base=base)
+    base = drive_params(args.config) if args.config else None
+    try:
+        scenario = load_scenario(args.scenario, base=base)
+    except ParamError as exc:
+        if exc.name == 'scenario':     # names the file already
+            raise
+        raise UsageError(f'--scenario {args.scenario}: {exc}') from None
     settings = parse_settings(args.set, 'run')
     if args.no_abb:
         settings['n'] = 0
@@ -89,15 +107,28 @@ def run(args) -> dict:
         if not (np.isfinite(args.duration) and args.duration > 0):
             raise ParamError('duration', args.duration, '(0, inf) s')
         scenario.duration = float(args.duration)
+    try:
+        check_duration(scenario.duration)
+    except ParamError as exc:
+        if args.duration is not None:
+            raise
+        raise UsageError(f'--scenario {args.scenario}: {exc}') from None
     bag = None
     if args.out:
-        from abb_ros.io.bag_writer import BagError, BagWriter
+        from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
+        existed = os.path.lexists(args.out)
         try:
             bag = BagWriter(args.out, overwrite=args.overwrite)
-        except (BagError, FileExistsError) as exc:
-            raise UsageError(f'--out {args.out}: {exc}'.replace('pass overwrite=True',
+            bag.set_drive_params(scenario.params)
+        except (BagError, OSError) as exc:
+            if not existed:
+                shutil.rmtree(args.out, ignore_errors=True)
+            if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
+                raise CommandFailed(f'--out {args.out}: {_why(exc)}; nothing was written'
+                                    ) from None
+            why = _why(exc) if isinstance(exc, OSError) else str(exc)
+            raise UsageError(f'--out {args.out}: {why}'.replace('pass overwrite=True',
                                                                  'pass --overwrite')) from None
-        bag.set_drive_params(scenario.params)
     bar = None
     if not args.no_progress:
         from tqdm import tqdm
@@ -107,11 +138,28 @@ def run(args) -> dict:
     try:
         result = run_scenario(scenario, bag=bag, progress=bar.update if bar else None,
                               **_run_options(node))
+    except StateError as exc:
+        if bag is not None:
+            bag.mark_incomplete(str(exc))
+        raise
+    except BagWriteError as exc:
+        shutil.rmtree(args.out, ignore_errors=True)
+        raise CommandFailed(f'--out {args.out}: writing the bag failed ({_why(exc)}); '
+                            'the partial bag was removed') from None
+    except BaseException:
+        if bag is not None:
+            bag.mark_incomplete('the run was interrupted')
+        raise
     finally:
         if bar is not None:
             bar.close()
         if bag is not None:
-            bag.close()
+            try:
+                bag.close()
+            except BagWriteError as exc:
+                shutil.rmtree(args.out, ignore_errors=True)
+                raise CommandFailed(f'--out {args.out}: finishing the bag failed '
+                                    f'({_why(exc)}); the partial bag was removed') from None
     p = scenario.params
     y = result.y[-1]
     N = 7 + p.n

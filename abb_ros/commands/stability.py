@@ -8,9 +8,8 @@ from __future__ import annotations
 
 import math
 
-from abb_ros.commands.api import UsageError, parse_settings
-from abb_ros.model.floquet import point_stability
-from abb_ros.model.params import DriveParams, ParamError, apply_settings
+from abb_ros.commands.api import UsageError, drive_params, parse_settings
+from abb_ros.model.params import ParamError, apply_settings
 
 
 def add_arguments(parser) -> None:
@@ -23,7 +22,7 @@ def add_arguments(parser) -> None:
 
 def operating_point(args):
     """(DriveParams, omega) from --config and --set; omega is required."""
-    base = DriveParams.from_yaml(args.config) if args.config else DriveParams()
+    base = drive_params(args.config)
     params, omega = apply_settings(base, parse_settings(args.set, 'stability'))
     if omega is None:
         raise UsageError('give the spindle speed with --set wbar=... or --set omega=... [rad/s]')
@@ -33,6 +32,7 @@ def operating_point(args):
 
 
 def run(args) -> dict:
+    from abb_ros.model.floquet import point_stability
     params, omega = operating_point(args)
     phi = None
     if args.phi_star:

@@ -6,13 +6,17 @@ import json
 import os
 from pathlib import Path
 
-import yaml
 from mcap.exceptions import EndOfFile, McapError
 from mcap.records import Channel, Message, Metadata, Schema
 from mcap.stream_reader import StreamReader
 
 from abb_ros.io import msgdefs
 from abb_ros.io.bag_writer import DRIVE_METADATA, STORAGE_ID, BagError, topic_name
+from abb_ros.io.safe_yaml import YamlFileError, load_file
+
+METADATA_MAX_BYTES = 1 << 20
+"""Largest metadata.yaml read [bytes]; rosbag2 lists every file and topic in it, some 200 bytes
+each (safe_yaml.MAX_BYTES gives the parse time)."""
 
 
 def bag_files(path) -> list[Path]:
@@ -25,11 +29,13 @@ def bag_files(path) -> list[Path]:
     meta = path / 'metadata.yaml'
     if meta.exists():
         try:
-            info = yaml.safe_load(meta.read_text())['rosbag2_bagfile_information']
+            info = load_file(meta, METADATA_MAX_BYTES)['rosbag2_bagfile_information']
             storage = info.get('storage_identifier', STORAGE_ID)
             names = [Path(p).name for p in info['relative_file_paths']]
-        except (yaml.YAMLError, KeyError, TypeError) as exc:
-            raise BagError(f'{meta} is not rosbag2 metadata: {exc}') from None
+        except YamlFileError as exc:
+            raise BagError(f'{meta} is not rosbag2 metadata: {exc.why}') from None
+        except (KeyError, TypeError, AttributeError) as exc:
+            raise BagError(f'{meta} is not rosbag2 metadata (no {exc})') from None
         if storage != STORAGE_ID:
             raise BagError(f'{path} is a {storage!r} bag; only MCAP bags can be read')
         files = [path / n for n in names]
@@ -65,6 +71,9 @@ def iter_raw(path, topics=None):
             if topic is not None and (wanted is None or topic in wanted):
                 yield topic, type_name, record.data, record.log_time
         elif isinstance(record, Channel):
+            if record.message_encoding != 'cdr' and (wanted is None or record.topic in wanted):
+                raise BagError(f'{path}: topic {record.topic} is encoded as '
+                               f'{record.message_encoding!r}; only CDR (rosbag2) bags can be read')
             channels[record.id] = (record.topic, schemas.get(record.schema_id, ''))
         elif isinstance(record, Schema):
             schemas[record.id] = record.name
@@ -74,7 +83,15 @@ def read_bag(path, topics=None):
     """Yield (topic, rclpy message, log_time_ns) for the messages of a bag, in file order."""
     from rclpy.serialization import deserialize_message
     for topic, type_name, data, log_time in iter_raw(path, topics):
-        yield topic, deserialize_message(data, msgdefs.message_class(type_name)), log_time
+        try:
+            cls = msgdefs.message_class(type_name)
+            msg = deserialize_message(data, cls)
+        except msgdefs.MessageTypeError as exc:
+            raise BagError(f'{path}: topic {topic}: {exc}') from None
+        except Exception as exc:  # noqa: BLE001 - rclpy raises several types on bad bytes
+            raise BagError(f'{path}: topic {topic}: a message is not valid CDR for '
+                           f'{type_name} ({type(exc).__name__})') from None
+        yield topic, msg, log_time
 
 
 def read_metadata(path) -> dict[str, dict[str, str]]:
@@ -91,7 +108,10 @@ def read_drive_params(path) -> dict | None:
     record = read_metadata(path).get(DRIVE_METADATA)
     if not record or 'drive_params' not in record:
         return None
-    return json.loads(record['drive_params'])
+    try:
+        return json.loads(record['drive_params'])
+    except ValueError:
+        raise BagError(f'{path}: the stored drive parameters are not JSON') from None
 
 
 def is_finished(path) -> bool:

@@ -7,11 +7,11 @@ import os
 import shutil
 from pathlib import Path
 
-import yaml
 from mcap.records import Channel, Message, Metadata, Schema
 
 from abb_ros.io.bag_reader import bag_files, iter_records
 from abb_ros.io.bag_writer import DRIVE_METADATA, BagWriter
+from abb_ros.io.safe_yaml import load_text
 
 
 def recover(path) -> int:
@@ -37,7 +37,8 @@ def recover(path) -> int:
                 schemas[record.id] = record
             elif isinstance(record, Channel):
                 channels[record.id] = record
-                qos = yaml.safe_load(record.metadata.get('offered_qos_profiles') or '[]')
+                qos = load_text(record.metadata.get('offered_qos_profiles') or '[]',
+                                f'{record.topic} offered_qos_profiles')
                 out.add_topic(record.topic, schemas[record.schema_id].name, qos=qos or None,
                               type_hash=record.metadata.get('topic_type_hash'))
             elif isinstance(record, Metadata) and record.name == DRIVE_METADATA:
@@ -46,7 +47,7 @@ def recover(path) -> int:
                 out.add_metadata(record.name, record.metadata)
         kept = out.message_count
     old = bag_files(path)
-    for file in old:
+    for file in old + sorted(path.glob('*.tmp')):   # and the dead writer's metadata reserve
         file.unlink()
     for item in (work / path.name).iterdir():
         os.replace(item, path / item.name)

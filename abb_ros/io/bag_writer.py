@@ -14,7 +14,11 @@ Crash safety: messages are grouped into zstd-compressed chunks written whole to 
 chunk is full and at least every ``flush_period`` seconds; ``metadata.yaml`` is written at open
 and whenever a topic is added, so a killed recording is a readable bag (without summary) up to
 its last complete chunk. A write that the disk refuses (``ENOSPC``) cuts the file back to its
-last whole record and raises :class:`BagWriteError`.
+last whole record and raises :class:`BagWriteError`. ``metadata.yaml`` counts only the messages
+of chunks that reached the file, so it never claims more than the file holds; after a write
+error its ``custom_data`` says ``abb_ros.incomplete`` and why. So that this last metadata.yaml
+can still be written on a full disk, the writer keeps a reserve file (``metadata.reserve.tmp``,
+twice the metadata's size) that it deletes first when a write fails, and at close.
 """
 
 from __future__ import annotations
@@ -40,6 +44,11 @@ LIBRARY = 'abb_ros rosbag2-compatible writer (mcap python)'
 DEFAULT_CHUNK_SIZE = 768 * 1024  # the MCAP C++ writer's default, as rosbag2 uses it [bytes]
 DEFAULT_FLUSH_PERIOD = 1.0  # a chunk in progress is written at least this often [s]
 DRIVE_METADATA = 'abb_ros'
+INCOMPLETE_KEY = 'abb_ros.incomplete'
+"""custom_data key of metadata.yaml marking a bag cut short (its value says why)."""
+_CHUNK_OPCODE = 0x06   # MCAP record opcode of a Chunk
+_RESERVE = 'metadata.reserve.tmp'
+_MIN_RESERVE = 8192    # [bytes]
 _COMPRESSION = {'zstd': CompressionType.ZSTD, 'lz4': CompressionType.LZ4,
                 'none': CompressionType.NONE}
 # rmw's RMW_DURATION_INFINITE as the graph reports it (INT64_MAX ns).
@@ -114,11 +123,13 @@ class _FileSink:
 
     Every write reaches the OS whole or raises; ``good`` is the end of the last whole write,
     which is a record boundary, so :meth:`cut` drops a record that was half written.
+    ``on_chunk`` is called after a Chunk record reached the OS whole.
     """
 
-    def __init__(self, path: Path, opener=None):
+    def __init__(self, path: Path, opener=None, on_chunk=None):
         self._raw = (opener or _open_new)(path)
         self.good = 0
+        self._on_chunk = on_chunk
 
     def write(self, data) -> int:
         view = memoryview(data)
@@ -129,6 +140,8 @@ class _FileSink:
                 raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
             done += n
         self.good += done
+        if done and view[0] == _CHUNK_OPCODE and self._on_chunk is not None:
+            self._on_chunk()
         return done
 
     def tell(self) -> int:
@@ -158,7 +171,8 @@ class _Topic:
     channel_id: int
     qos: list
     type_hash: str
-    count: int = 0
+    count: int = 0      # messages given to the MCAP writer
+    durable: int = 0    # of those, in chunks that reached the file
 
 
 def _prepare_directory(path: Path, overwrite: bool) -> None:
@@ -193,9 +207,10 @@ class BagWriter:
         if not chunk_size > 0:
             raise BagError(f'chunk_size must be > 0 bytes, got {chunk_size!r}')
         self.path = Path(path)
+        self._reserved = 0
         _prepare_directory(self.path, overwrite)
         self.mcap_path = self.path / f'{self.path.name}_0.mcap'
-        self._sink = _FileSink(self.mcap_path, opener)
+        self._sink = _FileSink(self.mcap_path, opener, self._chunk_written)
         self._mcap = Writer(self._sink, chunk_size=int(chunk_size),
                             compression=_COMPRESSION[compression])
         self._flush_period = float(flush_period)
@@ -205,7 +220,9 @@ class BagWriter:
         self._custom: dict[str, str] = {}
         self._start_ns: int | None = None
         self._end_ns = 0
+        self._durable_span: tuple[int, int] | None = None   # (start, end) of durable messages
         self.message_count = 0
+        self.durable_count = 0
         self.closed = False
         self.error: OSError | None = None
         self._guard(self._mcap.start, profile=PROFILE, library=LIBRARY)
@@ -263,16 +280,25 @@ class BagWriter:
                            f'{type(message).__name__}')
         data = bytes(message)
         log_time_ns = int(log_time_ns)
-        self._guard(self._mcap.add_message, channel_id=entry.channel_id, log_time=log_time_ns,
-                    data=data, sequence=entry.count,
-                    publish_time=log_time_ns if publish_time_ns is None else int(publish_time_ns))
+        # counted before the call: the chunk that holds this message may be written within it
         entry.count += 1
         self.message_count += 1
         self._start_ns = log_time_ns if self._start_ns is None else min(self._start_ns,
                                                                          log_time_ns)
         self._end_ns = max(self._end_ns, log_time_ns)
+        self._guard(self._mcap.add_message, channel_id=entry.channel_id, log_time=log_time_ns,
+                    data=data, sequence=entry.count - 1,
+                    publish_time=log_time_ns if publish_time_ns is None else int(publish_time_ns))
         if time.monotonic() >= self._next_flush:
             self.flush()
+
+    def _chunk_written(self) -> None:
+        """Every message given so far is in a chunk that reached the file."""
+        for t in self._topics.values():
+            t.durable = t.count
+        self.durable_count = self.message_count
+        if self.message_count:
+            self._durable_span = (self._start_ns, self._end_ns)
 
     def flush(self) -> None:
         """Write the chunk in progress (if any) to the OS now."""
@@ -293,37 +319,53 @@ class BagWriter:
         self._custom[f'{DRIVE_METADATA}.drive_params'] = text
         self._write_metadata_yaml()
 
+    def mark_incomplete(self, reason: str) -> None:
+        """Say in metadata.yaml (``custom_data``, key ``abb_ros.incomplete``) and in an MCAP
+        metadata record of that name that the bag was cut short, and why."""
+        self._custom[INCOMPLETE_KEY] = reason
+        if not self.closed:
+            self.add_metadata(INCOMPLETE_KEY, {'reason': reason})
+            self._write_metadata_yaml()
+
     def close(self) -> None:
         """Finish the MCAP (summary, rosbag2 metadata record) and write ``metadata.yaml``."""
         if self.closed:
             return
-        self._guard(self._mcap.add_metadata, 'rosbag2',
-                    {'serialized_metadata': dump_yaml(self.metadata())})
+        self._guard(self._mcap.add_metadata, 'rosbag2',    # the last chunk is written below
+                    {'serialized_metadata': dump_yaml(self.metadata(durable=False))})
         self._guard(self._mcap.finish)
         self.closed = True
         self._sink.close()
         self._write_metadata_yaml()
+        (self.path / _RESERVE).unlink(missing_ok=True)
 
-    def metadata(self) -> dict:
-        """The bag metadata (rosbag2's BagMetadata, version 9) as a dict."""
-        start = self._start_ns or 0
-        duration = self._end_ns - start if self.message_count else 0
+    def metadata(self, durable: bool = True) -> dict:
+        """The bag metadata (rosbag2's BagMetadata, version 9) as a dict; with ``durable``
+        it counts only the messages in chunks that reached the file."""
+        if durable:
+            count = self.durable_count
+            start, end = self._durable_span or (0, 0)
+        else:
+            count = self.message_count
+            start, end = self._start_ns or 0, self._end_ns
+        duration = end - start if count else 0
         file_name = self.mcap_path.name
         topics = [{'topic_metadata': {'name': t.name, 'type': t.type,
                                       'serialization_format': 'cdr',
                                       'offered_qos_profiles': t.qos,
                                       'type_description_hash': t.type_hash},
-                   'message_count': t.count} for t in self._topics.values()]
+                   'message_count': t.durable if durable else t.count}
+                  for t in self._topics.values()]
         return {'version': METADATA_VERSION, 'storage_identifier': STORAGE_ID,
                 'duration': {'nanoseconds': duration},
                 'starting_time': {'nanoseconds_since_epoch': start},
-                'message_count': self.message_count, 'topics_with_message_count': topics,
+                'message_count': count, 'topics_with_message_count': topics,
                 'compression_format': '', 'compression_mode': '',
                 'relative_file_paths': [file_name],
                 'files': [{'path': file_name,
                            'starting_time': {'nanoseconds_since_epoch': start},
                            'duration': {'nanoseconds': duration},
-                           'message_count': self.message_count}],
+                           'message_count': count}],
                 'custom_data': dict(self._custom) or None, 'ros_distro': ROS_DISTRO}
 
     def _write_metadata_yaml(self) -> None:
@@ -337,6 +379,13 @@ class BagWriter:
             tmp.unlink(missing_ok=True)
             if self.error is None:
                 self._fail(exc)
+            return
+        if not self.closed and self._reserved < max(_MIN_RESERVE, 2 * len(text)):
+            try:
+                (self.path / _RESERVE).write_bytes(bytes(max(_MIN_RESERVE, 2 * len(text))))
+                self._reserved = max(_MIN_RESERVE, 2 * len(text))
+            except OSError:     # the disk is nearly full: keep the reserve there is
+                pass
 
     def _guard(self, fn, *args, **kwargs):
         try:
@@ -348,11 +397,14 @@ class BagWriter:
         """The disk refused a write: cut the half-written record, close, keep the bag readable."""
         self.error = exc
         self.closed = True
+        self._custom[INCOMPLETE_KEY] = (f'writing stopped: {exc.strerror or exc}; '
+                                        f'{self.durable_count} messages kept')
         self._sink.cut()
         try:
             self._sink.close()
         except OSError:
             pass
+        (self.path / _RESERVE).unlink(missing_ok=True)   # room for the last metadata.yaml
         self._write_metadata_yaml()
         raise BagWriteError(exc.errno, f'writing {self.mcap_path} failed ({exc.strerror or exc}); '
                             f'the bag is closed, readable up to its last complete chunk')

@@ -29,8 +29,10 @@ from pathlib import Path
 
 import numpy as np
 
+from abb_ros.io.safe_yaml import YamlFileError, load_file
+from abb_ros.model import kernels
 from abb_ros.model.integrate import INITIAL_DECK, ConstantSpeed, SpindleMotor
-from abb_ros.model.params import DriveParams, ParamError, apply_settings
+from abb_ros.model.params import PARAM_SPECS, DriveParams, ParamError, apply_settings
 
 __all__ = ['Scenario', 'load_scenario', 'scenario_dir', 'list_scenarios', 'SpeedCommand']
 
@@ -83,93 +85,134 @@ def list_scenarios() -> list[str]:
     return sorted(p.stem for p in scenario_dir().glob('*.yaml'))
 
 
-def _number(where, value, low=-math.inf, low_open=False):
+def _short(value):
+    """``value`` for an error message: numbers as they are, other values' repr cut to a line."""
+    if isinstance(value, (int, float)) or value is None:
+        return value
+    text = repr(value)
+    return text if len(text) <= 60 else text[:57] + '...'
+
+
+def _number(where, value, low=-math.inf, low_open=False, high=math.inf, unit=''):
     ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
     if ok:
-        ok = value > low if low_open else value >= low
+        ok = (value > low if low_open else value >= low) and value <= high
     if not ok:
-        rng = f"({low:g}, inf)" if low_open else f"[{low:g}, inf)"
-        raise ParamError(where, value, 'a finite number in ' + rng)
+        lo = f'({low:g}' if low_open else f'[{low:g}'
+        hi = 'inf)' if math.isinf(high) else f'{high:g}]'
+        raise ParamError(where, _short(value), f'a finite number in {lo}, {hi} {unit}'.rstrip())
     return float(value)
 
 
+def _mapping(where, value, keys) -> dict:
+    """``value`` as a mapping whose keys are among ``keys`` (text), else a ParamError."""
+    valid = 'a mapping with keys ' + ', '.join(sorted(keys))
+    if not isinstance(value, dict):
+        raise ParamError(where, _short(value), valid)
+    for key in value:
+        if not isinstance(key, str):
+            raise ParamError(f'{where} key {key!r}', _short(value[key]), valid,
+                             'keys must be text')
+        if key not in keys:
+            raise ParamError(f'{where}.{key}', _short(value[key]), valid, 'unknown key')
+    return value
+
+
+def _text(where, value) -> str:
+    if not isinstance(value, str):
+        raise ParamError(where, _short(value), 'text')
+    return value
+
+
+def _numbers(where, value, count, what, **bounds) -> list:
+    if not isinstance(value, list) or len(value) != count:
+        raise ParamError(where, _short(value), f'a list of {count} {what}')
+    return [_number(f'{where}[{i}]', v, **bounds) for i, v in enumerate(value)]
+
+
+def _initial_deck(value) -> tuple:
+    """X, Y, Z within +-MAX_TRANSLATION and alpha, beta, gamma within +-MAX_ANGLE: outside the
+    envelope of kernels.check_state the small-angle model means nothing (it stops at t = 0)."""
+    deck = _numbers('scenario.initial.deck', value, 6, 'numbers X, Y, Z [m], alpha, beta, '
+                    'gamma [rad]')
+    for i, (name, v) in enumerate(zip(('X', 'Y', 'Z', 'alpha', 'beta', 'gamma'), deck)):
+        limit, unit = ((kernels.MAX_TRANSLATION, 'm') if i < 3 else (kernels.MAX_ANGLE, 'rad'))
+        _number(f'scenario.initial.deck[{i}] ({name})', v, -limit, False, limit, unit)
+    return tuple(deck)
+
+
 def load_scenario(name_or_path: str, base: DriveParams | None = None) -> Scenario:
-    """Load a scenario by name (config/scenarios/<name>.yaml) or path."""
-    import yaml
+    """Load a scenario by name (config/scenarios/<name>.yaml) or path, checked against the
+    schema of this module's docstring: unknown keys at any level, wrong types and initial
+    states outside the model's envelope are a :class:`ParamError` naming the field."""
     path = Path(name_or_path)
     if not (path.suffix in ('.yaml', '.yml') or os.sep in str(name_or_path)):
         path = scenario_dir() / f'{name_or_path}.yaml'
         if not path.exists():
             raise ParamError('scenario', name_or_path,
                              'one of ' + ', '.join(list_scenarios()) + ' or a YAML file')
-    if not path.exists():
-        raise ParamError('scenario', str(path), 'an existing YAML file', 'no such file')
     try:
-        with open(path, encoding='utf-8') as f:
-            doc = yaml.safe_load(f)
-    except yaml.YAMLError as exc:
-        raise ParamError('scenario', str(path), 'a valid YAML file', f'malformed: {exc}') from None
+        doc = load_file(path)
+    except YamlFileError as exc:
+        raise ParamError('scenario', str(path), 'a scenario YAML file', exc.why) from None
     if not isinstance(doc, dict):
-        raise ParamError('scenario', str(path),
-                         'a YAML mapping of ' + ', '.join(sorted(_TOP_KEYS)))
-    unknown = set(doc) - _TOP_KEYS
-    if unknown:
-        raise ParamError(f'scenario.{sorted(unknown)[0]}', '...',
-                         'known keys: ' + ', '.join(sorted(_TOP_KEYS)), 'unknown key')
+        raise ParamError('scenario', str(path), 'a mapping with keys ' + ', '.join(
+            sorted(_TOP_KEYS)), f'the document is {type(doc).__name__}')
+    doc = _mapping('scenario', doc, _TOP_KEYS)
     params = base or DriveParams()
-    if doc.get('drive'):
-        if not isinstance(doc['drive'], dict):
-            raise ParamError('scenario.drive', doc['drive'], 'a mapping of SI parameters')
-        params = params.replace(**doc['drive'])
+    if doc.get('drive') is not None:
+        drive = _mapping('scenario.drive', doc['drive'], set(PARAM_SPECS))
+        params = params.replace(**drive)
     settings = doc.get('set') or {}
-    if not isinstance(settings, dict):
-        raise ParamError('scenario.set', settings, 'a mapping name: value')
+    if not isinstance(settings, dict) or not all(isinstance(k, str) for k in settings):
+        raise ParamError('scenario.set', _short(settings), 'a mapping name: value')
     params, omega = apply_settings(params, settings, None)
     if omega is None:
         omega = 2.7 * params.omega0    # P3's speed, the simulator's default
-    duration = _number('scenario.duration', doc.get('duration', 10.0), 0.0, low_open=True)
-    initial = doc.get('initial') or {}
-    deck0 = tuple(initial.get('deck', INITIAL_DECK))
-    if len(deck0) != 6:
-        raise ParamError('scenario.initial.deck', list(deck0), '6 numbers X, Y, Z, alpha, beta, '
-                         'gamma')
-    deck0 = tuple(_number('scenario.initial.deck', v) for v in deck0)
+    duration = _number('scenario.duration', doc.get('duration', 10.0), 0.0, True, unit='s')
+    initial = _mapping('scenario.initial', doc.get('initial') or {}, {'deck', 'phi_deg'})
+    deck0 = _initial_deck(initial['deck']) if 'deck' in initial else INITIAL_DECK
     phi0 = None
     if 'phi_deg' in initial:
-        phi_deg = initial['phi_deg']
-        if not isinstance(phi_deg, list) or len(phi_deg) != params.n:
-            raise ParamError('scenario.initial.phi_deg', phi_deg, f'a list of n = {params.n} '
-                             'angles in degrees')
-        phi0 = np.radians([_number('scenario.initial.phi_deg', v) for v in phi_deg])
+        phi0 = np.radians(_numbers('scenario.initial.phi_deg', initial['phi_deg'], params.n,
+                                   f'ball angles in degrees (n = {params.n})'))
     spindle, commands = _spindle(doc.get('spindle') or {}, params)
-    return Scenario(str(doc.get('name', path.stem)), str(doc.get('description', '')), params,
+    return Scenario(_text('scenario.name', doc.get('name', path.stem)),
+                    _text('scenario.description', doc.get('description', '')), params,
                     float(omega), duration, deck0, phi0, spindle, commands)
 
 
 def _spindle(spec, params):
-    if not isinstance(spec, dict):
-        raise ParamError('scenario.spindle', spec, 'a mapping with model: constant | motor')
+    spec = _mapping('scenario.spindle', spec, {'model', 'max_accel', 'tau', 'commands'})
     model = spec.get('model', 'constant')
     if model == 'constant':
-        if spec.get('commands'):
-            raise ParamError('scenario.spindle.commands', '...', 'none with model: constant '
+        extra = sorted(set(spec) - {'model'})
+        if extra:
+            raise ParamError(f'scenario.spindle.{extra[0]}', '...', 'none with model: constant '
                              '(use model: motor)')
         return ConstantSpeed(), []
     if model != 'motor':
-        raise ParamError('scenario.spindle.model', model, 'constant or motor')
+        raise ParamError('scenario.spindle.model', _short(model), 'constant or motor')
     motor = SpindleMotor(
-        max_accel=_number('scenario.spindle.max_accel', spec.get('max_accel', 1000.0), 0, True),
-        tau=_number('scenario.spindle.tau', spec.get('tau', 0.05), 0, True))
+        max_accel=_number('scenario.spindle.max_accel', spec.get('max_accel', 1000.0), 0, True,
+                          unit='rad/s^2'),
+        tau=_number('scenario.spindle.tau', spec.get('tau', 0.05), 0, True, unit='s'))
+    listed = spec.get('commands') or []
+    if not isinstance(listed, list):
+        raise ParamError('scenario.spindle.commands', _short(listed),
+                         'a list of {t: seconds, wbar: value} or {t, omega}')
     commands = []
-    for i, cmd in enumerate(spec.get('commands') or []):
+    for i, cmd in enumerate(listed):
         where = f'scenario.spindle.commands[{i}]'
-        if not isinstance(cmd, dict) or 't' not in cmd or not ({'wbar', 'omega'} & set(cmd)):
-            raise ParamError(where, cmd, 'a mapping {t: seconds, wbar: value} or {t, omega}')
-        t = _number(where + '.t', cmd['t'], 0.0)
+        cmd = _mapping(where, cmd, {'t', 'wbar', 'omega'})
+        if 't' not in cmd or len({'wbar', 'omega'} & set(cmd)) != 1:
+            raise ParamError(where, _short(cmd), 'a mapping {t: seconds, wbar: value} or '
+                             '{t, omega}')
+        t = _number(where + '.t', cmd['t'], 0.0, unit='s')
         if 'wbar' in cmd:
             omega = _number(where + '.wbar', cmd['wbar'], 0.0) * params.omega0
         else:
-            omega = _number(where + '.omega', cmd['omega'], 0.0)
+            omega = _number(where + '.omega', cmd['omega'], 0.0, unit='rad/s')
         commands.append(SpeedCommand(t, omega))
     commands.sort(key=lambda c: c.t)
     return motor, commands

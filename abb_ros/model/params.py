@@ -141,6 +141,10 @@ class DriveParams:
     def from_mapping(cls, values: Mapping[str, Any], base: 'DriveParams | None' = None
                      ) -> 'DriveParams':
         """Parameters from a flat SI mapping (unknown keys are an error)."""
+        for key in values:
+            if not isinstance(key, str):
+                raise ParamError(str(key), values[key], 'one of ' + ', '.join(PARAM_SPECS),
+                                 'unknown parameter')
         return (base or cls()).replace(**dict(values))
 
     @classmethod
@@ -151,9 +155,14 @@ class DriveParams:
         With ``node`` given, that node's section is used (falling back to ``/**``);
         otherwise the first section that has ``drive``.
         """
-        import yaml
-        with open(path, encoding='utf-8') as f:
-            doc = yaml.safe_load(f) or {}
+        from abb_ros.io.safe_yaml import YamlFileError, load_file
+        try:
+            doc = load_file(path) or {}
+        except YamlFileError as exc:
+            raise ParamError('config', str(path), 'a ROS 2 parameter file', exc.why) from None
+        if not isinstance(doc, Mapping):
+            raise ParamError('config', str(path), 'a mapping <node>: ros__parameters: drive:',
+                             f'the document is a {type(doc).__name__}')
         section = _find_drive_section(doc, node)
         if section is None:
             raise ParamError('drive', None, 'a mapping under <node>: ros__parameters: drive:',
@@ -174,17 +183,14 @@ def _find_drive_section(doc: Mapping, node: str | None):
     if node is not None:
         candidates += [node, '/' + node.lstrip('/')]
     candidates += ['/**']
-    for key in candidates:
-        sec = doc.get(key, {}) or {}
-        drive = (sec.get('ros__parameters') or {}).get('drive')
+    sections = [doc.get(key) for key in candidates]
+    if node is None:
+        sections += list(doc.values())
+    for sec in sections:
+        ros = sec.get('ros__parameters') if isinstance(sec, Mapping) else None
+        drive = ros.get('drive') if isinstance(ros, Mapping) else None
         if isinstance(drive, Mapping):
             return drive
-    if node is None:
-        for sec in doc.values():
-            if isinstance(sec, Mapping):
-                drive = (sec.get('ros__parameters') or {}).get('drive')
-                if isinstance(drive, Mapping):
-                    return drive
     return None
 
 

@@ -103,7 +103,7 @@ class Recorder(Node):
             except BagWriteError as exc:
                 logger.error(f'finishing the bag failed: {exc.strerror}')
         logger.info(
-            f'{self.bag.message_count} messages on {len(self.bag.topics)} topics in '
+            f'{self.bag.durable_count} messages on {len(self.bag.topics)} topics in '
             f'{self.bag.path}')
 
 
@@ -121,7 +121,7 @@ def main(args=None) -> int:
     except ParamError as exc:
         print(f'abb_recorder: invalid parameter: {exc}', file=sys.stderr)
         code = 2
-    except BagError as exc:
+    except (BagError, OSError) as exc:    # the output cannot be created (read-only, a file)
         print(f'abb_recorder: error: {exc}', file=sys.stderr)
         code = 2
     finally:
