@@ -86,6 +86,7 @@ def run(args) -> dict:
     from abb_ros.io.scenario import load_scenario
     from abb_ros.model.integrate import StateError
     from abb_ros.model.params import ParamError
+    from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
 
     base = drive_params(args.config) if args.config else None
     try:
@@ -103,6 +104,7 @@ def run(args) -> dict:
     if settings:
         scenario = scenario.with_settings(settings)
     scenario.spindle = _spindle(scenario.spindle, node)
+    options = _run_options(node)   # checked before any file is made
     if args.duration is not None:
         if not (np.isfinite(args.duration) and args.duration > 0):
             raise ParamError('duration', args.duration, '(0, inf) s')
@@ -115,7 +117,6 @@ def run(args) -> dict:
         raise UsageError(f'--scenario {args.scenario}: {exc}') from None
     bag = None
     if args.out:
-        from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
         existed = os.path.lexists(args.out)
         try:
             bag = BagWriter(args.out, overwrite=args.overwrite)
@@ -137,7 +138,7 @@ def run(args) -> dict:
                    bar_format='{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]')
     try:
         result = run_scenario(scenario, bag=bag, progress=bar.update if bar else None,
-                              **_run_options(node))
+                              **options)
     except StateError as exc:
         if bag is not None:
             bag.mark_incomplete(str(exc))

@@ -161,10 +161,10 @@ class ParamSpec:
 
     def parse(self, text: str, name: str | None = None) -> Any:
         """The value of ``--set name=text`` (YAML syntax, as ``ros2 param set``), checked."""
-        import yaml
+        from abb_ros.io.safe_yaml import YamlFileError, load_text
         try:
-            value = yaml.safe_load(text)
-        except yaml.YAMLError:
+            value = load_text(text, where=name or self.short)
+        except YamlFileError:
             value = text
         if self.type == STRING:
             value = text
