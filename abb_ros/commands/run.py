@@ -27,15 +27,12 @@ def add_arguments(parser):
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
 
 
-def _wrap_deg(phi):
-    return ((np.degrees(phi) + 180.0) % 360.0) - 180.0
-
-
 def run(args) -> dict:
     from abb_ros.commands.api import UsageError, parse_settings
     from abb_ros.app.headless import run_scenario
     from abb_ros.io.scenario import load_scenario
     from abb_ros.model.params import ParamError
+    from abb_ros.model.state import StateLayout, wrap_degrees
 
     base = DriveParams.from_yaml(args.config) if args.config else None
     scenario = load_scenario(args.scenario, base=base)
@@ -72,15 +69,16 @@ def run(args) -> dict:
             bag.close()
     p = scenario.params
     y = result.y[-1]
-    N = 7 + p.n
+    layout = StateLayout(p.n)
+    omega = float(layout.omega(y))
     summary = {
         'scenario': scenario.name,
         'n': p.n,
-        'wbar': float(y[N] / p.omega0),
-        'omega_rad_s': float(y[N]),
+        'wbar': omega / p.omega0,
+        'omega_rad_s': omega,
         'duration_s': float(result.t[-1] - result.t[0]),
-        'final_rbar': float(np.sqrt(y[1] ** 2 + y[2] ** 2 + y[3] ** 2) / p.R),
-        'ball_angles_deg': [round(float(a), 3) for a in _wrap_deg(y[7:N])],
+        'final_rbar': float(layout.rbar(y, p.R)),
+        'ball_angles_deg': [round(float(a), 3) for a in wrap_degrees(layout.phi(y))],
         'wall_time_s': round(result.wall_time, 4),
         'real_time_factor': round(result.real_time_factor, 2),
         'compile_time_s': round(result.compile_time, 3),

@@ -68,9 +68,9 @@ class PlantSampler:
         y = self.sim.y.copy() if state_due else None
         reading = None
         if imu_due:
-            N = self.sim.N
+            layout = self.sim.layout
             qdd = self.sim.accelerations()
-            reading = self.imu.read(self.sim.y[:N], self.sim.y[N:], qdd)
+            reading = self.imu.read(layout.coords(self.sim.y), layout.rates(self.sim.y), qdd)
         return Sample(steps, self.sim.params.n, y, reading)
 
     def next_period(self) -> list[Sample]:

@@ -22,11 +22,10 @@ from rclpy.executors import ExternalShutdownException
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-from abb_ros.io import msgdefs
+from abb_ros.io import msgdefs, topics
 from abb_ros.io.bag_writer import DEFAULT_CHUNK_SIZE, BagError, BagWriteError, BagWriter
 
-DEFAULT_TOPICS = ['joint_states', 'deck/pose', 'deck/twist', 'deck/imu', 'stability/margin',
-                  '/diagnostics', 'spindle/speed_cmd']
+DEFAULT_TOPICS = [t.name for t in topics.recorded_topics()]
 DEFAULT_QUEUE_DEPTH = 1000  # 1 s of messages at 1 kHz before the middleware drops any
 
 
