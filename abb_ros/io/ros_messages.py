@@ -67,22 +67,21 @@ TOPIC_FRAMES = {t.name: t.frame for t in topics.TOPICS if t.frame is not None}
 def joint_state_content(y: np.ndarray, n: int) -> tuple[list[float], list[float]]:
     """(position, velocity) of ``joint_names(n)``: [theta, phi_1..phi_n] [rad] and
     [omega, phi_1'..phi_n'] [rad/s]."""
-    s = StateLayout(n)
-    return ([float(s.theta(y))] + s.phi(y).tolist(),
-            [float(s.omega(y))] + s.phi_rates(y).tolist())
+    s = StateLayout.of(n)
+    return ([float(y[s.theta_index])] + y[s.phi_slice].tolist(),
+            [float(y[s.omega_index])] + y[s.phi_rate_slice].tolist())
 
 
 def deck_pose_content(y: np.ndarray) -> tuple[float, ...]:
     """(X, Y, Z, qx, qy, qz, qw): C in ``base`` [m] and R = Rz(gamma) Rx(alpha) Ry(beta)."""
-    X, Y, Z, alpha, beta, gamma = y[StateLayout.deck_slice]
-    return ((float(X), float(Y), float(Z))
-            + euler_quaternion(float(alpha), float(beta), float(gamma)))
+    X, Y, Z, alpha, beta, gamma = y[StateLayout.deck_slice].tolist()
+    return (X, Y, Z) + euler_quaternion(alpha, beta, gamma)
 
 
 def deck_twist_content(y: np.ndarray, n: int) -> tuple[float, ...]:
     """(vx, vy, vz, wx, wy, wz): velocity of C [m/s] and Eq. (10) [rad/s], deck axes."""
-    s = StateLayout(n)
-    v, w = deck_velocity(s.coords(y), s.rates(y))
+    s = StateLayout.of(n)
+    v, w = deck_velocity(y[s.q], y[s.qd])
     return tuple(v.tolist()) + tuple(w.tolist())
 
 

@@ -148,7 +148,7 @@ class Simulation:
 
     def _set_params(self, params: DriveParams):
         self.params = params
-        self.layout = StateLayout(params.n)
+        self.layout = StateLayout.of(params.n)
         self._P = kernels.pack_params(params)
         self._work = kernels.make_work(params.n)
         self._solver = solver_buffers(params.n)

@@ -68,9 +68,9 @@ class PlantSampler:
         y = self.sim.y.copy() if state_due else None
         reading = None
         if imu_due:
-            layout = self.sim.layout
+            s = self.sim.layout
             qdd = self.sim.accelerations()
-            reading = self.imu.read(layout.coords(self.sim.y), layout.rates(self.sim.y), qdd)
+            reading = self.imu.read(self.sim.y[s.q], self.sim.y[s.qd], qdd)
         return Sample(steps, self.sim.params.n, y, reading)
 
     def next_period(self) -> list[Sample]:

@@ -9,8 +9,8 @@ accessors, which take one state (shape (2N,)) or many (shape (..., 2N)).
 
 from __future__ import annotations
 
+import functools
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -55,42 +55,19 @@ def wrap_degrees(phi) -> np.ndarray:
     return np.degrees(wrap_angle(phi))
 
 
-@dataclass(frozen=True)
 class StateLayout:
     """Where each coordinate and rate of the drive with ``n`` balls sits in ``y``.
 
-    Slices index the last axis; accessors return views (``y[..., slice]``) or, for the
-    scalars theta and omega, ``y[..., index]``.
+    Attributes are indices and slices of the last axis of y; accessors return views
+    (``y[..., slice]``) or, for the scalars theta and omega, ``y[..., index]``. Immutable;
+    :meth:`of` returns a shared instance per n (for hot paths).
     """
 
-    n: int
-
-    @property
-    def N(self) -> int:
-        """Number of generalised coordinates, 7 + n."""
-        return n_coords(self.n)
-
-    @property
-    def size(self) -> int:
-        """Length of y, 2 N."""
-        return 2 * self.N
-
-    # ---- indices and slices of y ------------------------------------------------------------
-    @property
-    def q(self) -> slice:
-        return slice(0, self.N)
-
-    @property
-    def qd(self) -> slice:
-        return slice(self.N, self.size)
+    __slots__ = ('n', 'N', 'size', 'q', 'qd', 'omega_index', 'phi_slice', 'deck_rate_slice',
+                 'phi_rate_slice')
 
     theta_index = THETA
     """theta is y[0]."""
-
-    @property
-    def omega_index(self) -> int:
-        """omega = theta' is y[N]."""
-        return self.N + THETA
 
     deck_slice = slice(DECK, PHI)
     """[X, Y, Z, alpha, beta, gamma]."""
@@ -98,17 +75,32 @@ class StateLayout:
     translation_slice = slice(DECK, DECK + 3)
     """[X, Y, Z] (m)."""
 
-    @property
-    def phi_slice(self) -> slice:
-        return slice(PHI, self.N)
+    def __init__(self, n: int):
+        N = n_coords(n)
+        for name, value in (('n', n), ('N', N), ('size', 2 * N), ('q', slice(0, N)),
+                            ('qd', slice(N, 2 * N)), ('omega_index', N + THETA),
+                            ('phi_slice', slice(PHI, N)),
+                            ('deck_rate_slice', slice(N + DECK, N + PHI)),
+                            ('phi_rate_slice', slice(N + PHI, 2 * N))):
+            object.__setattr__(self, name, value)
 
-    @property
-    def deck_rate_slice(self) -> slice:
-        return slice(self.N + DECK, self.N + PHI)
+    @classmethod
+    @functools.lru_cache(maxsize=None)
+    def of(cls, n: int) -> StateLayout:
+        """The layout for n balls, one shared instance per n."""
+        return cls(n)
 
-    @property
-    def phi_rate_slice(self) -> slice:
-        return slice(self.N + PHI, self.size)
+    def __setattr__(self, name, value):
+        raise AttributeError('StateLayout is immutable')
+
+    def __eq__(self, other) -> bool:
+        return isinstance(other, StateLayout) and other.n == self.n
+
+    def __hash__(self) -> int:
+        return hash((StateLayout, self.n))
+
+    def __repr__(self) -> str:
+        return f'StateLayout(n={self.n})'
 
     def coord_names(self) -> tuple[str, ...]:
         """Names of q: theta, X, Y, Z, alpha, beta, gamma, phi_1..phi_n."""
