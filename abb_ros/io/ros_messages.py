@@ -5,7 +5,7 @@ the live node (:mod:`abb_ros.nodes.simulator`) fills rclpy messages with them
 (:func:`sample_messages`) and the headless ``abb-sim run`` encodes them straight to CDR bytes
 (:mod:`abb_ros.io.cdr`, byte-identical to the serialised messages), so live and headless bags
 are message for message identical. Only the message packages are imported (no rclpy, no
-DDS). Topics and frames are those of docs/ros_api.md; all values SI (m, rad, s).
+DDS). Topics, types and frames come from :mod:`abb_ros.io.topics`; all values SI (m, rad, s).
 """
 
 from __future__ import annotations
