@@ -13,7 +13,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 
 from abb_ros.io import cdr, ros_messages
 from cdr_reference import cdr_bytes
-from abb_ros.model.dynamics import n_coords
+from abb_ros.model.state import n_coords
 from abb_ros.model.sampling import Sample
 from abb_ros.model.sensors import TYPICAL_IMU, ImuConfig, ImuReading
 

@@ -16,6 +16,8 @@ def _point(**settings):
     return apply_settings(TABLE1, settings)
 
 
+@pytest.mark.skipif(not F.JIT.compiled, reason='kernels not compiled (numba missing or '
+                    'ABB_ROS_NO_JIT set): JIT is the twin itself')
 def test_compiled_kernel_agrees_with_its_python_twin():
     p, w = _point(zeta=0.025, mbar=0.03, wbar=2.18)
     for build in (in_plane, out_of_plane):

@@ -7,6 +7,7 @@ from abb_ros.model import kernels
 from abb_ros.model.dynamics import accelerations, lagrange_residual
 from abb_ros.model.integrate import SpindleMotor, initial_state
 from abb_ros.model.params import METAL_C, DriveParams, apply_settings
+from abb_ros.model.state import StateLayout
 
 pytestmark = pytest.mark.skipif(not kernels.JIT.compiled, reason='numba not available')
 
@@ -15,10 +16,10 @@ def _state(n, seed):
     params, omega = apply_settings(DriveParams(n=n), {'mbar': 0.03, 'c': METAL_C, 'wbar': 2.7})
     rng = np.random.default_rng(seed)
     y = initial_state(params, omega, phi0=rng.uniform(-np.pi, np.pi, n))
-    N = 7 + n
-    y[1:7] += rng.normal(0, 1e-4, 6)
-    y[N + 1:N + 7] = rng.normal(0, 0.05, 6)
-    y[N + 7:] = rng.normal(0, 5.0, n)
+    s = StateLayout(n)
+    y[s.deck_slice] += rng.normal(0, 1e-4, 6)
+    y[s.deck_rate_slice] = rng.normal(0, 0.05, 6)
+    y[s.phi_rate_slice] = rng.normal(0, 5.0, n)
     return params, omega, y
 
 
@@ -59,8 +60,9 @@ def test_accelerations_solve_the_equations_of_motion(n):
 
 def test_bad_state_stops_integration_and_keeps_last_good_state():
     params, omega, y = _state(2, seed=3)
-    y[1] = 0.5 * kernels.MAX_TRANSLATION
-    y[7 + 2 + 1] = 1e9        # X' absurd: the next step leaves the envelope
+    s = StateLayout(2)
+    y[s.translation_slice.start] = 0.5 * kernels.MAX_TRANSLATION
+    y[s.deck_rate_slice.start] = 1e9        # X' absurd: the next step leaves the envelope
     y_before = y.copy()
     done, status = kernels.JIT.rk4_advance(y, 0.0, 1e-4, 0, 10, 2, kernels.pack_params(params),
                                            np.zeros(kernels.N_SPINDLE), kernels.make_work(2))

@@ -14,6 +14,7 @@ from abb_ros.model.equilibrium import (balanced_equilibrium, eq26_residual, epsb
                                        phi_star_two_balls)
 from abb_ros.model.linear import in_plane, natural_frequencies, out_of_plane
 from abb_ros.model.params import DriveParams, ParamError, apply_settings
+from abb_ros.model.state import DECK, StateLayout
 
 TABLE1 = DriveParams()
 P3, OMEGA_P3 = apply_settings(TABLE1, {'zeta': 0.025, 'mbar': 0.03, 'wbar': 2.7})
@@ -157,12 +158,9 @@ def _fd_linearisation(params, omega, phi, t, h=1e-7):
     """d residual / d(q, q', q'') of the nonlinear model at the balanced equilibrium (central
     differences), rows and columns in the order [X, Y, Z, alpha, beta, gamma, phi_i]."""
     n = params.n
-    N = dynamics.n_coords(n)
-    y0 = np.zeros(2 * N)
-    y0[0] = omega * t
-    y0[7:N] = phi
-    y0[N] = omega
-    qdd0 = np.zeros(N)
+    s = StateLayout(n)
+    y0 = s.pack(theta=omega * t, phi=phi, omega=omega)
+    qdd0 = np.zeros(s.N)
     out = []
     for part in ('q', 'qd', 'qdd'):
         J = np.zeros((6 + n, 6 + n))
@@ -171,11 +169,11 @@ def _fd_linearisation(params, omega, phi, t, h=1e-7):
             for sgn in (1, -1):
                 y, qdd = y0.copy(), qdd0.copy()
                 if part == 'q':
-                    y[1 + j] += sgn * h
+                    y[DECK + j] += sgn * h
                 elif part == 'qd':
-                    y[N + 1 + j] += sgn * h
+                    y[s.N + DECK + j] += sgn * h
                 else:
-                    qdd[1 + j] += sgn * h
+                    qdd[DECK + j] += sgn * h
                 cols.append(dynamics.lagrange_residual(params, y, qdd))
             J[:, j] = (cols[0] - cols[1]) / (2 * h)
         out.append(J)

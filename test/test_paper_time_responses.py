@@ -9,6 +9,7 @@ import pytest
 
 from abb_ros.app.headless import run_scenario
 from abb_ros.io.scenario import load_scenario
+from abb_ros.model.state import StateLayout
 from abb_ros.model.steady import locked_ball_angle
 
 
@@ -18,9 +19,9 @@ def _run(name, **settings):
         scenario = scenario.with_settings(settings)
     result = run_scenario(scenario)
     p = scenario.params
-    N = 7 + p.n
-    rbar = np.sqrt((result.y[:, 1:4] ** 2).sum(axis=1)) / p.R
-    phi_deg = np.degrees(result.y[:, 7:N])
+    layout = StateLayout(p.n)
+    rbar = layout.rbar(result.y, p.R)
+    phi_deg = np.degrees(layout.phi(result.y))
     return scenario, result, rbar, phi_deg
 
 

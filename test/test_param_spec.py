@@ -59,6 +59,11 @@ def test_module_defaults_are_the_spec_defaults():
     assert DEFAULT_CHUNK_SIZE == specs_for('recorder')['chunk_size'].default
 
 
+def test_recorder_default_topics_are_the_recorded_topics_of_the_topic_list():
+    from abb_ros.io import topics
+    assert specs_for('recorder')['topics'].default == [t.name for t in topics.recorded_topics()]
+
+
 def test_every_spec_default_passes_its_own_check():
     for spec in SPECS:
         if spec.default is not None:

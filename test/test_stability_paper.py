@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from abb_ros.model import floquet as F
-from abb_ros.model.dynamics import n_coords
+from abb_ros.model.state import n_coords
 from abb_ros.model.integrate import ConstantSpeed, Simulation
 from abb_ros.model.params import DriveParams, apply_settings
 

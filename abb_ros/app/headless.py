@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from abb_ros.io import topics
 from abb_ros.io.scenario import Scenario
 from abb_ros.model.integrate import DEFAULT_DT, Simulation, initial_state
 from abb_ros.model.sampling import PlantSampler
@@ -26,13 +27,8 @@ __all__ = ['RunResult', 'run_scenario', 'check_duration', 'STATE_TOPIC_TYPES']
 PUBLISH_DT = 1e-3
 """Publish period of the state topics [s] (the node's default 1 kHz)."""
 
-STATE_TOPIC_TYPES = {
-    'joint_states': 'sensor_msgs/msg/JointState',
-    'deck/pose': 'geometry_msgs/msg/PoseStamped',
-    'deck/twist': 'geometry_msgs/msg/TwistStamped',
-    'deck/imu': 'sensor_msgs/msg/Imu',
-    '/clock': 'rosgraph_msgs/msg/Clock',
-}
+STATE_TOPIC_TYPES = {t.name: t.type for t in topics.sampled_topics()}
+"""Topics of a headless bag -> type name: those a simulation sample produces."""
 
 
 @dataclass

@@ -29,6 +29,7 @@ def add_arguments(parser) -> None:
 
 def run(args) -> dict:
     from abb_ros.commands.api import CommandFailed, UsageError, check_output, output_files
+    from abb_ros.model.state import wrap_degrees
     from abb_ros.plots import time_response as plots
 
     if args.R is not None and not (args.R > 0 and np.isfinite(args.R)):
@@ -66,7 +67,7 @@ def run(args) -> dict:
         'duration_s': float(resp.t_pose[-1]) if len(resp.t_pose) else 0.0,
         'final_rbar': float(resp.rbar[-1]),
         'n_balls': int(resp.phi.shape[0]) if resp.phi.size else 0,
-        'final_ball_angles_deg': (plots.wrap_degrees(resp.phi[:, -1]).tolist()
+        'final_ball_angles_deg': (wrap_degrees(resp.phi[:, -1]).tolist()
                                   if resp.phi.size else []),
     }
     if other is not None:

@@ -76,10 +76,6 @@ def _why(exc: OSError) -> str:
     return os.strerror(exc.errno) if exc.errno else str(exc)
 
 
-def _wrap_deg(phi):
-    return ((np.degrees(phi) + 180.0) % 360.0) - 180.0
-
-
 def run(args) -> dict:
     from abb_ros.commands.api import CommandFailed, UsageError, drive_params, parse_settings
     from abb_ros.app.headless import check_duration, run_scenario
@@ -87,6 +83,7 @@ def run(args) -> dict:
     from abb_ros.model.integrate import StateError
     from abb_ros.model.params import ParamError
     from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
+    from abb_ros.model.state import StateLayout, wrap_degrees
 
     base = drive_params(args.config) if args.config else None
     try:
@@ -163,15 +160,16 @@ def run(args) -> dict:
                                     f'({_why(exc)}); the partial bag was removed') from None
     p = scenario.params
     y = result.y[-1]
-    N = 7 + p.n
+    layout = StateLayout(p.n)
+    omega = float(layout.omega(y))
     summary = {
         'scenario': scenario.name,
         'n': p.n,
-        'wbar': float(y[N] / p.omega0),
-        'omega_rad_s': float(y[N]),
+        'wbar': omega / p.omega0,
+        'omega_rad_s': omega,
         'duration_s': float(result.t[-1] - result.t[0]),
-        'final_rbar': float(np.sqrt(y[1] ** 2 + y[2] ** 2 + y[3] ** 2) / p.R),
-        'ball_angles_deg': [round(float(a), 3) for a in _wrap_deg(y[7:N])],
+        'final_rbar': float(layout.rbar(y, p.R)),
+        'ball_angles_deg': [round(float(a), 3) for a in wrap_degrees(layout.phi(y))],
         'wall_time_s': round(result.wall_time, 4),
         'real_time_factor': round(result.real_time_factor, 2),
         'compile_time_s': round(result.compile_time, 3),

@@ -5,7 +5,7 @@ the live node (:mod:`abb_ros.nodes.simulator`) fills rclpy messages with them
 (:func:`sample_messages`) and the headless ``abb-sim run`` encodes them straight to CDR bytes
 (:mod:`abb_ros.io.cdr`, byte-identical to the serialised messages), so live and headless bags
 are message for message identical. Only the message packages are imported (no rclpy, no
-DDS). Topics and frames are those of docs/ros_api.md; all values SI (m, rad, s).
+DDS). Topics, types and frames come from :mod:`abb_ros.io.topics`; all values SI (m, rad, s).
 """
 
 from __future__ import annotations
@@ -19,9 +19,11 @@ from geometry_msgs.msg import PoseStamped, TwistStamped
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 
-from abb_ros.model.dynamics import n_coords
+from abb_ros.io import topics
+from abb_ros.io.topics import FRAME_BASE, FRAME_DECK
 from abb_ros.model.sampling import Sample
 from abb_ros.model.sensors import ImuConfig, deck_velocity, euler_quaternion
+from abb_ros.model.state import StateLayout
 
 __all__ = ['FRAME_BASE', 'FRAME_DECK', 'TOPIC_TYPES', 'STATE_TOPICS', 'time_msg',
            'joint_names', 'joint_state', 'deck_pose', 'deck_twist', 'deck_imu', 'clock',
@@ -29,21 +31,12 @@ __all__ = ['FRAME_BASE', 'FRAME_DECK', 'TOPIC_TYPES', 'STATE_TOPICS', 'time_msg'
            'deck_pose_content', 'deck_twist_content', 'deck_imu_content', 'diagnostics_content',
            'sample_contents']
 
-FRAME_BASE = 'base'
-FRAME_DECK = 'deck'
 HARDWARE_ID = 'abb_ros'
 
-TOPIC_TYPES = {
-    'joint_states': JointState,
-    'deck/pose': PoseStamped,
-    'deck/twist': TwistStamped,
-    'deck/imu': Imu,
-    '/clock': Clock,
-    '/diagnostics': DiagnosticArray,
-}
-"""Every topic the simulator publishes (relative names resolve in the node's namespace)."""
+TOPIC_TYPES = {t.name: topics.message_class(t.type) for t in topics.published_by('simulator')}
+"""Every topic the simulator publishes -> message class (:data:`abb_ros.io.topics.TOPICS`)."""
 
-STATE_TOPICS = ('joint_states', 'deck/pose', 'deck/twist')
+STATE_TOPICS = tuple(t.name for t in topics.TOPICS if t.rate == topics.STATE)
 """Topics published at ``publish_rate_hz`` from the state; ``deck/imu`` has its own rate."""
 
 
@@ -67,28 +60,28 @@ def _stamp(stamp) -> Time:
 # below (live node) and the CDR encoder abb_ros.io.cdr (headless bags) are made from. Names
 # and frames are fixed per topic (joint_names, TOPIC_FRAMES).
 
-TOPIC_FRAMES = {'joint_states': '', 'deck/pose': FRAME_BASE, 'deck/twist': FRAME_DECK,
-                'deck/imu': FRAME_DECK}
+TOPIC_FRAMES = {t.name: t.frame for t in topics.TOPICS if t.frame is not None}
 """header.frame_id of each stamped topic."""
 
 
 def joint_state_content(y: np.ndarray, n: int) -> tuple[list[float], list[float]]:
     """(position, velocity) of ``joint_names(n)``: [theta, phi_1..phi_n] [rad] and
     [omega, phi_1'..phi_n'] [rad/s]."""
-    N = n_coords(n)
-    return [float(y[0])] + y[7:N].tolist(), [float(y[N])] + y[N + 7:].tolist()
+    s = StateLayout.of(n)
+    return ([float(y[s.theta_index])] + y[s.phi_slice].tolist(),
+            [float(y[s.omega_index])] + y[s.phi_rate_slice].tolist())
 
 
 def deck_pose_content(y: np.ndarray) -> tuple[float, ...]:
     """(X, Y, Z, qx, qy, qz, qw): C in ``base`` [m] and R = Rz(gamma) Rx(alpha) Ry(beta)."""
-    return ((float(y[1]), float(y[2]), float(y[3]))
-            + euler_quaternion(float(y[4]), float(y[5]), float(y[6])))
+    X, Y, Z, alpha, beta, gamma = y[StateLayout.deck_slice].tolist()
+    return (X, Y, Z) + euler_quaternion(alpha, beta, gamma)
 
 
 def deck_twist_content(y: np.ndarray, n: int) -> tuple[float, ...]:
     """(vx, vy, vz, wx, wy, wz): velocity of C [m/s] and Eq. (10) [rad/s], deck axes."""
-    N = n_coords(n)
-    v, w = deck_velocity(y[:N], y[N:])
+    s = StateLayout.of(n)
+    v, w = deck_velocity(y[s.q], y[s.qd])
     return tuple(v.tolist()) + tuple(w.tolist())
 
 

@@ -1,6 +1,6 @@
 """Nonlinear 3D equations of motion, Eqs. (18)-(24), generalised to a varying spindle speed.
 
-State convention (used throughout abb_ros): generalised coordinates
+State convention (:mod:`abb_ros.model.state`, used throughout abb_ros): generalised coordinates
 ``q = [theta, X, Y, Z, alpha, beta, gamma, phi_1..phi_n]`` (N = 7 + n) and the state
 ``y = [q, q']`` of size 2N. ``theta`` is the rotor angle relative to the deck (the motor's
 stator is fixed on the deck); it replaces the paper's ``omega t``, so ``y[N] = theta' =
@@ -44,21 +44,9 @@ import numpy as np
 
 from abb_ros.model import kernels
 from abb_ros.model.params import DriveParams
+from abb_ros.model.state import StateLayout, n_coords
 
-__all__ = ['n_coords', 'lagrange_residual', 'accelerations', 'rbar', 'deck_coords',
-           'DECK_NAMES', 'coord_names']
-
-DECK_NAMES = ('X', 'Y', 'Z', 'alpha', 'beta', 'gamma')
-
-
-def coord_names(n: int) -> tuple[str, ...]:
-    """Names of q for n balls: theta, X, Y, Z, alpha, beta, gamma, phi_1..phi_n."""
-    return ('theta',) + DECK_NAMES + tuple(f'phi_{i + 1}' for i in range(n))
-
-
-def n_coords(n: int) -> int:
-    """N = 7 + n generalised coordinates (theta, 6 deck coordinates, n ball angles)."""
-    return 7 + n
+__all__ = ['lagrange_residual', 'accelerations']
 
 
 def solver_buffers(n: int) -> tuple:
@@ -89,8 +77,9 @@ def lagrange_residual(params: DriveParams, y, qdd, kern=None) -> np.ndarray:
     n = params.n
     A, W, f, B, fb, _ = solver_buffers(n)
     kern.assemble(y, n, kernels.pack_params(params), float(qdd[0]), A, W, f, B, fb)
-    u = qdd[1:7]
-    phidd = qdd[7:]
+    layout = StateLayout(n)
+    u = qdd[layout.deck_slice]
+    phidd = qdd[layout.phi_slice]
     mR2 = params.m * params.R ** 2
     deck = A @ u + W[:, :n] @ phidd - f
     balls = B[:n] @ u + mR2 * phidd - fb[:n]
@@ -109,13 +98,3 @@ def accelerations(params: DriveParams, y, t: float = 0.0, spindle=None, kern=Non
     kern.accel(float(t), y, n, kernels.pack_params(params), S, qdd, *solver_buffers(n))
     return qdd
 
-
-def deck_coords(y, n: int) -> np.ndarray:
-    """[X, Y, Z, alpha, beta, gamma] of state(s) y (last axis is the state)."""
-    return np.asarray(y)[..., 1:7]
-
-
-def rbar(y, params: DriveParams) -> np.ndarray:
-    """rbar = sqrt(X^2 + Y^2 + Z^2) / R (Section 5), for one state or an array of states."""
-    y = np.asarray(y)
-    return np.sqrt(y[..., 1] ** 2 + y[..., 2] ** 2 + y[..., 3] ** 2) / params.R

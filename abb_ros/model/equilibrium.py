@@ -40,6 +40,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from abb_ros.model.params import DriveParams, ParamError
+from abb_ros.model.state import wrap_angle
 
 __all__ = ['BalancedEquilibrium', 'balanced_equilibrium', 'phi_star_two_balls', 'fan_phi_star',
            'eq26_residual', 'epsbar_lim', 'mbar_lim', 'EQ26_TOL']
@@ -97,7 +98,7 @@ def fan_phi_star(n: int, ratio):
     i = np.arange(1, n + 1) - (n + 1) / 2.0
     if n == 2:  # closed form, Eq. (34) in the corrected quadrant: delta/2 = acos(ratio/2)
         half = np.arccos(ratio / 2.0)
-        return _wrap(math.pi - 2.0 * half[..., None] * i)
+        return wrap_angle(math.pi - 2.0 * half[..., None] * i)
     # sin(n x) / sin(x) with x = delta / 2 falls monotonically from n (x = 0) to 0 (x = pi/n).
     lo = np.zeros_like(ratio)
     hi = np.full_like(ratio, math.pi / n)
@@ -106,12 +107,7 @@ def fan_phi_star(n: int, ratio):
         above = np.sin(n * mid) / np.sin(mid) > ratio
         lo = np.where(above, mid, lo)
         hi = np.where(above, hi, mid)
-    return _wrap(math.pi - (lo + hi)[..., None] * i)
-
-
-def _wrap(phi):
-    """Angles [rad] wrapped to (-pi, pi]."""
-    return math.pi - np.mod(math.pi - phi, 2.0 * math.pi)
+    return wrap_angle(math.pi - (lo + hi)[..., None] * i)
 
 
 def balanced_equilibrium(params: DriveParams, phi_star=None) -> BalancedEquilibrium:

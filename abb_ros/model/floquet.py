@@ -9,22 +9,22 @@ evaluated from their harmonics at the 2 N + 1 distinct stage times, and the stat
 second-order form Y = [Q; V] (Q' = V, V' = P Q + S V with P = -M^-1 K, S = -M^-1 C), so one step
 costs two 'solve M' and four (nq x nq) by (nq x 2nq) products.
 
-The kernel is built twice from one source (``JIT``: numba, parallel over the points of the
-batch; ``PY``: the same statements in plain Python), and a test checks the two agree. The
-multipliers are the eigenvalues of the monodromy matrix Phi(T); the point is balanced and
-stable when the largest modulus is < 1 (Section 4).
+The kernel is built twice from one source (:mod:`abb_ros.model.jit`; ``JIT``: numba, parallel
+over the points of the batch; ``PY``: the same statements in plain Python), and a test checks
+the two agree. The multipliers are the eigenvalues of the monodromy matrix Phi(T); the point is
+balanced and stable when the largest modulus is < 1 (Section 4).
 """
 
 from __future__ import annotations
 
 import math
-import os
 from dataclasses import dataclass
 
 import numpy as np
 
 from abb_ros.model.equilibrium import (EQ26_TOL, balanced_equilibrium, epsbar_lim, fan_phi_star,
                                        mbar_lim)
+from abb_ros.model.jit import KernelSet, prange
 from abb_ros.model.linear import in_plane_harmonics, out_of_plane_harmonics, stack_params
 from abb_ros.model.params import ParamError
 
@@ -43,23 +43,12 @@ MIN_STEPS = 32
 """Fewest RK4 steps per period."""
 
 
-try:
-    import numba
-    from numba.extending import register_jitable as _jitable
-    _prange = numba.prange
-except ImportError:  # pragma: no cover - numba is pinned in requirements.txt
-    numba = None
-    _prange = range
-
-    def _jitable(func):
-        return func
+kernel = KernelSet()
+"""Marks the kernels of this module (:mod:`abb_ros.model.jit`); the entry points add
+nogil and fastmath, and parallel over the batch for monodromy_many."""
 
 
-# The kernels are plain Python functions that numba compiles when a compiled caller uses them
-# (register_jitable); called from Python they are the pure-Python twin. numba.prange outside a
-# compiled function is range.
-
-@_jitable
+@kernel
 def eval_coeffs(H, basis, out):
     """out = sum_j H[j] basis[j], basis = [1, cos tau, sin tau, cos 2 tau, sin 2 tau]."""
     nh, nq = H.shape[0], H.shape[1]
@@ -71,7 +60,7 @@ def eval_coeffs(H, basis, out):
             out[i, j] = acc
 
 
-@_jitable
+@kernel
 def accel_matrix(Mh, Ch, Kh, tau, Mw, R, basis):
     """R = -M(tau)^-1 [K(tau) C(tau)], shape (nq, 2 nq), by Gauss elimination (pivoting).
 
@@ -121,7 +110,7 @@ def accel_matrix(Mh, Ch, Kh, tau, Mw, R, basis):
                 acc -= Mw[col, r] * R[r, j]
             R[col, j] = acc * inv
 
-@_jitable
+@kernel
 def deriv(R, Q, V, dQ, dV):
     """dQ = V, dV = P Q + S V with R = [P S]; Q, V shape (nq, m)."""
     nq, m = Q.shape
@@ -135,7 +124,7 @@ def deriv(R, Q, V, dQ, dV):
             for j in range(m):
                 dV[i, j] += p * Q[k, j] + s * V[k, j]
 
-@_jitable
+@kernel
 def axpy(Q, V, h, dQ, dV, Qo, Vo):
     nq, m = Q.shape
     for i in range(nq):
@@ -143,7 +132,7 @@ def axpy(Q, V, h, dQ, dV, Qo, Vo):
             Qo[i, j] = Q[i, j] + h * dQ[i, j]
             Vo[i, j] = V[i, j] + h * dV[i, j]
 
-@_jitable
+@kernel(nogil=True, fastmath=True)
 def monodromy_one(Mh, Ch, Kh, tau_end, nsteps, Phi):
     """Phi = fundamental matrix at tau_end of M x'' + C x' + K x = 0 (tau units), RK4."""
     nq = Mh.shape[1]
@@ -188,33 +177,16 @@ def monodromy_one(Mh, Ch, Kh, tau_end, nsteps, Phi):
             Phi[i, j] = Q[i, j]
             Phi[nq + i, j] = V[i, j]
 
-def _monodromy_many(Mh, Ch, Kh, tau_end, nsteps, Phi):
+@kernel(nogil=True, fastmath=True, parallel=True)
+def monodromy_many(Mh, Ch, Kh, tau_end, nsteps, Phi):
     """monodromy_one for each point b of the batch (parallel over b)."""
-    for b in _prange(Mh.shape[0]):
+    for b in prange(Mh.shape[0]):
         monodromy_one(Mh[b], Ch[b], Kh[b], tau_end[b], nsteps[b], Phi[b])
 
 
-class _Kernels:
-    def __init__(self, monodromy_many, monodromy_one, compiled):
-        self.monodromy_many = monodromy_many
-        self.monodromy_one = monodromy_one
-        self.compiled = compiled
-
-
-PY = _Kernels(_monodromy_many, monodromy_one, compiled=False)
-"""Pure-Python twin of the kernels (the same statements, interpreted)."""
-
-
-def _build_jit():
-    if os.environ.get('ABB_ROS_NO_JIT') or numba is None:
-        return PY
-    many = numba.njit(cache=True, nogil=True, fastmath=True, parallel=True)(_monodromy_many)
-    one = numba.njit(cache=True, nogil=True, fastmath=True)(monodromy_one)
-    return _Kernels(many, one, compiled=True)
-
-
-JIT = _build_jit()
-"""Compiled kernels (numba, parallel over the batch), or the twin where numba is unavailable."""
+JIT, PY = kernel.build()
+"""JIT: compiled kernels (numba, parallel over the batch), or the twin where numba is
+unavailable; PY: the pure-Python twin (the same statements, interpreted)."""
 
 
 def steps_for(rate_tau, tau_end) -> np.ndarray:

@@ -19,8 +19,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from abb_ros.model import kernels
-from abb_ros.model.dynamics import n_coords, rbar, solver_buffers
+from abb_ros.model.dynamics import solver_buffers
 from abb_ros.model.params import DriveParams, ParamError
+from abb_ros.model.state import StateLayout
 
 __all__ = ['DEFAULT_DT', 'ConstantSpeed', 'Ramp', 'SpindleMotor', 'StateError', 'Simulation',
            'initial_state', 'reference_solution', 'Trajectory', 'simulate']
@@ -109,16 +110,10 @@ def initial_state(params: DriveParams, omega: float, phi0=None, deck0=INITIAL_DE
                   theta0: float = 0.0) -> np.ndarray:
     """The state y0 of Section 5 at spindle speed omega [rad/s]; shape (2N,)."""
     n = params.n
-    N = n_coords(n)
-    y = np.zeros(2 * N)
-    y[0] = theta0
-    y[1:7] = deck0
     phi = default_phi0(n) if phi0 is None else np.asarray(phi0, dtype=float)
     if phi.shape != (n,):
         raise ParamError('phi0', list(np.degrees(phi)), f'{n} ball angles (n = {n})')
-    y[7:N] = phi
-    y[N] = omega
-    return y
+    return StateLayout(n).pack(theta=theta0, deck=deck0, phi=phi, omega=omega)
 
 
 class Simulation:
@@ -153,6 +148,7 @@ class Simulation:
 
     def _set_params(self, params: DriveParams):
         self.params = params
+        self.layout = StateLayout.of(params.n)
         self._P = kernels.pack_params(params)
         self._work = kernels.make_work(params.n)
         self._solver = solver_buffers(params.n)
@@ -181,13 +177,13 @@ class Simulation:
         Time keeps running (the step counter is not reset), so clocks never go backwards.
         """
         if params is not None:
-            old_n = self.params.n
+            old = self.layout
             self._set_params(params)
-            if params.n != old_n:
-                self._y0 = initial_state(params, float(self._y0[n_coords(old_n)]))
+            if params.n != old.n:
+                self._y0 = initial_state(params, float(old.omega(self._y0)))
         y0 = self._y0 if y0 is None else np.asarray(y0, dtype=float)
-        if y0.shape != (2 * n_coords(self.params.n),):
-            raise ParamError('y0', y0.shape, f'shape ({2 * n_coords(self.params.n)},)')
+        if y0.shape != (self.layout.size,):
+            raise ParamError('y0', y0.shape, f'shape ({self.layout.size},)')
         self.y = np.array(y0, dtype=float)
 
     # ---- stepping -----------------------------------------------------------------------
@@ -227,36 +223,36 @@ class Simulation:
 
     @property
     def N(self) -> int:
-        return n_coords(self.params.n)
+        return self.layout.N
 
     @property
     def theta(self) -> float:
-        return float(self.y[0])
+        return float(self.layout.theta(self.y))
 
     @property
     def omega(self) -> float:
-        return float(self.y[self.N])
+        return float(self.layout.omega(self.y))
 
     @property
     def deck(self) -> np.ndarray:
         """[X, Y, Z, alpha, beta, gamma] (m, rad)."""
-        return self.y[1:7].copy()
+        return self.layout.deck(self.y).copy()
 
     @property
     def deck_rates(self) -> np.ndarray:
-        return self.y[self.N + 1:self.N + 7].copy()
+        return self.layout.deck_rates(self.y).copy()
 
     @property
     def phi(self) -> np.ndarray:
-        return self.y[7:self.N].copy()
+        return self.layout.phi(self.y).copy()
 
     @property
     def phi_rates(self) -> np.ndarray:
-        return self.y[self.N + 7:].copy()
+        return self.layout.phi_rates(self.y).copy()
 
     @property
     def rbar(self) -> float:
-        return float(rbar(self.y, self.params))
+        return float(self.layout.rbar(self.y, self.params.R))
 
 
 @dataclass
@@ -272,21 +268,25 @@ class Trajectory:
         return self.params.n
 
     @property
+    def layout(self) -> StateLayout:
+        return StateLayout(self.n)
+
+    @property
     def rbar(self) -> np.ndarray:
-        return rbar(self.y, self.params)
+        return self.layout.rbar(self.y, self.params.R)
 
     @property
     def phi(self) -> np.ndarray:
         """Ball angles [rad], shape (len(t), n)."""
-        return self.y[:, 7:n_coords(self.n)]
+        return self.layout.phi(self.y)
 
     @property
     def deck(self) -> np.ndarray:
-        return self.y[:, 1:7]
+        return self.layout.deck(self.y)
 
     @property
     def omega(self) -> np.ndarray:
-        return self.y[:, n_coords(self.n)]
+        return self.layout.omega(self.y)
 
 
 def simulate(params: DriveParams, omega: float, duration: float, dt: float = DEFAULT_DT,
@@ -323,15 +323,15 @@ def reference_solution(params: DriveParams, y0, t_span, spindle=None, t_eval=Non
     scipy's OdeResult."""
     from scipy.integrate import solve_ivp
     n = params.n
+    layout = StateLayout(n)
     P = kernels.pack_params(params)
-    S = (spindle or ConstantSpeed()).pack(float(y0[n_coords(n)]))
+    S = (spindle or ConstantSpeed()).pack(float(layout.omega(y0)))
     kern = kern or kernels.JIT
-    N = n_coords(n)
-    qdd = np.empty(N)
+    qdd = np.empty(layout.N)
     bufs = solver_buffers(n)
 
     def fun(t, y):
-        dy = np.empty(2 * N)
+        dy = np.empty(layout.size)
         kern.deriv(t, np.ascontiguousarray(y), n, P, S, dy, qdd, *bufs)
         return dy
 

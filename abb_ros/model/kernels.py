@@ -1,10 +1,10 @@
 """Compiled kernels of the nonlinear model, each with a pure-Python twin.
 
-One source, two builds: this module's functions are compiled with ``numba.njit`` (``JIT``,
-cached on disk), and the same file is executed a second time with the identity as the
-decorator (``PY``, plain Python on numpy arrays). Both run the same statements, so they
-agree to round-off (``test_kernels`` checks it); ``PY`` is the fallback where numba is
-unavailable (set ``ABB_ROS_NO_JIT=1`` to force it).
+One source, two builds (:mod:`abb_ros.model.jit`): the functions below are plain Python,
+marked as kernels; ``JIT`` holds them compiled with numba (cached on disk) and ``PY`` as they
+are (plain Python on numpy arrays). Both run the same statements, so they agree to round-off
+(``test_kernels`` checks it); ``PY`` is the fallback where numba is unavailable (set
+``ABB_ROS_NO_JIT=1`` to force it).
 
 Packed inputs (plain float arrays, so the kernels stay free of Python objects):
 
@@ -16,16 +16,18 @@ Packed inputs (plain float arrays, so the kernels stay free of Python objects):
     first-order lag of time constant tau limited to +-max_accel, 2 = ramp: theta'' =
     ramp_accel for t0 <= t < t1, else 0.
 
-State ``y = [q, q']`` with ``q = [theta, X, Y, Z, alpha, beta, gamma, phi_1..phi_n]``.
+State ``y = [q, q']`` with ``q = [theta, X, Y, Z, alpha, beta, gamma, phi_1..phi_n]``: the
+kernels index it with the offsets of :mod:`abb_ros.model.state` (DECK, PHI; N = PHI + n).
 """
 
 from __future__ import annotations
 
-import importlib.util
 import math
-import os
 
 import numpy as np
+
+from abb_ros.model.jit import KernelSet
+from abb_ros.model.state import DECK, PHI, THETA
 
 PARAM_ORDER = ('a', 'b', 'd', 'R', 'M_P', 'M', 'm', 'J_Px', 'J_Py', 'J_Pz', 'J_x', 'J_y', 'J_z',
                'k', 'c', 'D', 'eps', 'n')
@@ -44,29 +46,11 @@ OK, NONFINITE, ENVELOPE = 0, 1, 2
 
 
 
-_PYTHON_TWIN = globals().get('_PYTHON_TWIN', False)   # set when loaded as the Python twin
+kernel = KernelSet(nogil=True, error_model='numpy')
+"""Marks the kernels of this module (compiled where numba is available)."""
 
 
-def _choose_jit():
-    if _PYTHON_TWIN or os.environ.get('ABB_ROS_NO_JIT'):
-        return None
-    try:
-        import numba
-    except ImportError:  # pragma: no cover - numba is pinned in requirements.txt
-        return None
-    return numba.njit(cache=True, nogil=True, error_model='numpy')
-
-
-_NUMBA_JIT = _choose_jit()
-
-
-def jit(func):
-    """numba.njit(cache=True) where available, else the function itself."""
-    return func if _NUMBA_JIT is None else _NUMBA_JIT(func)
-
-
-
-@jit
+@kernel
 def spindle_accel(t, omega, S):
     """theta'' of the spindle profile S at time t and speed omega [rad/s^2]."""
     mode = S[0]
@@ -83,7 +67,7 @@ def spindle_accel(t, omega, S):
         return 0.0
     return 0.0
 
-@jit
+@kernel
 def assemble(y, n, P, thdd, A, W, f, B, fb):
     """Eqs. (18)-(24) generalised to theta(t): the (6+n) system before elimination.
 
@@ -98,10 +82,12 @@ def assemble(y, n, P, thdd, A, W, f, B, fb):
     M_P, M, m = P[4], P[5], P[6]
     J_Px, J_Py, J_Pz, J_x, J_y, J_z = P[7], P[8], P[9], P[10], P[11], P[12]
     k, c, D, eps = P[13], P[14], P[15], P[16]
-    N = 7 + n
-    X, Y, Z, al, be, ga = y[1], y[2], y[3], y[4], y[5], y[6]
-    om = y[N]
-    Xd, Yd, Zd, ald, bed, gad = y[N + 1], y[N + 2], y[N + 3], y[N + 4], y[N + 5], y[N + 6]
+    N = PHI + n
+    X, Y, Z, al, be, ga = (y[DECK], y[DECK + 1], y[DECK + 2], y[DECK + 3], y[DECK + 4],
+                           y[DECK + 5])
+    om = y[N + THETA]
+    Xd, Yd, Zd, ald, bed, gad = (y[N + DECK], y[N + DECK + 1], y[N + DECK + 2],
+                                 y[N + DECK + 3], y[N + DECK + 4], y[N + DECK + 5])
     Mt = M + M_P + n * m
 
     # Sums over the rotating point masses j = G (M, eps, theta) and balls (m, R, phi_i + theta),
@@ -121,13 +107,13 @@ def assemble(y, n, P, thdd, A, W, f, B, fb):
         if j == 0:
             mu = M
             r = eps
-            psi = y[0]
+            psi = y[THETA]
             psid = om
         else:
             mu = m
             r = R
-            psi = y[0] + y[6 + j]
-            psid = om + y[N + 6 + j]
+            psi = y[THETA] + y[PHI - 1 + j]
+            psid = om + y[N + PHI - 1 + j]
         s = math.sin(psi)
         co = math.cos(psi)
         mr = mu * r
@@ -166,7 +152,7 @@ def assemble(y, n, P, thdd, A, W, f, B, fb):
             B[i, 3] = 0.0
             B[i, 4] = 0.0
             B[i, 5] = mr2
-            fb[i] = -D * y[N + 7 + i] - mr2 * thdd
+            fb[i] = -D * y[N + PHI + i] - mr2 * thdd
     Ir = M * eps * eps + n * m * R * R
     kb = b * b + 4.0 * d * d
     kab = a * a + b * b + 4.0 * d * d
@@ -205,7 +191,7 @@ def assemble(y, n, P, thdd, A, W, f, B, fb):
     f[5] = (-kab * (c * gad + k * ga) - 4.0 * d * c * Xd - 4.0 * d * k * X
             - (Ir + J_z) * thdd)
 
-@jit
+@kernel
 def solve3(A, f, i0, i1, i2, u):
     """u[i] for i in (i0, i1, i2) from rows and columns (i0, i1, i2) of A u = f: Gaussian
     elimination with partial pivoting on the 3 x 3 block (A and f are not modified)."""
@@ -239,7 +225,7 @@ def solve3(A, f, i0, i1, i2, u):
     u[i1] = x1
     u[i2] = x2
 
-@jit
+@kernel
 def solve_deck(A, f, u):
     """Deck accelerations u from A u = f. To the paper's order the in-plane rows (X, Y,
     gamma: Eqs. 18, 19, 23 with the balls eliminated) hold no out-of-plane acceleration,
@@ -250,12 +236,12 @@ def solve_deck(A, f, u):
         f[r] -= A[r, 0] * u[0] + A[r, 1] * u[1] + A[r, 5] * u[5]
     solve3(A, f, 2, 3, 4, u)
 
-@jit
+@kernel
 def accel(t, y, n, P, S, qdd, A, W, f, B, fb, u):
     """q'' at (t, y): eliminate the ball accelerations (their block is m R^2 I: Schur
     complement), solve the deck (:func:`solve_deck`), then back-substitute the balls."""
-    N = 7 + n
-    thdd = spindle_accel(t, y[N], S)
+    N = PHI + n
+    thdd = spindle_accel(t, y[N + THETA], S)
     assemble(y, n, P, thdd, A, W, f, B, fb)
     mR2 = P[6] * P[3] * P[3]
     inv = 1.0 / mR2
@@ -269,42 +255,42 @@ def accel(t, y, n, P, S, qdd, A, W, f, B, fb, u):
                 A[i, 5] -= w * B[b, 5]
                 f[i] -= w * fb[b]
     solve_deck(A, f, u)
-    qdd[0] = thdd
+    qdd[THETA] = thdd
     for i in range(6):
-        qdd[1 + i] = u[i]
+        qdd[DECK + i] = u[i]
     for b in range(n):
         acc = fb[b]
         for j in range(6):
             acc -= B[b, j] * u[j]
-        qdd[7 + b] = acc * inv
+        qdd[PHI + b] = acc * inv
 
-@jit
+@kernel
 def deriv(t, y, n, P, S, dy, qdd, A, W, f, B, fb, u):
-    N = 7 + n
+    N = PHI + n
     accel(t, y, n, P, S, qdd, A, W, f, B, fb, u)
     for i in range(N):
         dy[i] = y[N + i]
         dy[N + i] = qdd[i]
 
-@jit
+@kernel
 def check_state(y, n):
     """OK, NONFINITE or ENVELOPE for the state y."""
-    N = 7 + n
+    N = PHI + n
     for i in range(2 * N):
         if not math.isfinite(y[i]):
             return NONFINITE
-    for i in range(1, 4):
+    for i in range(DECK, DECK + 3):
         if abs(y[i]) > MAX_TRANSLATION:
             return ENVELOPE
-    for i in range(4, 7):
+    for i in range(DECK + 3, PHI):
         if abs(y[i]) > MAX_ANGLE:
             return ENVELOPE
     for i in range(n):
-        if abs(y[N + 7 + i]) > MAX_BALL_RATE:
+        if abs(y[N + PHI + i]) > MAX_BALL_RATE:
             return ENVELOPE
     return OK
 
-@jit
+@kernel
 def rk4_advance(y, t0, dt, step0, nsteps, n, P, S, work):
     """Advance y in place by nsteps classical RK4 steps of dt from t = (step0) dt + t0.
 
@@ -313,7 +299,7 @@ def rk4_advance(y, t0, dt, step0, nsteps, n, P, S, work):
     :func:`make_work` allocates. Returns (steps_done, status); on a bad state the
     state of the last good step is kept.
     """
-    N = 7 + n
+    N = PHI + n
     n2 = 2 * N
     k1, k2, k3, k4, yt, ysave = work[0], work[1], work[2], work[3], work[4], work[5]
     qdd = np.empty(N)
@@ -347,7 +333,7 @@ def rk4_advance(y, t0, dt, step0, nsteps, n, P, S, work):
             return s, status
     return nsteps, OK
 
-@jit
+@kernel
 def rk4_trajectory(y, t0, dt, step0, nsteps, every, n, P, S, work, out):
     """Like rk4_advance, storing y after every ``every`` steps into ``out`` rows.
 
@@ -368,35 +354,14 @@ def rk4_trajectory(y, t0, dt, step0, nsteps, every, n, P, S, work, out):
     return done, rows, OK
 
 
-KERNEL_NAMES = ('spindle_accel', 'assemble', 'solve3', 'solve_deck', 'accel', 'deriv',
-                'check_state', 'rk4_advance', 'rk4_trajectory')
-
-
-class _Kernels:
-    def __init__(self, namespace, compiled):
-        for name in KERNEL_NAMES:
-            setattr(self, name, namespace[name])
-        self.compiled = compiled
-
-
-def _load_python_twin():
-    spec = importlib.util.spec_from_file_location(__name__ + '_python_twin', __file__)
-    module = importlib.util.module_from_spec(spec)
-    module._PYTHON_TWIN = True
-    spec.loader.exec_module(module)
-    return module
-
-
-if not _PYTHON_TWIN:
-    JIT = _Kernels(globals(), compiled=_NUMBA_JIT is not None)
-    """Compiled kernels (numba), or the Python twin where numba is unavailable."""
-    PY = _Kernels(vars(_load_python_twin()), compiled=False)
-    """Pure-Python twin of every kernel: the same source run by the interpreter."""
+JIT, PY = kernel.build()
+"""JIT: compiled kernels (numba), or the Python twin where numba is unavailable; PY: the
+pure-Python twin of every kernel, the same source run by the interpreter."""
 
 
 def make_work(n: int) -> np.ndarray:
     """Stage buffers for :func:`rk4_advance`: shape (6, 2 (7 + n))."""
-    return np.zeros((6, 2 * (7 + n)))
+    return np.zeros((6, 2 * (PHI + n)))
 
 
 def pack_params(params) -> np.ndarray:

@@ -68,9 +68,9 @@ class PlantSampler:
         y = self.sim.y.copy() if state_due else None
         reading = None
         if imu_due:
-            N = self.sim.N
+            s = self.sim.layout
             qdd = self.sim.accelerations()
-            reading = self.imu.read(self.sim.y[:N], self.sim.y[N:], qdd)
+            reading = self.imu.read(self.sim.y[s.q], self.sim.y[s.qd], qdd)
         return Sample(steps, self.sim.params.n, y, reading)
 
     def next_period(self) -> list[Sample]:

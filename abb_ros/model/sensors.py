@@ -30,6 +30,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from abb_ros.model.state import ALPHA, DECK
+
 __all__ = ['GRAVITY', 'euler_rotation', 'euler_quaternion', 'deck_angular_velocity',
            'deck_angular_acceleration', 'point_specific_force', 'ImuConfig', 'ImuReading',
            'ImuModel', 'deck_velocity']
@@ -117,20 +119,22 @@ def deck_velocity(q, qd) -> tuple[np.ndarray, np.ndarray]:
 
     ``q``, ``qd``: generalised coordinates and rates, [theta, X, Y, Z, alpha, beta, gamma, ...].
     """
-    a, b, g = float(q[4]), float(q[5]), float(q[6])
-    v = _mul(_t_matrix(a, b, g), (float(qd[1]), float(qd[2]), float(qd[3])))
-    return np.array(v), np.array(_omega(a, b, float(qd[4]), float(qd[5]), float(qd[6])))
+    a, b, g = float(q[ALPHA]), float(q[ALPHA + 1]), float(q[ALPHA + 2])
+    v = _mul(_t_matrix(a, b, g), (float(qd[DECK]), float(qd[DECK + 1]), float(qd[DECK + 2])))
+    return np.array(v), np.array(_omega(a, b, float(qd[ALPHA]), float(qd[ALPHA + 1]),
+                                        float(qd[ALPHA + 2])))
 
 
 def _specific_force(q, qd, qdd, r, gravity):
     """point_specific_force and Eq. (10) as float tuples."""
-    a, b, g = float(q[4]), float(q[5]), float(q[6])
-    da, db, dg = float(qd[4]), float(qd[5]), float(qd[6])
+    a, b, g = float(q[ALPHA]), float(q[ALPHA + 1]), float(q[ALPHA + 2])
+    da, db, dg = float(qd[ALPHA]), float(qd[ALPHA + 1]), float(qd[ALPHA + 2])
     t = _t_matrix(a, b, g)
     w = _omega(a, b, da, db, dg)
-    wd = _omega_dot(a, b, da, db, dg, float(qdd[4]), float(qdd[5]), float(qdd[6]))
+    wd = _omega_dot(a, b, da, db, dg, float(qdd[ALPHA]), float(qdd[ALPHA + 1]),
+                    float(qdd[ALPHA + 2]))
     r = (float(r[0]), float(r[1]), float(r[2]))
-    a_c = _mul(t, (float(qdd[1]), float(qdd[2]), float(qdd[3])))
+    a_c = _mul(t, (float(qdd[DECK]), float(qdd[DECK + 1]), float(qdd[DECK + 2])))
     e1, e2 = _cross(wd, r), _cross(w, _cross(w, r))
     f = [a_c[i] + e1[i] + e2[i] for i in range(3)]
     if gravity:  # -g = +GRAVITY along Z of base: T (0, 0, g) is g times T's last column

@@ -14,6 +14,7 @@ import numpy as np
 
 from abb_ros.io.bag_reader import read_bag, read_drive_params
 from abb_ros.model.params import DriveParams
+from abb_ros.model.state import rbar, wrap_degrees
 
 LEGEND_OUTSIDE = dict(loc='upper left', bbox_to_anchor=(1.01, 1.0), fontsize=8, borderaxespad=0)
 """Legends right of the axes, where they cover no data."""
@@ -43,7 +44,7 @@ class TimeResponse:
     @property
     def rbar(self) -> np.ndarray:
         """rbar = sqrt(X^2 + Y^2 + Z^2) / R (Section 5, Fig. 9(a))."""
-        return np.sqrt(np.sum(self.deck[:3] ** 2, axis=0)) / self.R
+        return rbar(*self.deck[:3], self.R)
 
 
 def euler_from_quaternion(x, y, z, w):
@@ -105,11 +106,6 @@ def load_time_response(path, R: float | None = None) -> TimeResponse:
     return TimeResponse(t_pose=(np.asarray(pose_t) - t0) * 1e-9, deck=deck,
                         t_joint=(np.asarray(joint_t) - t0) * 1e-9, phi=phi, R=radius,
                         R_source=source)
-
-
-def wrap_degrees(phi) -> np.ndarray:
-    """Angles [rad] in degrees in [-180, 180)."""
-    return (np.degrees(np.asarray(phi, dtype=float)) + 180.0) % 360.0 - 180.0
 
 
 def _broken_at_wraps(deg: np.ndarray) -> np.ndarray:

@@ -1,0 +1,92 @@
+"""Every topic of abb_ros, once: name, message type, frame and when it is published.
+
+The simulator node's publishers, the headless run's bag topics and the recorder's default
+topics are all derived from :data:`TOPICS` (docs/ros_api.md lists them for users). Names are
+relative (resolved in the node's namespace) unless they start with '/'. Only strings here: no
+message package or rclpy is imported (:func:`message_class` imports a type when asked).
+"""
+
+from __future__ import annotations
+
+import importlib
+from dataclasses import dataclass
+
+__all__ = ['FRAME_BASE', 'FRAME_DECK', 'STATE', 'IMU', 'CLOCK', 'EVENT', 'COMMAND', 'SAMPLED',
+           'Topic', 'TOPICS', 'by_name', 'published_by', 'sampled_topics', 'recorded_topics',
+           'message_class']
+
+FRAME_BASE = 'base'
+"""Fixed frame of the drive's base (the deck's rest position)."""
+
+FRAME_DECK = 'deck'
+"""Frame attached to the deck at its mass centre C."""
+
+STATE = 'state'
+"""Rate role: published from the state at ``publish_rate_hz``."""
+IMU = 'imu'
+"""Rate role: published at the IMU's own rate (``imu.rate_hz``)."""
+CLOCK = 'clock'
+"""Rate role: published with every sample when the simulator owns time."""
+EVENT = 'event'
+"""Rate role: published when something changes (verdicts, faults) or at a low fixed rate."""
+COMMAND = 'command'
+"""Rate role: an input, published by the user and subscribed by the simulator."""
+
+SAMPLED = (CLOCK, STATE, IMU)
+"""Roles of the topics a simulation sample produces (what a headless bag holds)."""
+
+
+@dataclass(frozen=True)
+class Topic:
+    """One topic: ``frame`` is the header.frame_id of a stamped message, None if unstamped."""
+
+    name: str
+    type: str
+    frame: str | None
+    rate: str
+    publishers: tuple[str, ...]
+    recorded: bool = True       # in the recorder's default topics
+
+
+TOPICS = (
+    Topic('joint_states', 'sensor_msgs/msg/JointState', '', STATE, ('simulator',)),
+    Topic('deck/pose', 'geometry_msgs/msg/PoseStamped', FRAME_BASE, STATE, ('simulator',)),
+    Topic('deck/twist', 'geometry_msgs/msg/TwistStamped', FRAME_DECK, STATE, ('simulator',)),
+    Topic('deck/imu', 'sensor_msgs/msg/Imu', FRAME_DECK, IMU, ('simulator',)),
+    Topic('/clock', 'rosgraph_msgs/msg/Clock', None, CLOCK, ('simulator',), recorded=False),
+    Topic('stability/margin', 'std_msgs/msg/Float64', None, EVENT, ('analysis',)),
+    Topic('/diagnostics', 'diagnostic_msgs/msg/DiagnosticArray', None, EVENT,
+          ('simulator', 'analysis')),
+    Topic('spindle/speed_cmd', 'std_msgs/msg/Float64', None, COMMAND, ()),
+)
+"""Every topic. The simulator creates its publishers, a headless bag its topics (the order is
+part of the bag's bytes) and the recorder lists its defaults in this order."""
+
+
+def by_name(name: str) -> Topic:
+    """The :class:`Topic` called ``name`` (KeyError if there is none)."""
+    for topic in TOPICS:
+        if topic.name == name:
+            return topic
+    raise KeyError(name)
+
+
+def published_by(node: str) -> tuple[Topic, ...]:
+    """Topics the node ('simulator' or 'analysis') publishes, in :data:`TOPICS` order."""
+    return tuple(t for t in TOPICS if node in t.publishers)
+
+
+def sampled_topics() -> tuple[Topic, ...]:
+    """Topics produced by a simulation sample (a headless run writes exactly these)."""
+    return tuple(t for t in TOPICS if t.rate in SAMPLED)
+
+
+def recorded_topics() -> tuple[Topic, ...]:
+    """The recorder's default topics."""
+    return tuple(t for t in TOPICS if t.recorded)
+
+
+def message_class(type_name: str):
+    """The Python message class of ``pkg/msg/Name`` (imports the message package)."""
+    package, kind, name = type_name.split('/')
+    return getattr(importlib.import_module(f'{package}.{kind}'), name)
