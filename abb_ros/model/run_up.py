@@ -32,7 +32,7 @@ def hold_speed(bands, target: float, omega_max: float, guard: float) -> float:
     ``guard`` from every band; else the nearest such speed in [0, omega_max] (ties: above).
     Raises ValueError when no speed in range qualifies."""
     def clear(w):
-        return 0.0 < w <= omega_max and all(w < b.lo - guard or w > b.hi + guard
+        return 0.0 < w <= omega_max and all(w <= b.lo - guard or w >= b.hi + guard
                                             for b in bands)
     if clear(target):
         return target
