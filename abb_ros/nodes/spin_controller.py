@@ -43,9 +43,10 @@ TUNABLE = {
     'acceleration': (500.0, 'run-up acceleration of the reference outside the unbalanced '
                      'bands [rad/s^2] (inside them the drive\'s own limit applies)',
                      1e-3, math.inf),
-    'kp': (0.0, 'proportional gain on the speed error (command correction per rad/s) []',
-           0.0, 100.0),
-    'ki': (1.0, 'integral gain on the speed error while holding [1/s]', 0.0, 1000.0),
+    'kp': (0.0, 'proportional gain on the speed error (command correction per rad/s) []; 0: '
+           'trust the drive\'s own speed loop', 0.0, 100.0),
+    'ki': (0.0, 'integral gain on the speed error while holding [1/s]; for a drive whose '
+           'speed loop leaves a steady error', 0.0, 1000.0),
 }
 """Parameters changeable at run time: default, description, closed range."""
 FIXED = {

@@ -180,13 +180,13 @@ class LockstepPlant:
         for _ in range(int(periods)):
             before = self._received()
             future = self._step_client.call_async(self._Trigger.Request())
-            self._wait(future.done, 'the ~/step reply')
+            self.spin_until(future.done, 'the ~/step reply')
             reply = future.result()
             if not reply.success:
                 raise RuntimeError(f'~/step refused: {reply.message}')
             self.periods += 1
             target = self.periods
-            self._wait(lambda: self._received() >= before + answers
+            self.spin_until(lambda: self._received() >= before + answers
                        and len(self._cmd_seen) >= self._received()
                        and len(self._states) >= target,
                        f'period {target}: {answers} command(s) and joint_states')
@@ -203,11 +203,11 @@ class LockstepPlant:
         from std_msgs.msg import Float64
         if self._command_pub is None:
             self._command_pub = self.node.create_publisher(Float64, COMMAND_TOPIC, self._qos)
-            self._wait(lambda: self._command_pub.get_subscription_count() >= 1,
+            self.spin_until(lambda: self._command_pub.get_subscription_count() >= 1,
                        f'the plant subscribing to {COMMAND_TOPIC}')
         before = self._received()
         self._command_pub.publish(Float64(data=float(omega)))
-        self._wait(lambda: self._received() > before, 'the plant receiving the command')
+        self.spin_until(lambda: self._received() > before, 'the plant receiving the command')
 
     def trace(self) -> Trace:
         """The periods so far (see :class:`Trace`)."""
@@ -224,10 +224,14 @@ class LockstepPlant:
                 end = time.monotonic() + quiet_s
 
     def close(self) -> None:
+        """Destroy the nodes and the Context (again: nothing happens)."""
         import rclpy
+        if not self._nodes:
+            return
         self.executor.shutdown()
         for n in reversed(self._nodes):
             n.destroy_node()
+        self._nodes = []
         rclpy.try_shutdown(context=self.context)
 
     def __enter__(self):
@@ -244,7 +248,8 @@ class LockstepPlant:
     def _activity(self) -> int:
         return self._received() + len(self._states) + len(self._poses) + len(self._cmd_seen)
 
-    def _wait(self, predicate, what: str) -> None:
+    def spin_until(self, predicate, what: str) -> None:
+        """Spin the nodes until ``predicate()``; LockstepTimeout after the deadline."""
         deadline = time.monotonic() + self.deadline_s
         while not predicate():
             if time.monotonic() > deadline:
@@ -254,14 +259,14 @@ class LockstepPlant:
     def _wait_connected(self) -> None:
         """Every subscription of a spinning node to a topic the plant publishes (or to the
         command topic) is matched, and the plant's ~/step service is up."""
-        self._wait(self._step_client.service_is_ready, 'the plant\'s ~/step service')
+        self.spin_until(self._step_client.service_is_ready, 'the plant\'s ~/step service')
         wanted = {}
         for n in self._nodes:
             for sub in n.subscriptions:
                 wanted[sub.topic_name] = wanted.get(sub.topic_name, 0) + 1
         for pub in [p for n in self._nodes for p in n.publishers if p.topic_name in wanted]:
             need = wanted[pub.topic_name]
-            self._wait(lambda pub=pub, need=need: pub.get_subscription_count() >= need,
+            self.spin_until(lambda pub=pub, need=need: pub.get_subscription_count() >= need,
                        f'{need} subscriber(s) of {pub.topic_name}')
 
 
