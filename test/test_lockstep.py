@@ -6,7 +6,6 @@ from importlib.metadata import entry_points
 
 import numpy as np
 import pytest
-from rclpy.qos import QoSProfile
 
 from abb_ros.io.scenario import load_scenario
 from abb_ros.nodes.spin_controller import SpinController

@@ -3,7 +3,6 @@ the paper's P3 (metal washers) it balances the balls, with a lower peak rbar on 
 constant-acceleration ramp of the same duration; it holds only balanced speeds; a mode other
 than speed is refused at start-up."""
 
-import math
 import subprocess
 import sys
 from pathlib import Path
