@@ -28,22 +28,27 @@ ARGUMENTS = {
     'record_dir': ('', 'bag directory of the recording (default abb_bag_<date>-<time> in '
                    'the working directory)'),
 }
+SHUTDOWN_S = '30'
+"""Seconds a node gets to end after SIGINT before launch escalates to SIGTERM (launch's default,
+5 s, is short for a loaded machine and for the recorder closing its bag)."""
 
 
 def generate_launch_description():
     params_file = LaunchConfiguration('params_file')
     bench = GroupAction([
         PushRosNamespace(LaunchConfiguration('namespace')),
-        Node(package='abb_ros', executable='simulator', name='abb_simulator', output='screen',
+        Node(package='abb_ros', executable='simulator', name='abb_simulator',
+             output='screen', sigterm_timeout=SHUTDOWN_S,
              parameters=[params_file, {'real_time_factor': ParameterValue(
                  LaunchConfiguration('real_time_factor'), value_type=float)}]),
-        Node(package='abb_ros', executable='analysis', name='abb_analysis', output='screen',
-             parameters=[params_file],
+        Node(package='abb_ros', executable='analysis', name='abb_analysis',
+             output='screen', sigterm_timeout=SHUTDOWN_S, parameters=[params_file],
              condition=IfCondition(LaunchConfiguration('analysis'))),
         Node(package='abb_ros', executable='spin_controller', name='abb_spin_controller',
-             output='screen', parameters=[params_file],
+             output='screen', sigterm_timeout=SHUTDOWN_S, parameters=[params_file],
              condition=IfCondition(LaunchConfiguration('controller'))),
-        Node(package='abb_ros', executable='recorder', name='abb_recorder', output='screen',
+        Node(package='abb_ros', executable='recorder', name='abb_recorder',
+             output='screen', sigterm_timeout=SHUTDOWN_S,
              parameters=[{'output': ParameterValue(LaunchConfiguration('record_dir'),
                                                    value_type=str)}],
              condition=IfCondition(LaunchConfiguration('record'))),

@@ -30,6 +30,7 @@ from abb_ros.model.params import DriveParams, ParamError
 from abb_ros.model.run_up import GUARD_WBAR, RunUp, hold_speed
 from abb_ros.nodes import ros_params
 from abb_ros.nodes.entry_point import run_node
+from abb_ros.nodes.simulator import spin
 
 NODE_NAME = 'abb_spin_controller'
 QOS_DEPTH = 10
@@ -180,7 +181,9 @@ class SpinController(Node):
 
 
 def main(args=None):
-    return run_node(NODE_NAME, SpinController, args)
+    # The simulator's spin: the EventsExecutor keeps up with 1 kHz joint_states, and its timed
+    # loop lets SIGINT through.
+    return run_node(NODE_NAME, SpinController, args, spin=spin)
 
 
 if __name__ == '__main__':
