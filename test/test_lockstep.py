@@ -60,8 +60,8 @@ def run_with_controller(seed: int) -> dict:
         raw = {t: plant.record(t, raw=True) for t in RAW_TOPICS}
         from std_msgs.msg import Float64
         raw['spindle/speed_cmd'] = plant.record('spindle/speed_cmd', Float64, raw=True)
-        controller = SpinController(context=plant.context, parameter_overrides=[
-            p for p in plant.sim.get_parameters(list(drive_parameters(scenario.params)))])
+        controller = SpinController(context=plant.context,
+                                    parameter_overrides=plant.shared_parameters())
         plant.add_node(controller)
         assert plant.answers == 1
         plant.advance(100)

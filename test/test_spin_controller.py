@@ -26,9 +26,9 @@ RUN_S = 3.0                # the balls are settled well before (about 2 s)
 
 
 def controller_in(plant, **parameters):
-    overrides = plant.sim.get_parameters(list(drive_parameters(P3.params)))
     from rclpy.parameter import Parameter
-    overrides += [Parameter(k, value=v) for k, v in parameters.items()]
+    overrides = plant.shared_parameters() + [Parameter(k, value=v)
+                                             for k, v in parameters.items()]
     node = SpinController(context=plant.context, parameter_overrides=overrides)
     plant.add_node(node)
     return node

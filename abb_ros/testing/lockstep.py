@@ -163,6 +163,12 @@ class LockstepPlant:
     def answers(self, value: int) -> None:
         self._explicit_answers = int(value)
 
+    def shared_parameters(self) -> list:
+        """The plant's ``drive.*`` and ``max_spindle_speed`` as rclpy Parameters: the
+        ``parameter_overrides`` that give a node under test the plant's drive."""
+        return self.sim.get_parameters([f'drive.{f.name}' for f in fields(DriveParams)]
+                                       + ['max_spindle_speed'])
+
     @property
     def drive(self) -> DriveParams:
         return self.sim.drive
