@@ -169,6 +169,12 @@ class LockstepPlant:
         return self.sim.get_parameters([f'drive.{f.name}' for f in fields(DriveParams)]
                                        + ['max_spindle_speed'])
 
+    def bands(self) -> tuple:
+        """The unbalanced speed bands of the plant's drive (the analysis' table,
+        speed_bands.speed_table over 0..max_spindle_speed)."""
+        from abb_ros.model.speed_bands import speed_table
+        return speed_table(self.drive, self.sim.settings.max_spindle_speed).bands
+
     @property
     def drive(self) -> DriveParams:
         return self.sim.drive
