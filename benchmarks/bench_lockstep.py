@@ -1,11 +1,10 @@
 """Speed of the lockstep harness (prints figures; asserts nothing).
 
-P3's drive (metal washers) from rest under spin_controller, everything in this process over
-DDS (one rclpy Context, the harness' executor):
+P3's drive (metal washers) from rest under spin_controller, over DDS:
   lockstep: publish periods per wall second advanced by LockstepPlant.advance with the
   controller answering every period (and, for reference, with no controller: answers = 0);
-  real time: the same nodes free-running at real_time_factor 1 (the simulator's own pacing),
-  periods per wall second and the fraction of periods the controller answered.
+  real time: the simulator (real_time_factor 1) and spin_controller as separate processes, as
+  bench.launch.py runs them: periods per wall second and commands per period, seen by a probe.
 
     .venv/bin/python benchmarks/bench_lockstep.py [--periods 1000] [--rates 1000 200]
 """
@@ -13,6 +12,9 @@ DDS (one rclpy Context, the harness' executor):
 import argparse
 import os
 import random
+import signal
+import subprocess
+import sys
 import time
 
 os.environ.setdefault('ROS_DOMAIN_ID', str(random.randint(1, 101)))
@@ -21,6 +23,7 @@ os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 from rclpy.parameter import Parameter  # noqa: E402
 
 from abb_ros.io.scenario import load_scenario  # noqa: E402
+from abb_ros.nodes.simulator import make_executor  # noqa: E402
 from abb_ros.nodes.spin_controller import SpinController  # noqa: E402
 from abb_ros.testing.lockstep import LockstepPlant, drive_parameters  # noqa: E402
 
@@ -47,26 +50,53 @@ def lockstep(rate: int, periods: int, with_controller: bool) -> float:
 
 
 def real_time(rate: int, seconds: float) -> tuple[float, float]:
-    """(periods per wall second, fraction answered) with the plant free-running in real time
-    (real_time_factor 1, unpaused through ~/pause over DDS)."""
-    from std_srvs.srv import SetBool
-    with LockstepPlant({**FROM_REST, 'publish_rate_hz': rate, 'imu.rate_hz': rate}) as plant:
-        controller_for(plant)
-        plant.advance(1)  # connected, as above
-        plant.sim.set_parameters([Parameter('real_time_factor', value=1.0)])
-        client = plant.node.create_client(
-            SetBool, f'{plant.sim.get_fully_qualified_name()}/pause')
-        plant.spin_until(client.service_is_ready, 'the ~/pause service')
-        n0, c0 = len(plant.trace()), plant.sim.counters['commands_accepted']
-        future = client.call_async(SetBool.Request(data=False))
-        start = time.perf_counter()
+    """(joint_states per wall second, commands per joint_states) seen by a probe in this
+    process, with the simulator (real_time_factor 1) and spin_controller as separate processes,
+    as bench.launch.py runs them."""
+    import rclpy
+    from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+    from sensor_msgs.msg import JointState
+    from std_msgs.msg import Float64
+
+    ns = f'/bench_rt_{os.getpid()}'
+    params = [f'drive.{k[len("drive."):]}:={v!r}' for k, v in FROM_REST.items()
+              if k.startswith('drive.')]
+    params += [f'publish_rate_hz:={rate}', f'imu.rate_hz:={rate}']
+    procs = [subprocess.Popen([sys.executable, '-m', f'abb_ros.nodes.{module}', '--ros-args',
+                               '-r', f'__ns:={ns}', *[a for p in params for a in ('-p', p)]],
+                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+             for module in ('simulator', 'spin_controller')]
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx)
+    node = rclpy.create_node('bench_rt_probe', context=ctx)
+    qos = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE)
+    states, commands = [], []
+    node.create_subscription(JointState, f'{ns}/joint_states', states.append, qos, raw=True)
+    node.create_subscription(Float64, f'{ns}/spindle/speed_cmd', commands.append, qos,
+                             raw=True)
+    executor = make_executor(ctx)
+    executor.add_node(node)
+    try:
+        deadline = time.monotonic() + 300  # start-up: numba caches, the band table
+        while not commands and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.05)
+        end = time.monotonic() + 1.0  # let the start settle
+        while time.monotonic() < end:
+            executor.spin_once(timeout_sec=0.01)
+        n0, c0, start = len(states), len(commands), time.perf_counter()
         while time.perf_counter() - start < seconds:
-            plant.executor.spin_once(timeout_sec=0.01)
+            executor.spin_once(timeout_sec=0.01)
         wall = time.perf_counter() - start
-        assert future.done() and future.result().success
-        periods = len(plant.trace()) - n0
-        answered = plant.sim.counters['commands_accepted'] - c0
-        return periods / wall, answered / max(periods, 1)
+        periods = len(states) - n0
+        return periods / wall, (len(commands) - c0) / max(periods, 1)
+    finally:
+        for proc in procs:
+            proc.send_signal(signal.SIGINT)
+        for proc in procs:
+            proc.wait(timeout=60)
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.try_shutdown(context=ctx)
 
 
 def main():
@@ -79,9 +109,10 @@ def main():
         with_c = lockstep(rate, args.periods, True)
         without = lockstep(rate, args.periods, False)
         rt, answered = real_time(rate, args.seconds)
-        print(f'publish rate {rate} Hz: lockstep {with_c:.0f} periods/s with spin_controller '
-              f'({with_c / rate:.2f} x real time), {without:.0f} periods/s without a '
-              f'controller; real time: {rt:.0f} periods/s, {answered:.1%} of them answered')
+        print(f'publish rate {rate} Hz: lockstep (one process) {with_c:.0f} periods/s with '
+              f'spin_controller ({with_c / rate:.2f} x real time), {without:.0f} periods/s '
+              f'without a controller; real time (separate processes) {rt:.0f} periods/s, '
+              f'{answered:.3f} commands per period')
 
 
 if __name__ == '__main__':
