@@ -57,9 +57,7 @@ def run_with_controller(seed: int) -> dict:
     parameters = {**drive_parameters(scenario.params), 'spindle.initial_speed': 0.0,
                   'seed': seed}
     with LockstepPlant(parameters) as plant:
-        raw = {t: plant.record(t, raw=True) for t in RAW_TOPICS}
-        from std_msgs.msg import Float64
-        raw['spindle/speed_cmd'] = plant.record('spindle/speed_cmd', Float64, raw=True)
+        raw = {t: plant.record(t, raw=True) for t in RAW_TOPICS + ('spindle/speed_cmd',)}
         controller = SpinController(context=plant.context,
                                     parameter_overrides=plant.shared_parameters())
         plant.add_node(controller)

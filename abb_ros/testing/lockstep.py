@@ -40,6 +40,7 @@ DEADLINE_S = 30.0
 DEFAULT_RATE_HZ = 200
 """Publish (and control) rate of a lockstep plant unless given: 50 RK4 steps per period."""
 COMMAND_TOPIC = 'spindle/speed_cmd'
+MARGIN_TOPIC = 'stability/margin'
 
 
 class LockstepTimeout(AssertionError):
@@ -89,7 +90,6 @@ class LockstepPlant:
         from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
         from sensor_msgs.msg import JointState
         from geometry_msgs.msg import PoseStamped
-        from std_msgs.msg import Float64
         from std_srvs.srv import Trigger
 
         from abb_ros.nodes.simulator import SimulatorNode, make_executor
@@ -129,9 +129,10 @@ class LockstepPlant:
         self._states = self.record('joint_states', JointState)
         self._poses = self.record('deck/pose', PoseStamped)
         self._commands = []
-        self._cmd_seen = self.record(COMMAND_TOPIC, Float64)
+        self._cmd_seen = self.record(COMMAND_TOPIC)
         self._command_pub = None
         self._explicit_answers = None
+        self._connected = False
         self.periods = 0
 
     # ---- set-up --------------------------------------------------------------------------
@@ -139,14 +140,19 @@ class LockstepPlant:
         """Spin ``node`` (created with ``context=plant.context``) with the plant."""
         self._nodes.append(node)
         self.executor.add_node(node)
+        self._connected = False
 
     def record(self, topic: str, kind=None, raw: bool = False) -> list:
         """A list that collects every message of ``topic`` (relative names resolve in the
-        plant's namespace; ``raw``: the CDR bytes). ``kind`` defaults to the simulator's
-        type of that topic."""
+        plant's namespace; ``raw``: the CDR bytes). ``kind`` defaults to the type of a bench
+        topic (the simulator's, ``spindle/speed_cmd``, ``stability/margin``)."""
         from abb_ros.io import ros_messages
+        from std_msgs.msg import Float64
         got = []
-        kind = kind or ros_messages.TOPIC_TYPES[topic]
+        kind = kind or ros_messages.TOPIC_TYPES.get(topic) or (
+            Float64 if topic in (COMMAND_TOPIC, MARGIN_TOPIC) else None)
+        if kind is None:
+            raise ValueError(f'record({topic!r}): give the message type (kind=...)')
         self.node.create_subscription(kind, topic, got.append, self._qos, raw=raw)
         return got
 
@@ -186,8 +192,9 @@ class LockstepPlant:
     # ---- lockstep ------------------------------------------------------------------------
     def advance(self, periods: int = 1) -> None:
         """Advance exactly ``periods`` publish periods (module doc)."""
-        if self.periods == 0:
+        if not self._connected:
             self._wait_connected()
+            self._connected = True
         answers = self.answers
         for _ in range(int(periods)):
             before = self._received()
