@@ -28,6 +28,10 @@ ARGUMENTS = {
     'record_dir': ('', 'bag directory of the recording (default abb_bag_<date>-<time> in '
                    'the working directory)'),
 }
+BENCH_TOPICS = ['joint_states', 'deck/pose', 'deck/twist', 'deck/imu', '/clock', '/diagnostics',
+                'spindle/speed_cmd', 'stability/margin']
+"""Every topic of the bench (relative names: in the namespace); /clock exists with
+real_time_factor other than 1."""
 SHUTDOWN_S = '30'
 """Seconds a node gets to end after SIGINT before launch escalates to SIGTERM (launch's default,
 5 s, is short for a loaded machine and for the recorder closing its bag)."""
@@ -50,7 +54,8 @@ def generate_launch_description():
         Node(package='abb_ros', executable='recorder', name='abb_recorder',
              output='screen', sigterm_timeout=SHUTDOWN_S,
              parameters=[{'output': ParameterValue(LaunchConfiguration('record_dir'),
-                                                   value_type=str)}],
+                                                   value_type=str),
+                          'topics': BENCH_TOPICS}],
              condition=IfCondition(LaunchConfiguration('record'))),
     ])
     return LaunchDescription(

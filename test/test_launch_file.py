@@ -55,6 +55,16 @@ def test_launch_file_declares_every_argument_of_the_issue_and_documents_it():
     assert (ROOT / 'config' / 'cdrom_table1.yaml').is_file()
 
 
+def test_the_recording_covers_every_topic_the_bench_nodes_publish():
+    from abb_ros.io.ros_messages import TOPIC_TYPES
+    from abb_ros.nodes.recorder import DEFAULT_TOPICS
+    (topics,) = [n.value for n in tree().body if isinstance(n, ast.Assign)
+                 and n.targets[0].id == 'BENCH_TOPICS']
+    recorded = set(ast.literal_eval(topics))
+    assert recorded >= set(TOPIC_TYPES) | set(DEFAULT_TOPICS)
+    assert recorded >= {'spindle/speed_cmd', 'stability/margin'}
+
+
 def test_every_node_in_the_launch_file_is_a_console_script_of_this_package():
     setup = (ROOT / 'setup.py').read_text()
     scripts = dict(re.findall(r"'(\w+) = (abb_ros\.nodes\.\w+):main'", setup))
