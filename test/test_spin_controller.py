@@ -97,3 +97,22 @@ def test_a_mode_other_than_speed_exits_with_code_2_and_one_line_naming_it():
     lines = result.stderr.strip().splitlines()
     assert len(lines) == 1 and "'mode'" in lines[0] and "'torque'" in lines[0], lines
     assert 'speed' in lines[0]
+
+
+@pytest.mark.slow
+def test_a_new_target_at_run_time_is_reached_jumping_down_over_the_bands(lockstep_plant):
+    from rclpy.parameter import Parameter
+    plant = lockstep_plant(drive_parameters(P3.params))  # starts at P3's 811.2 rad/s
+    controller = controller_in(plant)
+    plant.run_for(0.2)
+    assert controller.hold == pytest.approx(P3.omega)
+    assert controller.set_parameters([Parameter('target_speed', value=450.0)])[0].successful
+    plant.run_for(1.0)
+    run = plant.trace()
+    assert run.omega[-1] == pytest.approx(450.0, abs=1e-3)
+    bands = plant.bands()
+    assert [b for b in bands if 450.0 < b.lo < P3.omega]  # bands on the way down ...
+    # ... crossed at the drive's 2000 rad/s^2: 90 rad/s of bands, about 45 ms.
+    assert time_in_bands(run.t, run.omega, bands) < 0.1
+    # The command never asked for a speed inside a band.
+    assert not [w for w in run.omega_cmd if any(b.lo <= w <= b.hi for b in bands)]
