@@ -28,6 +28,12 @@ def test_the_plugin_is_registered_for_pytest_through_the_pytest11_entry_point():
     assert plugin.value == 'abb_ros.testing.pytest_plugin'
 
 
+def test_an_invalid_plant_parameter_raises_the_param_error_naming_it():
+    from abb_ros.model.params import ParamError
+    with pytest.raises(ParamError, match="'publish_rate_hz' = 7 .*divisor of"):
+        LockstepPlant({'publish_rate_hz': 7})
+
+
 def test_advance_integrates_exactly_n_publish_periods_and_nothing_in_between(lockstep_plant):
     plant = lockstep_plant()
     plant.advance(7)

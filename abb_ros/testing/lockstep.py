@@ -109,8 +109,12 @@ class LockstepPlant:
         ns = namespace or None
         overrides = [Parameter(k, value=v) for k, v in values.items()]
         # The plant first: its start-up sample goes out before anyone listens, in every run.
-        self.sim = SimulatorNode(context=self.context, namespace=ns,
-                                 parameter_overrides=overrides)
+        try:
+            self.sim = SimulatorNode(context=self.context, namespace=ns,
+                                     parameter_overrides=overrides)
+        except Exception:  # e.g. ParamError: invalid parameters; leave no Context behind
+            rclpy.try_shutdown(context=self.context)
+            raise
         self._nodes = [self.sim]
         self.analysis = None
         if analysis:
