@@ -14,6 +14,7 @@ setup(
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/config', glob('config/*.yaml')),
         ('share/' + package_name + '/config/scenarios', glob('config/scenarios/*.yaml')),
+        ('share/' + package_name + '/launch', glob('launch/*.launch.py')),
     ],
     install_requires=['setuptools'],
     zip_safe=True,
@@ -28,6 +29,8 @@ setup(
             'analysis = abb_ros.nodes.analysis:main',
             'recorder = abb_ros.nodes.recorder:main',
             'abb-sim = abb_ros.cli:main',
+            'spin_controller = abb_ros.nodes.spin_controller:main',
         ],
+        'pytest11': ['abb_ros = abb_ros.testing.pytest_plugin'],
     },
 )

@@ -21,7 +21,7 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 PACKAGE = 'abb_ros'
-EXECUTABLES = ('simulator', 'analysis', 'recorder')
+EXECUTABLES = ('simulator', 'analysis', 'recorder', 'spin_controller')
 # Table 1 drive of config/cdrom_table1.yaml has n = 2 balls.
 TABLE1_JOINTS = ['spindle', 'ball_1', 'ball_2']
 
@@ -94,6 +94,12 @@ def test_colcon_installs_the_ament_marker_manifest_and_table1_parameters(install
     assert (share / 'package.xml').read_bytes() == (REPO / 'package.xml').read_bytes()
     assert (share / 'config' / 'cdrom_table1.yaml').read_bytes() == \
         (REPO / 'config' / 'cdrom_table1.yaml').read_bytes()
+
+
+def test_colcon_installs_the_bench_launch_file_where_ros2_launch_looks(install):
+    # ros2 launch <pkg> <file> searches <share>/<pkg> recursively; launch/ is the convention.
+    installed = install / PACKAGE / 'share' / PACKAGE / 'launch' / 'bench.launch.py'
+    assert installed.read_bytes() == (REPO / 'launch' / 'bench.launch.py').read_bytes()
 
 
 # Run in the sourced environment, as `ros2 run` would: ros2pkg's get_executable_paths() lists

@@ -1,0 +1,190 @@
+"""``ros2 run abb_ros spin_controller``: bring the drive from rest to a target speed and hold it.
+
+An example controller (node abb_spin_controller) for the plant, in speed mode: on each
+``joint_states`` (velocity[0] = omega, header stamp = time) it advances the speed reference of
+:class:`abb_ros.model.run_up.RunUp` and publishes exactly one ``spindle/speed_cmd``
+(std_msgs/Float64, rad/s): the reference plus a PI correction of the measured speed error
+(gains ``kp``, ``ki``; the integral runs only while holding). The reference ramps at
+``acceleration`` where the balanced equilibrium is stable and jumps over the unbalanced bands
+(from :func:`abb_ros.model.speed_bands.speed_table` of the node's own ``drive.*``, computed at
+start-up: give it the simulator's parameter file) so that the drive crosses them at its own
+acceleration limit; it holds ``target_speed`` only if the analysis calls it balanced, else the
+nearest speed that is (with a guard of ``guard_wbar``, logged). ``stability/margin`` from the
+analysis node is watched: a negative margin while holding is reported (it does not change the
+command, so lockstep runs stay deterministic). Parameters: docs/ros_api.md.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from dataclasses import fields
+
+from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
+from rclpy.node import Node
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
+
+from abb_ros.model import speed_bands
+from abb_ros.model.params import DriveParams, ParamError
+from abb_ros.model.run_up import GUARD_WBAR, RunUp, hold_speed
+from abb_ros.nodes import ros_params
+from abb_ros.nodes.entry_point import run_node
+from abb_ros.nodes.simulator import spin
+
+NODE_NAME = 'abb_spin_controller'
+QOS_DEPTH = 10
+WARN_THROTTLE_S = 5.0
+MODES = ('speed',)
+"""Command modes implemented; torque mode needs the simulator's torque input first."""
+
+TUNABLE = {
+    'target_speed': (None, 'speed to reach and hold [rad/s]; default wbar = 2.7 (P3) with the '
+                     'drive omega0', 0.0, math.inf),
+    'acceleration': (500.0, 'run-up acceleration of the reference outside the unbalanced '
+                     'bands [rad/s^2] (inside them the drive\'s own limit applies)',
+                     1e-3, math.inf),
+    'kp': (0.0, 'proportional gain on the speed error (command correction per rad/s) []; 0: '
+           'trust the drive\'s own speed loop', 0.0, 100.0),
+    'ki': (0.0, 'integral gain on the speed error while holding [1/s]; for a drive whose '
+           'speed loop leaves a steady error', 0.0, 1000.0),
+}
+"""Parameters changeable at run time: default, description, closed range."""
+FIXED = {
+    'mode': ('speed', 'command mode: speed (spindle/speed_cmd); torque is not available yet'),
+    'guard_wbar': (GUARD_WBAR, 'distance kept from an unbalanced band, in wbar []'),
+    'table_points': (speed_bands.TABLE_POINTS, 'speeds in the band table []'),
+}
+"""Parameters fixed at start-up (with drive.* and max_spindle_speed)."""
+
+
+class SpinController(Node):
+    """The example run-up controller (see the module docstring)."""
+
+    def __init__(self, **kwargs):
+        super().__init__(NODE_NAME, **kwargs)
+        self.drive, self.omega_max = self._declare()
+        mode = self.get_parameter('mode').value
+        if mode not in MODES:
+            raise ParamError('mode', mode, ' or '.join(MODES), 'torque mode needs the '
+                             'simulator\'s torque input, which does not exist yet')
+        self.guard = self.get_parameter('guard_wbar').value * self.drive.omega0
+        table = speed_bands.speed_table(self.drive, self.omega_max,
+                                        self.get_parameter('table_points').value)
+        if not table.exists:
+            raise ParamError('drive', 'these parameters', 'a drive the balls can balance',
+                             table.reason)
+        self.bands = table.bands
+        self.margin = math.nan
+        self.run_up = None          # RunUp, from the first joint_states on
+        self.last_stamp_ns = None
+        self.integral = 0.0
+        self.command = math.nan
+        self._plan()
+        self.add_on_set_parameters_callback(self._validate)
+        self.add_post_set_parameters_callback(lambda _: self._plan())
+        self._pub = self.create_publisher(Float64, 'spindle/speed_cmd', QOS_DEPTH)
+        self.create_subscription(JointState, 'joint_states', self._on_joint_states, QOS_DEPTH)
+        self.create_subscription(Float64, 'stability/margin', self._on_margin, QOS_DEPTH)
+        self.get_logger().info(
+            f'mode {mode}; unbalanced bands [rad/s]: '
+            + ', '.join(f'{b.lo:.0f}-{b.hi:.0f}' for b in self.bands)
+            + f'; holding {self.hold:.1f} rad/s')
+
+    # ---- parameters ----------------------------------------------------------------------
+    def _declare(self) -> tuple[DriveParams, float]:
+        defaults = DriveParams()
+        for f in fields(DriveParams):
+            self.declare_parameter(ros_params.DRIVE_PREFIX + f.name, getattr(defaults, f.name),
+                                   ros_params.drive_descriptor(f.name))
+        drive = DriveParams.from_mapping({f.name: self.get_parameter(
+            ros_params.DRIVE_PREFIX + f.name).value for f in fields(DriveParams)})
+        spec = ros_params.NODE_PARAMS['max_spindle_speed']
+        omega_max = self.declare_parameter('max_spindle_speed', spec.default,
+                                           ros_params.descriptor('max_spindle_speed', spec)
+                                           ).value
+        for name, (default, text) in FIXED.items():
+            self.declare_parameter(name, default,
+                                   ParameterDescriptor(description=text, read_only=True))
+        for name, (default, text, low, high) in TUNABLE.items():
+            if default is None:
+                default = ros_params.P3_WBAR * drive.omega0
+            self.declare_parameter(name, float(default), ParameterDescriptor(
+                description=text, floating_point_range=[FloatingPointRange(
+                    from_value=low, to_value=high, step=0.0)]))
+        return drive, float(omega_max)
+
+    def _validate(self, parameters) -> SetParametersResult:
+        for p in parameters:
+            if p.name == 'target_speed':
+                try:
+                    hold_speed(self.bands, p.value, self.omega_max, self.guard)
+                except ValueError as err:
+                    return SetParametersResult(successful=False, reason=f'target_speed: {err}')
+        return SetParametersResult(successful=True)
+
+    def _plan(self) -> None:
+        """(Re)compute the hold speed and the reference's acceleration from the parameters."""
+        target = self.get_parameter('target_speed').value
+        try:
+            self.hold = hold_speed(self.bands, target, self.omega_max, self.guard)
+        except ValueError as err:
+            raise ParamError('target_speed', target, f'(0, {self.omega_max:g}] rad/s', str(err))
+        if self.hold != target:
+            self.get_logger().warning(
+                f'target_speed {target:.1f} rad/s is not balanced (too close to or inside an '
+                f'unbalanced band); holding {self.hold:.1f} rad/s instead')
+        self.kp = self.get_parameter('kp').value
+        self.ki = self.get_parameter('ki').value
+        if self.run_up is not None:
+            self.run_up.hold = self.hold
+            self.run_up.accel = self.get_parameter('acceleration').value
+
+    # ---- control -------------------------------------------------------------------------
+    def _on_joint_states(self, msg: JointState) -> None:
+        stamp_ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+        omega = float(msg.velocity[0]) if msg.velocity else math.nan
+        if not math.isfinite(omega):
+            self.get_logger().warning(f'joint_states without a finite spindle speed: {omega!r}',
+                                      throttle_duration_sec=WARN_THROTTLE_S)
+        elif self.run_up is None or stamp_ns <= self.last_stamp_ns:
+            # First message, or time went back (a reset): start the reference where we are.
+            self.run_up = RunUp(self.bands, self.hold, self.get_parameter('acceleration').value,
+                                self.guard, omega_ref=omega)
+            self.integral = 0.0
+            self.last_stamp_ns = stamp_ns
+            self.command = self._law(omega, 0.0)
+        else:
+            dt = (stamp_ns - self.last_stamp_ns) * 1e-9
+            self.last_stamp_ns = stamp_ns
+            self.command = self._law(omega, dt)
+        if math.isfinite(self.command):
+            self._pub.publish(Float64(data=self.command))
+
+    def _law(self, omega: float, dt: float) -> float:
+        """Reference + kp e + ki int(e) (integral while holding), within [0, max speed]."""
+        ref = self.run_up.step(dt)
+        error = ref - omega
+        if self.run_up.holding:
+            self.integral += error * dt
+        else:
+            self.integral = 0.0
+        return min(max(ref + self.kp * error + self.ki * self.integral, 0.0), self.omega_max)
+
+    def _on_margin(self, msg: Float64) -> None:
+        self.margin = msg.data
+        if self.run_up is not None and self.run_up.holding and not self.margin > 0.0:
+            self.get_logger().warning(
+                f'the analysis reports margin {self.margin:.4g} (unbalanced) at the hold speed '
+                f'{self.hold:.1f} rad/s: are its drive parameters this node\'s?',
+                throttle_duration_sec=WARN_THROTTLE_S)
+
+
+def main(args=None):
+    # The simulator's spin: the EventsExecutor keeps up with 1 kHz joint_states, and its timed
+    # loop lets SIGINT through.
+    return run_node(NODE_NAME, SpinController, args, spin=spin)
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,63 @@
+"""The abb_ros bench with one command: ros2 launch abb_ros bench.launch.py [name:=value ...].
+
+Starts, under the ROS namespace ``namespace``, the simulator (abb_simulator) and as chosen the
+analysis (abb_analysis), the example controller (abb_spin_controller) and the recorder
+(abb_recorder, every bench topic to ``record_dir``). Every node loads ``params_file`` (the
+drive's parameters; default the installed Table 1 file). Arguments: docs/ros_api.md.
+Imports only launch and launch_ros, as the ROS 2 Jazzy launch documentation prescribes.
+"""
+
+from launch import LaunchDescription
+from launch.actions import DeclareLaunchArgument, GroupAction
+from launch.conditions import IfCondition
+from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
+from launch_ros.actions import Node, PushRosNamespace
+from launch_ros.parameter_descriptions import ParameterValue
+from launch_ros.substitutions import FindPackageShare
+
+ARGUMENTS = {
+    'namespace': ('', 'ROS namespace of every bench node and topic (e.g. drive1)'),
+    'params_file': (PathJoinSubstitution([FindPackageShare('abb_ros'), 'config',
+                                          'cdrom_table1.yaml']),
+                    'parameter file loaded by every node (drive.*; default Table 1)'),
+    'real_time_factor': ('1.0', 'simulated seconds per wall second (1 = wall clock, 0 = as '
+                         'fast as possible)'),
+    'analysis': ('true', 'run the stability analysis node (stability/margin)'),
+    'controller': ('false', 'run the example controller spin_controller'),
+    'record': ('false', 'record every bench topic to record_dir (recorder node)'),
+    'record_dir': ('', 'bag directory of the recording (default abb_bag_<date>-<time> in '
+                   'the working directory)'),
+}
+BENCH_TOPICS = ['joint_states', 'deck/pose', 'deck/twist', 'deck/imu', '/clock', '/diagnostics',
+                'spindle/speed_cmd', 'stability/margin']
+"""Every topic of the bench (relative names: in the namespace); /clock exists with
+real_time_factor other than 1."""
+SHUTDOWN_S = '30'
+"""Seconds a node gets to end after SIGINT before launch escalates to SIGTERM (launch's default,
+5 s, is short for a loaded machine and for the recorder closing its bag)."""
+
+
+def generate_launch_description():
+    params_file = LaunchConfiguration('params_file')
+    bench = GroupAction([
+        PushRosNamespace(LaunchConfiguration('namespace')),
+        Node(package='abb_ros', executable='simulator', name='abb_simulator',
+             output='screen', sigterm_timeout=SHUTDOWN_S,
+             parameters=[params_file, {'real_time_factor': ParameterValue(
+                 LaunchConfiguration('real_time_factor'), value_type=float)}]),
+        Node(package='abb_ros', executable='analysis', name='abb_analysis',
+             output='screen', sigterm_timeout=SHUTDOWN_S, parameters=[params_file],
+             condition=IfCondition(LaunchConfiguration('analysis'))),
+        Node(package='abb_ros', executable='spin_controller', name='abb_spin_controller',
+             output='screen', sigterm_timeout=SHUTDOWN_S, parameters=[params_file],
+             condition=IfCondition(LaunchConfiguration('controller'))),
+        Node(package='abb_ros', executable='recorder', name='abb_recorder',
+             output='screen', sigterm_timeout=SHUTDOWN_S,
+             parameters=[{'output': ParameterValue(LaunchConfiguration('record_dir'),
+                                                   value_type=str),
+                          'topics': BENCH_TOPICS}],
+             condition=IfCondition(LaunchConfiguration('record'))),
+    ])
+    return LaunchDescription(
+        [DeclareLaunchArgument(name, default_value=default, description=text)
+         for name, (default, text) in ARGUMENTS.items()] + [bench])
