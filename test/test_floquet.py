@@ -72,6 +72,7 @@ def _boundary_points():
             for i in cross]
 
 
+@pytest.mark.slow
 def test_largest_multiplier_matches_a_tight_dop853_reference_within_1e_6():
     rng = np.random.default_rng(11)
     points = _boundary_points()

@@ -64,6 +64,7 @@ def finish(proc, sig, timeout=30):
     return proc.returncode, out
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM])
 def test_recorder_writes_every_published_message_and_finishes_the_bag_on_a_signal(
         tmp_path, sig):
@@ -101,6 +102,7 @@ def test_recorder_writes_every_published_message_and_finishes_the_bag_on_a_signa
     assert [m.data for m in got['/stability/margin']] == [-float(i) for i in range(n)]
 
 
+@pytest.mark.slow
 def test_a_killed_recorder_loses_at_most_the_last_chunk(tmp_path):
     bag = tmp_path / 'bag'
     chunk = 1024
@@ -141,6 +143,7 @@ def tiny_disk(tmp_path):
         subprocess.run(['umount', '-l', str(disk)], check=False)
 
 
+@pytest.mark.slow
 def test_a_full_disk_ends_the_recording_with_an_error_and_a_readable_bag(tiny_disk):
     bag = tiny_disk / 'bag'
     proc = start_recorder(bag, 'chunk_size:=2048', 'compression:=none')

@@ -154,6 +154,7 @@ def plant_factory():
 
 # Real time on a shared 2-core machine: a burst of load from elsewhere can starve the node
 # for part of the window, so a failure is retried (pytest-rerunfailures, pinned).
+@pytest.mark.slow
 @pytest.mark.flaky(reruns=2)
 def test_topics_arrive_at_their_rates_with_frames_names_and_units_in_real_time(tmp_path):
     ns = '/rt'
@@ -378,6 +379,9 @@ def test_state_leaving_the_envelope_stops_with_error_and_reset_recovers(plant_fa
     plant.wait(lambda: plant.status() and plant.status().level == DiagnosticStatus.ERROR,
                'ERROR on /diagnostics')
     assert 'envelope' in plant.status().message or 'non-finite' in plant.status().message
+    # Samples published before the fault may still be in flight on another topic than
+    # /diagnostics (DDS orders messages per topic only): let them land, then count.
+    plant.spin_for(0.2)
     frozen = len(states)
     plant.spin_for(0.3)  # a bounded look: nothing more may come while faulted
     assert len(states) == frozen
