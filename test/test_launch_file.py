@@ -57,7 +57,8 @@ def test_launch_file_declares_every_argument_of_the_issue_and_documents_it():
 
 def test_the_recording_covers_every_topic_the_bench_nodes_publish():
     from abb_ros.io.ros_messages import TOPIC_TYPES
-    from abb_ros.nodes.recorder import DEFAULT_TOPICS
+    from abb_ros.io.topics import recorded_topics
+    DEFAULT_TOPICS = [t.name for t in recorded_topics()]
     (topics,) = [n.value for n in tree().body if isinstance(n, ast.Assign)
                  and n.targets[0].id == 'BENCH_TOPICS']
     recorded = set(ast.literal_eval(topics))

@@ -57,6 +57,9 @@ def test_module_defaults_are_the_spec_defaults():
     assert DEFAULT_DT == 1.0 / specs_for('simulator')['integration_rate_hz'].default
     assert TABLE_POINTS == specs_for('analysis')['table_points'].default
     assert DEFAULT_CHUNK_SIZE == specs_for('recorder')['chunk_size'].default
+    from abb_ros.model.run_up import GUARD_WBAR
+    assert GUARD_WBAR == specs_for('spin_controller')['guard_wbar'].default
+    assert TABLE_POINTS == specs_for('spin_controller')['table_points'].default
 
 
 def test_recorder_default_topics_are_the_recorded_topics_of_the_topic_list():

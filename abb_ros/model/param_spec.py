@@ -23,7 +23,8 @@ from typing import Any, Iterable, Mapping
 from abb_ros.model.sensors import TYPICAL_IMU, ImuConfig
 
 __all__ = [
-    'ParamError', 'ParamSpec', 'SPECS', 'DRIVE_PREFIX', 'DRIVE_SPECS', 'NODES', 'COMMANDS',
+    'ParamError', 'ParamSpec', 'SPECS', 'DRIVE_PREFIX', 'DRIVE_SPECS', 'CONTROLLER_SPECS',
+    'NODES', 'COMMANDS',
     'specs_for', 'spec_for_command', 'cli_names', 'imu_config', 'check_rates', 'markdown',
     'MAX_BALLS', 'RUBBER_C', 'METAL_C',
 ]
@@ -36,7 +37,7 @@ MAX_BALLS = 64
 """Largest ball count accepted (the race of a real drive holds about 10)."""
 
 DRIVE_PREFIX = 'drive.'
-NODES = ('simulator', 'analysis', 'recorder')
+NODES = ('simulator', 'analysis', 'recorder', 'spin_controller')
 """Executables with ROS parameters (``ros2 run abb_ros <node>``)."""
 COMMANDS = ('run', 'stability', 'freqs', 'map')
 """``abb-sim`` subcommands with ``--set``."""
@@ -179,7 +180,8 @@ def _plain(value):
 
 
 _ALL_CLI = COMMANDS
-_BOTH = ('simulator', 'analysis')
+_BOTH = ('simulator', 'analysis', 'spin_controller')
+"""The nodes that take the drive's parameters (and max_spindle_speed)."""
 _SIM = ('simulator',)
 _RUN = ('run',)
 
@@ -304,7 +306,29 @@ RECORDER_SPECS = (
 )
 """The recorder node's parameters."""
 
-SPECS = DRIVE_SPECS + SIMULATOR_SPECS + ANALYSIS_SPECS + RECORDER_SPECS
+_CTL = ('spin_controller',)
+CONTROLLER_SPECS = (
+    ParamSpec('target_speed', None, 'rad/s', 'speed to reach and hold; default wbar = 2.7 (P3) '
+              'with the drive omega0', low=0.0, high=_INF, applies='at once', nodes=_CTL),
+    ParamSpec('acceleration', 500.0, 'rad/s^2', 'run-up acceleration of the reference outside '
+              'the unbalanced bands (inside them the drive\'s own limit applies)', low=1e-3,
+              high=_INF, applies='at once', nodes=_CTL),
+    ParamSpec('kp', 0.0, '', 'proportional gain on the speed error (command correction per '
+              'rad/s); 0: trust the drive\'s own speed loop', low=0.0, high=100.0,
+              applies='at once', nodes=_CTL),
+    ParamSpec('ki', 0.0, '1/s', 'integral gain on the speed error while holding, for a drive '
+              'whose speed loop leaves a steady error', low=0.0, high=1000.0, applies='at once',
+              nodes=_CTL),
+    ParamSpec('mode', 'speed', '', 'command mode: speed (spindle/speed_cmd)', STRING,
+              choices=('speed',), read_only=True, applies='at start-up', nodes=_CTL),
+    ParamSpec('guard_wbar', 0.1, '', 'distance kept from an unbalanced band, in wbar',
+              low=0.0, high=1.0, read_only=True, applies='at start-up', nodes=_CTL),
+    ParamSpec('table_points', 300, '', 'speeds in the band table over 0..max_spindle_speed',
+              INTEGER, 16, 20000, read_only=True, applies='at start-up', nodes=_CTL),
+)
+"""The example controller's parameters (spin_controller)."""
+
+SPECS = DRIVE_SPECS + SIMULATOR_SPECS + ANALYSIS_SPECS + RECORDER_SPECS + CONTROLLER_SPECS
 """Every parameter. A name may appear twice for different nodes (publish_rate_hz)."""
 
 
@@ -394,16 +418,20 @@ def markdown() -> str:
              '`abb-sim` subcommands take the names in the `abb-sim --set` column (drive '
              'parameters without `drive.`), besides `omega` [rad/s] and the Eq. (39) names '
              'wbar, zeta, Dbar, epsbar, mbar.', '']
-    titles = {'drive': 'Drive (`drive.*`, simulator and analysis nodes)',
+    titles = {'drive': 'Drive (`drive.*`, simulator, analysis and controller nodes)',
               'simulator': 'Simulator node (`abb_simulator`)',
               'analysis': 'Analysis node (`abb_analysis`)',
-              'recorder': 'Recorder node (`abb_recorder`)'}
+              'recorder': 'Recorder node (`abb_recorder`)',
+              'controller': 'Example controller (`abb_spin_controller`, executable '
+                            '`spin_controller`)'}
     groups = {'drive': DRIVE_SPECS, 'simulator': SIMULATOR_SPECS,
-              'analysis': ANALYSIS_SPECS, 'recorder': RECORDER_SPECS}
+              'analysis': ANALYSIS_SPECS, 'recorder': RECORDER_SPECS,
+              'controller': CONTROLLER_SPECS}
     for key, specs in groups.items():
         lines += ['## ' + titles[key], ''] + _table(specs) + ['']
-    lines.append('The analysis node also declares `drive.*` and `max_spindle_speed` (above) and '
-                 'copies them from the simulator it follows.')
+    lines.append('The analysis node and the example controller also declare `drive.*` and '
+                 '`max_spindle_speed` (above); the analysis node copies them from the '
+                 'simulator it follows.')
     return '\n'.join(lines) + '\n'
 
 

@@ -20,14 +20,15 @@ import math
 import sys
 from dataclasses import fields
 
-from rcl_interfaces.msg import FloatingPointRange, ParameterDescriptor, SetParametersResult
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
 from abb_ros.model import speed_bands
+from abb_ros.model.param_spec import specs_for
 from abb_ros.model.params import DriveParams, ParamError
-from abb_ros.model.run_up import GUARD_WBAR, RunUp, hold_speed
+from abb_ros.model.run_up import RunUp, hold_speed
 from abb_ros.nodes import ros_params
 from abb_ros.nodes.entry_point import run_node
 from abb_ros.nodes.simulator import spin
@@ -38,24 +39,9 @@ WARN_THROTTLE_S = 5.0
 MODES = ('speed',)
 """Command modes implemented; torque mode needs the simulator's torque input first."""
 
-TUNABLE = {
-    'target_speed': (None, 'speed to reach and hold [rad/s]; default wbar = 2.7 (P3) with the '
-                     'drive omega0', 0.0, math.inf),
-    'acceleration': (500.0, 'run-up acceleration of the reference outside the unbalanced '
-                     'bands [rad/s^2] (inside them the drive\'s own limit applies)',
-                     1e-3, math.inf),
-    'kp': (0.0, 'proportional gain on the speed error (command correction per rad/s) []; 0: '
-           'trust the drive\'s own speed loop', 0.0, 100.0),
-    'ki': (0.0, 'integral gain on the speed error while holding [1/s]; for a drive whose '
-           'speed loop leaves a steady error', 0.0, 1000.0),
-}
-"""Parameters changeable at run time: default, description, closed range."""
-FIXED = {
-    'mode': ('speed', 'command mode: speed (spindle/speed_cmd); torque is not available yet'),
-    'guard_wbar': (GUARD_WBAR, 'distance kept from an unbalanced band, in wbar []'),
-    'table_points': (speed_bands.TABLE_POINTS, 'speeds in the band table []'),
-}
-"""Parameters fixed at start-up (with drive.* and max_spindle_speed)."""
+PARAMS = specs_for('spin_controller')
+"""{ROS name: spec}: drive.*, max_spindle_speed and the controller's own
+(abb_ros/model/param_spec.py)."""
 
 
 class SpinController(Node):
@@ -93,26 +79,15 @@ class SpinController(Node):
 
     # ---- parameters ----------------------------------------------------------------------
     def _declare(self) -> tuple[DriveParams, float]:
-        defaults = DriveParams()
-        for f in fields(DriveParams):
-            self.declare_parameter(ros_params.DRIVE_PREFIX + f.name, getattr(defaults, f.name),
-                                   ros_params.drive_descriptor(f.name))
+        shared = {k: s for k, s in PARAMS.items()
+                  if k.startswith(ros_params.DRIVE_PREFIX) or k == 'max_spindle_speed'}
+        ros_params.declare(self, shared)
         drive = DriveParams.from_mapping({f.name: self.get_parameter(
             ros_params.DRIVE_PREFIX + f.name).value for f in fields(DriveParams)})
-        spec = ros_params.NODE_PARAMS['max_spindle_speed']
-        omega_max = self.declare_parameter('max_spindle_speed', spec.default,
-                                           ros_params.descriptor('max_spindle_speed', spec)
-                                           ).value
-        for name, (default, text) in FIXED.items():
-            self.declare_parameter(name, default,
-                                   ParameterDescriptor(description=text, read_only=True))
-        for name, (default, text, low, high) in TUNABLE.items():
-            if default is None:
-                default = ros_params.P3_WBAR * drive.omega0
-            self.declare_parameter(name, float(default), ParameterDescriptor(
-                description=text, floating_point_range=[FloatingPointRange(
-                    from_value=low, to_value=high, step=0.0)]))
-        return drive, float(omega_max)
+        own = {k: s for k, s in PARAMS.items() if k not in shared}
+        ros_params.declare(self, own, {'target_speed': ros_params.P3_WBAR * drive.omega0})
+        ros_params.coerce_on_set(self, PARAMS)
+        return drive, float(self.get_parameter('max_spindle_speed').value)
 
     def _validate(self, parameters) -> SetParametersResult:
         for p in parameters:

@@ -12,7 +12,8 @@ import math
 
 import numpy as np
 
-from abb_ros.model.equilibrium import _wrap, balanced_equilibrium
+from abb_ros.model.equilibrium import balanced_equilibrium
+from abb_ros.model.state import wrap_angle
 from abb_ros.model.params import DriveParams
 
 __all__ = ['settling_time', 'peak', 'phi_star_error_deg', 'time_in_bands',
@@ -44,11 +45,11 @@ def phi_star_error_deg(phi, drive: DriveParams) -> float:
     eq = balanced_equilibrium(drive)
     if not eq.exists:
         return math.inf
-    phi = np.sort(_wrap(np.asarray(phi, dtype=float)))
-    star = np.sort(_wrap(eq.phi_star))
+    phi = np.sort(wrap_angle(np.asarray(phi, dtype=float)))
+    star = np.sort(wrap_angle(eq.phi_star))
     n = phi.size
     # Every cyclic assignment of the sorted balls to the sorted places; the best one.
-    return min(float(np.max(np.abs(np.degrees(_wrap(np.roll(phi, k) - star)))))
+    return min(float(np.max(np.abs(np.degrees(wrap_angle(np.roll(phi, k) - star)))))
                for k in range(max(n, 1)))
 
 
@@ -68,7 +69,8 @@ def assert_balls_at_phi_star(phi, drive: DriveParams, tol_deg: float) -> float:
     """Every ball within ``tol_deg`` of +-phi*; returns the largest error [deg]."""
     err = phi_star_error_deg(phi, drive)
     star = balanced_equilibrium(drive).phi_star
-    assert err <= tol_deg, (f'balls at {np.degrees(_wrap(np.asarray(phi))).round(3).tolist()} '
+    balls = np.degrees(wrap_angle(np.asarray(phi))).round(3).tolist()
+    assert err <= tol_deg, (f'balls at {balls} '
                             f'deg are {err:.3f} deg from phi* = '
                             f'{np.degrees(star).round(3).tolist()} deg (allowed {tol_deg:g})')
     return err

@@ -32,6 +32,7 @@ from dataclasses import fields
 import numpy as np
 
 from abb_ros.model.params import DriveParams
+from abb_ros.model.state import rbar
 
 __all__ = ['LockstepPlant', 'LockstepTimeout', 'Trace', 'drive_parameters', 'DEADLINE_S']
 
@@ -63,9 +64,8 @@ class Trace:
         self.t = np.array([_stamp_ns(s) * 1e-9 for s, _ in rows])
         self.omega = np.array([s.velocity[0] for s, _ in rows])
         self.phi = np.array([list(s.position[1:]) for s, _ in rows]).reshape(len(rows), -1)
-        self.rbar = np.array([math.nan if p is None else math.sqrt(
-            p.pose.position.x ** 2 + p.pose.position.y ** 2 + p.pose.position.z ** 2) / R
-            for _, p in rows])
+        self.rbar = np.array([math.nan if p is None else rbar(
+            p.pose.position.x, p.pose.position.y, p.pose.position.z, R) for _, p in rows])
         self.omega_cmd = np.array(commands[:len(rows)] + [math.nan] * (len(rows)
                                                                         - len(commands)))
 
