@@ -304,6 +304,34 @@ def check_state(y, n):
     return OK
 
 @jit
+def rk4_step(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B, fb, u):
+    """One classical RK4 step of dt from (t, y), y updated in place; k1..k4, yt and ysave
+    are stage buffers of shape (2N,), the rest the solver scratch of :func:`accel`. Returns
+    the :func:`check_state` status of the new state; when it is not OK, y is put back to its
+    value before the step."""
+    n2 = y.shape[0]
+    for i in range(n2):
+        ysave[i] = y[i]
+    deriv(t, y, n, P, S, k1, qdd, A, W, f, B, fb, u)
+    for i in range(n2):
+        yt[i] = y[i] + 0.5 * dt * k1[i]
+    deriv(t + 0.5 * dt, yt, n, P, S, k2, qdd, A, W, f, B, fb, u)
+    for i in range(n2):
+        yt[i] = y[i] + 0.5 * dt * k2[i]
+    deriv(t + 0.5 * dt, yt, n, P, S, k3, qdd, A, W, f, B, fb, u)
+    for i in range(n2):
+        yt[i] = y[i] + dt * k3[i]
+    deriv(t + dt, yt, n, P, S, k4, qdd, A, W, f, B, fb, u)
+    h6 = dt / 6.0
+    for i in range(n2):
+        y[i] = y[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+    status = check_state(y, n)
+    if status != OK:
+        for i in range(n2):
+            y[i] = ysave[i]
+    return status
+
+@jit
 def rk4_advance(y, t0, dt, step0, nsteps, n, P, S, work):
     """Advance y in place by nsteps classical RK4 steps of dt from t = (step0) dt + t0.
 
@@ -313,7 +341,6 @@ def rk4_advance(y, t0, dt, step0, nsteps, n, P, S, work):
     state of the last good step is kept.
     """
     N = 7 + n
-    n2 = 2 * N
     k1, k2, k3, k4, yt, ysave = work[0], work[1], work[2], work[3], work[4], work[5]
     qdd = np.empty(N)
     A = np.empty((6, 6))
@@ -324,25 +351,8 @@ def rk4_advance(y, t0, dt, step0, nsteps, n, P, S, work):
     u = np.empty(6)
     for s in range(nsteps):
         t = t0 + (step0 + s) * dt
-        for i in range(n2):
-            ysave[i] = y[i]
-        deriv(t, y, n, P, S, k1, qdd, A, W, f, B, fb, u)
-        for i in range(n2):
-            yt[i] = y[i] + 0.5 * dt * k1[i]
-        deriv(t + 0.5 * dt, yt, n, P, S, k2, qdd, A, W, f, B, fb, u)
-        for i in range(n2):
-            yt[i] = y[i] + 0.5 * dt * k2[i]
-        deriv(t + 0.5 * dt, yt, n, P, S, k3, qdd, A, W, f, B, fb, u)
-        for i in range(n2):
-            yt[i] = y[i] + dt * k3[i]
-        deriv(t + dt, yt, n, P, S, k4, qdd, A, W, f, B, fb, u)
-        h6 = dt / 6.0
-        for i in range(n2):
-            y[i] = y[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
-        status = check_state(y, n)
+        status = rk4_step(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B, fb, u)
         if status != OK:
-            for i in range(n2):
-                y[i] = ysave[i]
             return s, status
     return nsteps, OK
 
@@ -368,18 +378,22 @@ def rk4_trajectory(y, t0, dt, step0, nsteps, every, n, P, S, work, out):
 
 
 KERNEL_NAMES = ('spindle_accel', 'assemble', 'solve3', 'solve_deck', 'accel', 'deriv',
-                'check_state', 'rk4_advance', 'rk4_trajectory')
+                'check_state', 'rk4_step', 'rk4_advance', 'rk4_trajectory')
 
 
-class _Kernels:
-    def __init__(self, namespace, compiled):
-        for name in KERNEL_NAMES:
+class Kernels:
+    """The functions ``names`` of a module namespace, and whether they are compiled."""
+
+    def __init__(self, namespace, compiled, names=KERNEL_NAMES):
+        for name in names:
             setattr(self, name, namespace[name])
         self.compiled = compiled
 
 
-def _load_python_twin():
-    spec = importlib.util.spec_from_file_location(__name__ + '_python_twin', __file__)
+def load_python_twin(name=__name__, path=__file__):
+    """The module at ``path`` executed again with ``_PYTHON_TWIN = True`` (its ``jit`` is
+    then the identity): the same kernel source, interpreted."""
+    spec = importlib.util.spec_from_file_location(name + '_python_twin', path)
     module = importlib.util.module_from_spec(spec)
     module._PYTHON_TWIN = True
     spec.loader.exec_module(module)
@@ -387,9 +401,9 @@ def _load_python_twin():
 
 
 if not _PYTHON_TWIN:
-    JIT = _Kernels(globals(), compiled=_NUMBA_JIT is not None)
+    JIT = Kernels(globals(), compiled=_NUMBA_JIT is not None)
     """Compiled kernels (numba), or the Python twin where numba is unavailable."""
-    PY = _Kernels(vars(_load_python_twin()), compiled=False)
+    PY = Kernels(vars(load_python_twin()), compiled=False)
     """Pure-Python twin of every kernel: the same source run by the interpreter."""
 
 
