@@ -30,7 +30,7 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> dict:
-    from abb_ros.sweep.runner import SweepError, local_cluster, run_sweep
+    from abb_ros.sweep.runner import SweepError, check_out_dir, local_cluster, run_sweep
     from abb_ros.sweep.spec import load_spec
 
     if args.workers is not None and args.scheduler:
@@ -41,6 +41,10 @@ def run(args) -> dict:
     if args.workers is not None and not 1 <= args.workers <= 256:
         raise UsageError(f'--workers {args.workers}: valid range is 1..256')
     spec = load_spec(args.spec)
+    try:
+        check_out_dir(spec, args.out, args.resume)   # before a cluster is started
+    except SweepError as exc:
+        raise UsageError(str(exc)) from None
     bar = None
     if not args.no_progress:
         from tqdm import tqdm
@@ -79,8 +83,11 @@ def run(args) -> dict:
 
 
 def _has_dashboard(client) -> bool:
+    """A scheduler serves the dashboard on its HTTP server only with bokeh installed; for a
+    remote scheduler this machine's bokeh is the best guess there is."""
+    from abb_ros.sweep.runner import has_bokeh
     try:
-        return 'dashboard' in client.scheduler_info().get('services', {})
+        return has_bokeh() and 'dashboard' in client.scheduler_info().get('services', {})
     except Exception:  # noqa: BLE001 - an old scheduler without the field: say nothing
         return False
 

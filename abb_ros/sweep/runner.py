@@ -10,9 +10,9 @@ again elsewhere. Without a client the partitions are computed in this process, i
 
 from __future__ import annotations
 
-import hashlib
 import json
 import time
+import uuid
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -20,7 +20,7 @@ from abb_ros.sweep import store
 from abb_ros.sweep.compute import compute_partition
 from abb_ros.sweep.spec import draw_samples
 
-__all__ = ['SweepResult', 'run_sweep', 'SweepError', 'local_cluster']
+__all__ = ['SweepResult', 'run_sweep', 'check_out_dir', 'SweepError', 'local_cluster', 'has_bokeh']
 
 
 class SweepError(Exception):
@@ -41,8 +41,8 @@ def _slice(samples: dict, start: int, stop: int) -> dict:
     return {k: v[start:stop] for k, v in samples.items()}
 
 
-def prepare_out_dir(spec, out_dir, resume: bool) -> Path:
-    """Create or check the output directory; returns it."""
+def check_out_dir(spec, out_dir, resume: bool) -> Path:
+    """The output directory, if it can take this sweep (SweepError says why not)."""
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise SweepError(f'--out {out}: exists and is not a directory')
@@ -57,6 +57,12 @@ def prepare_out_dir(spec, out_dir, resume: bool) -> Path:
         if held != store.spec_json(spec):
             raise SweepError(f'--resume: {out} holds a sweep of another spec (its spec is in '
                              f'{out / store.MANIFEST}); the spec must be unchanged to resume')
+    return out
+
+
+def prepare_out_dir(spec, out_dir, resume: bool) -> Path:
+    """Check and create the output directory; returns it."""
+    out = check_out_dir(spec, out_dir, resume)
     out.mkdir(parents=True, exist_ok=True)
     store.remove_temporaries(out)
     if store.read_manifest(out) is None:
@@ -92,7 +98,8 @@ def run_sweep(spec, out_dir, client=None, resume: bool = False, progress=None,
             written(i, compute_partition(spec, i, _slice(samples, *spec.partition_bounds(i))))
     else:
         from distributed import as_completed
-        token = hashlib.sha1(store.spec_json(spec).encode()).hexdigest()[:12]
+        # unique per call: a result another client left on a shared cluster is never reused
+        token = uuid.uuid4().hex[:12]
         futures = {client.submit(compute_partition, spec, i,
                                  _slice(samples, *spec.partition_bounds(i)),
                                  key=f'abb-sweep-{token}-{i:05d}', retries=2): i
@@ -116,12 +123,16 @@ def _count(spec, index):
 
 def local_cluster(workers: int, dashboard: bool = False):
     """A distributed.LocalCluster on this machine: ``workers`` processes with one thread
-    each, bound to 127.0.0.1 (dashboard on a free port when asked and bokeh is installed)."""
+    each, bound to 127.0.0.1. The scheduler's HTTP server listens on a free port (never a
+    fixed one that another cluster may hold); the dashboard is on it when asked and bokeh is
+    installed."""
     from distributed import LocalCluster
-    address = None
-    if dashboard:
-        import importlib.util
-        if importlib.util.find_spec('bokeh') is not None:
-            address = '127.0.0.1:0'
     return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
-                        host='127.0.0.1', dashboard_address=address)
+                        host='127.0.0.1', dashboard_address='127.0.0.1:0',
+                        scheduler_kwargs={'dashboard': bool(dashboard) and has_bokeh()})
+
+
+def has_bokeh() -> bool:
+    """True when bokeh is installed, so a scheduler serves the Dask dashboard."""
+    import importlib.util
+    return importlib.util.find_spec('bokeh') is not None
