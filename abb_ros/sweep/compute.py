@@ -6,7 +6,8 @@ sample. Drives are grouped by ball count n (a kernel batch shares n):
 
 - ``stability``: the in-plane and out-of-plane |lambda|max at the balanced equilibrium
   (symmetric fan, Eq. 26) at every speed of the spec, by
-  :func:`abb_ros.model.floquet.max_multiplier_batch` over all (drive, speed) pairs at once;
+  :func:`abb_ros.model.floquet.max_multiplier_batch` over all (drive, speed) pairs at once
+  (its one-thread build, ``floquet.SERIAL``: a worker is one process with one thread);
 - ``run``: the nonlinear equations integrated from the scenario's initial state with its
   speed profile by :class:`abb_ros.model.batch.BatchRun`, which reduces each trajectory to
   its metrics inside the kernel.
@@ -19,7 +20,7 @@ wherever it runs. A run that blows up is recorded as failed (``status`` ``nonfin
 
 from __future__ import annotations
 
-import contextlib
+import dataclasses
 import math
 
 import numpy as np
@@ -27,26 +28,10 @@ import numpy as np
 from abb_ros.model import kernels
 from abb_ros.model.params import DIMENSIONLESS_NAMES, apply_settings
 
-__all__ = ['compute_partition', 'STATUS_NAMES', 'partition_params']
+__all__ = ['compute_partition', 'STATUS_NAMES', 'partition_params', 'warm_up']
 
 STATUS_NAMES = {kernels.OK: 'ok', kernels.NONFINITE: 'nonfinite', kernels.ENVELOPE: 'envelope'}
 DERIVED = ('omega0',) + tuple(n for n in DIMENSIONLESS_NAMES if n != 'wbar') + ('n',)
-
-
-@contextlib.contextmanager
-def _single_thread():
-    """One numba thread for the kernels inside (a worker is one process with one thread)."""
-    try:
-        import numba
-        before = numba.get_num_threads()
-        numba.set_num_threads(1)
-    except (ImportError, ValueError, RuntimeError):  # pragma: no cover - numba is pinned
-        yield
-        return
-    try:
-        yield
-    finally:
-        numba.set_num_threads(before)
 
 
 def partition_params(spec, columns) -> list:
@@ -85,11 +70,10 @@ def compute_partition(spec, index: int, columns: dict) -> dict:
     for i, p in enumerate(params):
         groups.setdefault(p.n, []).append(i)
     groups = {n: np.asarray(idx) for n, idx in sorted(groups.items())}
-    with _single_thread():
-        if spec.speeds is not None:
-            out.update(_stability(spec, params, groups))
-        if spec.run is not None:
-            out.update(_runs(spec, params, groups))
+    if spec.speeds is not None:
+        out.update(_stability(spec, params, groups))
+    if spec.run is not None:
+        out.update(_runs(spec, params, groups))
     if spec.speeds is not None:
         out['balanced'] = out['balanced_op'].copy()
     else:
@@ -98,7 +82,7 @@ def compute_partition(spec, index: int, columns: dict) -> dict:
 
 
 def _stability(spec, params, groups) -> dict:
-    from abb_ros.model.floquet import max_multiplier_batch
+    from abb_ros.model.floquet import SERIAL, max_multiplier_batch
     speeds = spec.speeds
     count = len(params)
     S = speeds.size
@@ -108,7 +92,7 @@ def _stability(spec, params, groups) -> dict:
         plist = [params[i] for i in idx for _ in range(S)]
         omegas = np.tile(speeds, idx.size)
         for plane in ('in', 'out'):
-            values, ex = max_multiplier_batch(plist, omegas, plane)
+            values, ex = max_multiplier_batch(plist, omegas, plane, kern=SERIAL)
             lam[plane][idx] = values.reshape(idx.size, S)
         exists[idx] = ex.reshape(idx.size, S)[:, 0]
     op = int(np.searchsorted(speeds, spec.operating_omega))
@@ -170,3 +154,11 @@ def _runs(spec, params, groups) -> dict:
             'status': np.asarray([STATUS_NAMES[int(s)] for s in status], dtype=object),
             'failed': failed, 'cause': np.asarray(cause, dtype=object), 'fail_time': fail_time,
             'run_balanced': ~failed & (res['final_rbar'] <= limit)}
+
+
+def warm_up(spec) -> None:
+    """Compute the first sample of ``spec`` and discard it: loads (or compiles) the kernels of
+    this process, so that timings and deadlines see the steady state."""
+    from abb_ros.sweep.spec import draw_samples
+    one = dataclasses.replace(spec, partition_size=1)
+    compute_partition(one, 0, {k: v[:1] for k, v in draw_samples(spec).items()})

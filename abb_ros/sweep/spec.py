@@ -332,7 +332,8 @@ def _speeds(st, omega0, operating):
         points = _int('compute.stability.range.points', rng['points'], 2, MAX_SPEEDS)
         scale = omega0 if key == 'wbar' else 1.0
         values = list(np.linspace(lo, hi, points) * scale)
-    values.append(operating)
+    # the operating speed replaces a listed speed within round-off of it (linspace end points)
+    values = [v for v in values if abs(v - operating) > 1e-9 * operating] + [operating]
     return np.unique(np.asarray(values, dtype=float))
 
 
