@@ -14,6 +14,7 @@ setup(
         ('share/' + package_name, ['package.xml']),
         ('share/' + package_name + '/config', glob('config/*.yaml')),
         ('share/' + package_name + '/config/scenarios', glob('config/scenarios/*.yaml')),
+        ('share/' + package_name + '/config/sweeps', glob('config/sweeps/*.yaml')),
     ],
     install_requires=['setuptools'],
     zip_safe=True,
