@@ -145,24 +145,21 @@ def main():
         res[f'floq_c{w}'] = cluster_rate(w, fspec)
         res[f'runs_c{w}'] = cluster_rate(w, rspec)
 
-    def row(label, key, unit):
-        r, wall = res[key]
-        print(f'  {label:<46s} {r:10.1f} {unit}/s   ({wall:.2f} s)')
-
-    print('\nFloquet points (in + out of plane at one speed, P3 with tolerances)')
-    row(f'(a) one point per kernel call, loop ({n_floq})', 'floq_a', 'points')
-    row(f'(b) batched in-process ({n_floq})', 'floq_b', 'points')
-    row(f'(c) LocalCluster, 1 worker ({n_cl_floq})', 'floq_c1', 'points')
-    row(f'(c) LocalCluster, 2 workers ({n_cl_floq})', 'floq_c2', 'points')
-    print(f'  (b)/(a) = {res["floq_b"][0] / res["floq_a"][0]:.2f}   '
-          f'2 workers / 1 worker = {res["floq_c2"][0] / res["floq_c1"][0]:.2f}')
-    print('\n1 s nonlinear runs (10 kHz RK4, metrics peak rbar, time above, settle time)')
-    row(f'(a) one run per kernel call, loop ({n_runs})', 'runs_a', 'runs')
-    row(f'(b) batched in-process ({n_runs})', 'runs_b', 'runs')
-    row(f'(c) LocalCluster, 1 worker ({n_cl_runs})', 'runs_c1', 'runs')
-    row(f'(c) LocalCluster, 2 workers ({n_cl_runs})', 'runs_c2', 'runs')
-    print(f'  (b)/(a) = {res["runs_b"][0] / res["runs_a"][0]:.2f}   '
-          f'2 workers / 1 worker = {res["runs_c2"][0] / res["runs_c1"][0]:.2f}')
+    sections = (('floq', 'Floquet points (in + out of plane at one speed, P3 with tolerances)',
+                 'point', 'points', (n_floq, n_cl_floq)),
+                ('runs', '1 s nonlinear runs (10 kHz RK4, metrics peak rbar, time above, '
+                 'settle time)', 'run', 'runs', (n_runs, n_cl_runs)))
+    for key, title, one, unit, (n_local, n_cluster) in sections:
+        print(f'\n{title}')
+        labels = ((f'(a) one {one} per kernel call, loop ({n_local})', 'a'),
+                  (f'(b) batched in-process ({n_local})', 'b'),
+                  (f'(c) LocalCluster, 1 worker ({n_cluster})', 'c1'),
+                  (f'(c) LocalCluster, 2 workers ({n_cluster})', 'c2'))
+        for label, case in labels:
+            r, wall = res[f'{key}_{case}']
+            print(f'  {label:<46s} {r:10.1f} {unit}/s   ({wall:.2f} s)')
+        print(f'  (b)/(a) = {res[key + "_b"][0] / res[key + "_a"][0]:.2f}   '
+              f'2 workers / 1 worker = {res[key + "_c2"][0] / res[key + "_c1"][0]:.2f}')
     print(f'\n[load average {os.getloadavg()[0]:.1f} at the end]')
 
 
