@@ -3,6 +3,7 @@
 import json
 
 import pyarrow.parquet as pq
+import pytest
 
 from abb_ros.cli import main
 from abb_ros.sweep import store
@@ -22,6 +23,7 @@ compute:
 """
 
 
+@pytest.mark.slow
 def test_serial_sweep_writes_one_parquet_file_per_partition_with_spec_and_version(
         tmp_path, capsys):
     spec = tmp_path / 'spec.yaml'
