@@ -15,7 +15,9 @@ writes:
 
 Influence of a parameter is |Spearman's rho| between it and the drive's margin: 1 - max(|lambda|
 in, out) at the operating speed with ``stability`` (-1 where no balanced equilibrium exists),
-else -log10(final rbar). It ranks monotonic effects only; the pictures show the rest.
+else -log10(final rbar); with several stability speeds also against the margin over all of
+them (1 - the largest |lambda|max), and then the scatter shows that ranking and the drives
+balanced at every speed. It ranks monotonic effects only; the pictures show the rest.
 """
 
 from __future__ import annotations
@@ -115,8 +117,17 @@ def make_report(sweep_dir, out_dir) -> dict:
         if dist.get('dist') == 'grid':
             total *= len(dist['values'])
     summary['samples_planned'] = total
+    scatter_by = (influence, balanced, 'at the operating speed')
     if 'balanced_all_speeds' in names:
         summary['yield_all_speeds'] = float(_col(table, 'balanced_all_speeds').mean())
+        worst = np.maximum(_col(table, 'lam_in_max'), _col(table, 'lam_out_max'))
+        over_range = _influence(table, parameters,
+                                np.where(np.isfinite(worst), 1.0 - worst, -1.0))
+        summary['influence_all_speeds_abs_spearman'] = over_range
+        if len(spec['compute']['stability']) and 'omega_worst' in names \
+                and np.unique(_col(table, 'omega_worst')).size > 1:
+            scatter_by = (over_range, _col(table, 'balanced_all_speeds').astype(bool),
+                          'at every speed of the spec (red: not)')
         summary['no_balanced_equilibrium'] = int((~_col(table, 'balanced_equilibrium_exists')
                                                   .astype(bool)).sum())
         lam = np.maximum(_col(table, 'lam_in_op'), _col(table, 'lam_out_op'))
@@ -166,17 +177,18 @@ def make_report(sweep_dir, out_dir) -> dict:
             ax.legend()
             ax.grid(alpha=0.3)
         figures.append(_figure(out / f'balanced_vs_{name}.png', draw))
-    top = [p for p in influence][:2]
+    ranking, ok, where = scatter_by
+    top = list(ranking)[:2]
     if len(top) == 2:
         xa, ya = _col(table, top[0]).astype(float), _col(table, top[1]).astype(float)
 
         def scatter(ax):
-            ax.scatter(xa[balanced], ya[balanced], s=3, c='tab:blue', label='balanced')
-            ax.scatter(xa[~balanced], ya[~balanced], s=6, c='tab:red', label='unbalanced')
+            ax.scatter(xa[ok], ya[ok], s=3, c='tab:blue', label='balanced')
+            ax.scatter(xa[~ok], ya[~ok], s=3, c='tab:red', label='unbalanced')
             ax.set_xlabel(_unit(top[0]))
             ax.set_ylabel(_unit(top[1]))
             ax.legend(markerscale=3)
-            ax.set_title('the two most influential parameters')
+            ax.set_title(f'the two most influential parameters\nbalanced {where}', fontsize=10)
         figures.append(_figure(out / f'scatter_{top[0]}_{top[1]}.png', scatter))
     order = np.argsort(margin, kind='stable')[:WORST]
     show = ['sample'] + parameters + [c for c in (
