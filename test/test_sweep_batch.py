@@ -114,3 +114,29 @@ def test_a_partition_does_not_depend_on_how_the_samples_are_partitioned():
             assert np.array_equal(np.asarray(values), np.asarray(joined),
                                   equal_nan=values.dtype.kind == 'f'), name
     assert {len(v) for v in whole['phi_final_deg']} == {2, 3}
+
+
+def test_a_run_up_scenario_commands_the_motor_at_the_first_step_at_or_after_its_time(tmp_path):
+    from abb_ros.model.integrate import Simulation
+    path = tmp_path / 'runup.yaml'
+    path.write_text('name: runup\nset: {mbar: 0.03, c: 0.66, wbar: 0.8}\nduration: 5.0\n'
+                    'spindle: {model: motor, max_accel: 2000.0, tau: 0.05, '
+                    'commands: [{t: 0.01, wbar: 2.7}]}\n')
+    spec = parse_spec({'scenario': str(path), 'samples': 2,
+                       'parameters': {'k': {'dist': 'list', 'values': [3972.0, 4100.0]}},
+                       'compute': {'run': {'duration': 0.03}}})
+    samples = draw_samples(spec)
+    res = compute_partition(spec, 0, samples)
+    nominal = spec.scenario.params
+    omega_start, omega_cmd = 0.8 * nominal.omega0, 2.7 * nominal.omega0
+    assert spec.operating_omega == omega_cmd
+    for i, k in enumerate(samples['k']):
+        p = nominal.replace(k=float(k))
+        sim = Simulation(p, omega_start, DT, spindle=SpindleMotor(2000.0, 0.05))
+        sim.advance(100)
+        sim.set_speed_command(omega_cmd)
+        sim.advance(200)
+        assert res['omega_final'][i] == sim.omega > omega_start + 2000.0 * 0.019
+        assert res['final_rbar'][i] == pytest.approx(sim.rbar, rel=1e-14)
+        assert np.array_equal(res['phi_final_deg'][i],
+                              ((np.degrees(sim.phi) + 180.0) % 360.0) - 180.0)
