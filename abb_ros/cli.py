@@ -28,6 +28,8 @@ SUBCOMMANDS = {
     'freqs': 'natural frequencies of Eqs. (27)-(32) with m = omega = 0',
     'map': 'stability map over two parameters (PNG + data file)',
     'plot': 'time-response figures (PNG) from a recorded bag',
+    'sweep': 'design study over many drives with tolerances, on Dask (Parquet dataset)',
+    'sweep-report': 'figures (PNG) and a JSON summary of a sweep directory',
 }
 
 
@@ -50,7 +52,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _load(name):
-    return importlib.import_module(f'abb_ros.commands.{name}')
+    return importlib.import_module(f"abb_ros.commands.{name.replace('-', '_')}")
 
 
 class _NotRaised(Exception):

@@ -291,6 +291,34 @@ def check_state(y, n):
     return OK
 
 @kernel
+def rk4_step(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B, fb, u):
+    """One classical RK4 step of dt from (t, y), y updated in place; k1..k4, yt and ysave
+    are stage buffers of shape (2N,), the rest the solver scratch of :func:`accel`. Returns
+    the :func:`check_state` status of the new state; when it is not OK, y is put back to its
+    value before the step."""
+    n2 = y.shape[0]
+    for i in range(n2):
+        ysave[i] = y[i]
+    deriv(t, y, n, P, S, k1, qdd, A, W, f, B, fb, u)
+    for i in range(n2):
+        yt[i] = y[i] + 0.5 * dt * k1[i]
+    deriv(t + 0.5 * dt, yt, n, P, S, k2, qdd, A, W, f, B, fb, u)
+    for i in range(n2):
+        yt[i] = y[i] + 0.5 * dt * k2[i]
+    deriv(t + 0.5 * dt, yt, n, P, S, k3, qdd, A, W, f, B, fb, u)
+    for i in range(n2):
+        yt[i] = y[i] + dt * k3[i]
+    deriv(t + dt, yt, n, P, S, k4, qdd, A, W, f, B, fb, u)
+    h6 = dt / 6.0
+    for i in range(n2):
+        y[i] = y[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+    status = check_state(y, n)
+    if status != OK:
+        for i in range(n2):
+            y[i] = ysave[i]
+    return status
+
+@kernel
 def rk4_advance(y, t0, dt, step0, nsteps, n, P, S, work):
     """Advance y in place by nsteps classical RK4 steps of dt from t = (step0) dt + t0.
 
@@ -300,7 +328,6 @@ def rk4_advance(y, t0, dt, step0, nsteps, n, P, S, work):
     state of the last good step is kept.
     """
     N = PHI + n
-    n2 = 2 * N
     k1, k2, k3, k4, yt, ysave = work[0], work[1], work[2], work[3], work[4], work[5]
     qdd = np.empty(N)
     A = np.empty((6, 6))
@@ -311,25 +338,8 @@ def rk4_advance(y, t0, dt, step0, nsteps, n, P, S, work):
     u = np.empty(6)
     for s in range(nsteps):
         t = t0 + (step0 + s) * dt
-        for i in range(n2):
-            ysave[i] = y[i]
-        deriv(t, y, n, P, S, k1, qdd, A, W, f, B, fb, u)
-        for i in range(n2):
-            yt[i] = y[i] + 0.5 * dt * k1[i]
-        deriv(t + 0.5 * dt, yt, n, P, S, k2, qdd, A, W, f, B, fb, u)
-        for i in range(n2):
-            yt[i] = y[i] + 0.5 * dt * k2[i]
-        deriv(t + 0.5 * dt, yt, n, P, S, k3, qdd, A, W, f, B, fb, u)
-        for i in range(n2):
-            yt[i] = y[i] + dt * k3[i]
-        deriv(t + dt, yt, n, P, S, k4, qdd, A, W, f, B, fb, u)
-        h6 = dt / 6.0
-        for i in range(n2):
-            y[i] = y[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
-        status = check_state(y, n)
+        status = rk4_step(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B, fb, u)
         if status != OK:
-            for i in range(n2):
-                y[i] = ysave[i]
             return s, status
     return nsteps, OK
 

@@ -1,0 +1,24 @@
+"""`abb-sim sweep-report DIR --out FIG`: the PNG figures and summary.json of a sweep.
+
+See abb_ros/sweep/report.py and docs/sweep.md.
+"""
+
+from __future__ import annotations
+
+from abb_ros.commands.api import UsageError
+
+
+def add_arguments(parser) -> None:
+    parser.add_argument('sweep_dir', metavar='DIR', help='output directory of abb-sim sweep')
+    parser.add_argument('--out', required=True, help='directory for the PNGs and summary.json')
+
+
+def run(args) -> dict:
+    from abb_ros.sweep.report import make_report
+    try:
+        summary = make_report(args.sweep_dir, args.out)
+    except (FileNotFoundError, NotADirectoryError) as exc:
+        raise UsageError(f'{args.sweep_dir}: {exc}') from None
+    keep = ('name', 'samples', 'samples_planned', 'yield', 'yield_all_speeds',
+            'run_balanced_fraction', 'run_status_counts', 'influence_abs_spearman', 'figures')
+    return {'out': str(args.out), **{k: summary[k] for k in keep if k in summary}}

@@ -1,0 +1,164 @@
+"""One partition of a sweep: its drives computed by batched compiled kernels.
+
+:func:`compute_partition` is the unit of work a Dask worker runs (and the serial path calls
+in-process): a block of samples, all computed by a few kernel calls, never one task per
+sample. Drives are grouped by ball count n (a kernel batch shares n):
+
+- ``stability``: the in-plane and out-of-plane |lambda|max at the balanced equilibrium
+  (symmetric fan, Eq. 26) at every speed of the spec, by
+  :func:`abb_ros.model.floquet.max_multiplier_batch` over all (drive, speed) pairs at once
+  (its one-thread build, ``floquet.SERIAL``: a worker is one process with one thread);
+- ``run``: the nonlinear equations integrated from the scenario's initial state with its
+  speed profile by :class:`abb_ros.model.batch.BatchRun`, which reduces each trajectory to
+  its metrics inside the kernel.
+
+A drive's result depends only on its own parameters (every kernel treats the points of a
+batch independently), so the result of a sample is the same whatever partition it is in and
+wherever it runs. A run that blows up is recorded as failed (``status`` ``nonfinite`` or
+``envelope`` and its ``cause``); the others go on.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+
+import numpy as np
+
+from abb_ros.model import kernels
+from abb_ros.model.params import DIMENSIONLESS_NAMES, apply_settings
+
+__all__ = ['compute_partition', 'STATUS_NAMES', 'partition_params', 'warm_up']
+
+STATUS_NAMES = {kernels.OK: 'ok', kernels.NONFINITE: 'nonfinite', kernels.ENVELOPE: 'envelope'}
+DERIVED = ('omega0',) + tuple(n for n in DIMENSIONLESS_NAMES if n != 'wbar') + ('n',)
+
+
+def partition_params(spec, columns) -> list:
+    """DriveParams of each sample: the nominal drive (scenario + base) with its draws."""
+    nominal = spec.scenario.params
+    names = list(columns)
+    count = len(columns[names[0]])
+    out = []
+    for i in range(count):
+        settings = {k: (int(columns[k][i]) if k == 'n' else float(columns[k][i]))
+                    for k in names}
+        out.append(apply_settings(nominal, settings)[0])
+    return out
+
+
+def compute_partition(spec, index: int, columns: dict) -> dict:
+    """Results of the samples ``columns`` (parameter -> values) of partition ``index``.
+
+    Returns an ordered mapping column -> numpy array (or list of arrays for the ball angles),
+    see docs/sweep.md for the columns.
+    """
+    start, stop = spec.partition_bounds(index)
+    count = stop - start
+    if any(len(v) != count for v in columns.values()):
+        raise ValueError(f'partition {index} holds {count} samples')
+    params = partition_params(spec, columns)
+    out = {'sample': np.arange(start, stop, dtype=np.int64),
+           'partition': np.full(count, index, dtype=np.int64)}
+    for name, values in columns.items():
+        out[name] = np.asarray(values)
+    for name in DERIVED:
+        if name not in out:
+            values = [p.n if name == 'n' else getattr(p, name) for p in params]
+            out[name] = np.asarray(values, dtype=np.int64 if name == 'n' else float)
+    groups = {}
+    for i, p in enumerate(params):
+        groups.setdefault(p.n, []).append(i)
+    groups = {n: np.asarray(idx) for n, idx in sorted(groups.items())}
+    if spec.speeds is not None:
+        out.update(_stability(spec, params, groups))
+    if spec.run is not None:
+        out.update(_runs(spec, params, groups))
+    if spec.speeds is not None:
+        out['balanced'] = out['balanced_op'].copy()
+    else:
+        out['balanced'] = out['run_balanced'].copy()
+    return out
+
+
+def _stability(spec, params, groups) -> dict:
+    from abb_ros.model.floquet import SERIAL, max_multiplier_batch
+    speeds = spec.speeds
+    count = len(params)
+    S = speeds.size
+    lam = {plane: np.empty((count, S)) for plane in ('in', 'out')}
+    exists = np.empty(count, dtype=bool)
+    for idx in groups.values():
+        plist = [params[i] for i in idx for _ in range(S)]
+        omegas = np.tile(speeds, idx.size)
+        for plane in ('in', 'out'):
+            values, ex = max_multiplier_batch(plist, omegas, plane, kern=SERIAL)
+            lam[plane][idx] = values.reshape(idx.size, S)
+        exists[idx] = ex.reshape(idx.size, S)[:, 0]
+    op = int(np.searchsorted(speeds, spec.operating_omega))
+    worst = np.maximum(lam['in'], lam['out'])
+    return {
+        'balanced_equilibrium_exists': exists,
+        'lam_in_op': lam['in'][:, op],
+        'lam_out_op': lam['out'][:, op],
+        'balanced_op': exists & (lam['in'][:, op] < 1.0) & (lam['out'][:, op] < 1.0),
+        'lam_in_max': lam['in'].max(axis=1),
+        'lam_out_max': lam['out'].max(axis=1),
+        'omega_worst': speeds[np.argmax(worst, axis=1)],
+        'balanced_all_speeds': exists & (worst.max(axis=1) < 1.0),
+    }
+
+
+def _runs(spec, params, groups) -> dict:
+    from abb_ros.model.batch import FAIL_TIME, PEAK_RBAR, TIME_ABOVE, BatchRun
+    from abb_ros.model.integrate import StateError, initial_state
+    scen = spec.scenario
+    dt = spec.run['dt']
+    limit = spec.run['rbar_limit']
+    nsteps = int(round(spec.run['duration'] / dt))
+    # speed commands take effect at the first step at or after their time
+    cmd_steps = [(max(0, math.ceil(c.t / dt - 1e-9)), c.omega) for c in scen.commands]
+    cmd_steps = [(s, om) for s, om in cmd_steps if s < nsteps]
+    count = len(params)
+    res = {'final_rbar': np.empty(count), 'peak_rbar': np.empty(count),
+           'settle_time': np.empty(count), 'time_above_limit': np.empty(count),
+           'omega_final': np.empty(count)}
+    phi_final = [None] * count
+    status = np.empty(count, dtype=np.int64)
+    fail_time = np.empty(count)
+    for n, idx in groups.items():
+        plist = [params[i] for i in idx]
+        phi0 = scen.phi0 if scen.phi0 is not None and len(scen.phi0) == n else None
+        y0 = np.array([initial_state(p, scen.omega, phi0, scen.deck0) for p in plist])
+        S = np.array([scen.spindle.pack(scen.omega)] * idx.size)
+        br = BatchRun(plist, y0, S, dt, limit)
+        for step, omega in cmd_steps:
+            br.advance(step - br.steps)
+            br.set_omega_cmd(omega)
+        br.advance(nsteps - br.steps)
+        N = 7 + n
+        res['final_rbar'][idx] = br.rbar
+        res['peak_rbar'][idx] = br.metrics[:, PEAK_RBAR]
+        res['settle_time'][idx] = br.settle_time
+        res['time_above_limit'][idx] = br.metrics[:, TIME_ABOVE]
+        res['omega_final'][idx] = br.Y[:, N]
+        phi = ((np.degrees(br.Y[:, 7:N]) + 180.0) % 360.0) - 180.0
+        for j, i in enumerate(idx):
+            phi_final[i] = phi[j]
+        status[idx] = br.status
+        fail_time[idx] = br.metrics[:, FAIL_TIME]
+    failed = status != kernels.OK
+    cause = [str(StateError(int(s), float(t))) if s != kernels.OK else ''
+             for s, t in zip(status, fail_time)]
+    return {**res, 'phi_final_deg': phi_final,
+            'status': np.asarray([STATUS_NAMES[int(s)] for s in status], dtype=object),
+            'failed': failed, 'cause': np.asarray(cause, dtype=object), 'fail_time': fail_time,
+            'run_balanced': ~failed & (res['final_rbar'] <= limit)}
+
+
+def warm_up(spec) -> None:
+    """Compute the first sample of ``spec`` and discard it: loads (or compiles) the kernels of
+    this process, so that timings and deadlines see the steady state."""
+    from abb_ros.sweep.spec import draw_samples
+    one = dataclasses.replace(spec, partition_size=1)
+    compute_partition(one, 0, {k: v[:1] for k, v in draw_samples(spec).items()})

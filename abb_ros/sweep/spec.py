@@ -1,0 +1,440 @@
+"""Sweep specifications (``abb-sim sweep SPEC.yaml``): which drives to draw and what to compute.
+
+A spec is a YAML mapping (docs/sweep.md has the full reference)::
+
+    name: tolerance_p3
+    description: ...
+    scenario: p3            # nominal drive, initial state and speed profile (name or file)
+    base: {c: 0.66}         # settings on top of the scenario's drive (SI or Eq. 39 names)
+    parameters:             # what varies from drive to drive
+      eps: {dist: normal, mean: 0.25e-3, std: 0.025e-3, low: 0.15e-3, high: 0.35e-3}
+      k:   {dist: uniform, low: 3575, high: 4369}
+      n:   {dist: list, values: [2, 3]}
+      D:   {dist: grid, low: 2.0e-6, high: 8.0e-6, points: 4}
+    samples: 10000          # draws per grid point (1..MAX_SAMPLES in all)
+    sampling: {method: sobol, seed: 1}        # random | lhs | sobol
+    partition_size: 500     # samples per task (one Parquet file each)
+    operating_wbar: 2.7     # default: the scenario's last commanded speed
+    compute:
+      stability: {wbar: [2.7]}    # or omega: [...], or range: {wbar: [lo, hi], points: k}
+      run: {duration: 1.0, rbar_limit: 1.0e-3}
+
+Speeds given as wbar are converted with the *nominal* drive's omega0 (scenario + base), so
+every drive of the batch turns at the same physical speed, as the drives of a production lot
+do; a drive whose washers are stiffer runs at a lower wbar of its own.
+
+All samples are drawn up front from the seed (:func:`draw_samples`), before they are cut into
+partitions, so the samples and the results do not depend on how the work is partitioned or
+where it runs. Errors are :class:`~abb_ros.model.params.ParamError` naming the field
+(``parameters.k.low``, ``compute.run.duration``, ...) and what is valid.
+"""
+
+from __future__ import annotations
+
+import copy
+import itertools
+import math
+import os
+import warnings
+from dataclasses import dataclass
+
+import numpy as np
+
+from abb_ros.model.params import DIMENSIONLESS_NAMES, PARAM_SPECS, ParamError, apply_settings
+
+__all__ = ['MAX_SAMPLES', 'MAX_SPEC_BYTES', 'MAX_SPEEDS', 'SweepSpec', 'load_spec', 'parse_spec',
+           'draw_samples', 'SAMPLEABLE', 'DISTRIBUTIONS', 'METHODS']
+
+MAX_SAMPLES = 1_000_000
+"""Largest number of drives in one sweep (grid points times samples)."""
+
+MAX_PARTITION = 100_000
+"""Largest partition (samples per task and per Parquet file)."""
+
+MAX_SPEEDS = 1000
+"""Most speeds in ``compute.stability``."""
+
+MAX_SPEC_BYTES = 1 << 20
+"""Largest spec file accepted (1 MiB)."""
+
+MAX_DURATION = 1000.0
+"""Longest run in ``compute.run.duration`` [s]."""
+
+SAMPLEABLE = tuple(PARAM_SPECS) + tuple(n for n in DIMENSIONLESS_NAMES if n != 'wbar')
+"""Parameters a spec may vary: the SI drive parameters and the Eq. (39) names but wbar (speeds
+belong to ``compute``)."""
+
+DISTRIBUTIONS = {
+    'uniform': ({'low', 'high'}, set()),
+    'normal': ({'mean', 'std', 'low', 'high'}, set()),
+    'list': ({'values'}, set()),
+    'grid': (set(), {'values', 'low', 'high', 'points'}),
+}
+"""Keys (required, optional) of each distribution besides ``dist``."""
+
+METHODS = ('random', 'lhs', 'sobol')
+_TOP_KEYS = {'name', 'description', 'scenario', 'base', 'parameters', 'samples', 'sampling',
+             'partition_size', 'operating_wbar', 'operating_omega', 'compute'}
+_SAMPLING_KEYS = {'method', 'seed'}
+_COMPUTE_KEYS = {'stability', 'run'}
+_STABILITY_KEYS = {'wbar', 'omega', 'range'}
+_RANGE_KEYS = {'wbar', 'omega', 'points'}
+_RUN_KEYS = {'duration', 'rbar_limit', 'dt'}
+DEFAULT_PARTITION = 256
+DEFAULT_RBAR_LIMIT = 1.0e-3
+
+
+# ---- safe YAML -------------------------------------------------------------------------------
+
+def _safe_loader():
+    import yaml
+
+    class _NoAliasLoader(yaml.SafeLoader):
+        """yaml.SafeLoader that refuses aliases (no billion-laughs expansion)."""
+
+        def compose_node(self, parent, index):
+            if self.check_event(yaml.AliasEvent):
+                event = self.peek_event()
+                raise yaml.composer.ComposerError(
+                    None, None, 'aliases (*name) are not allowed in a sweep spec',
+                    event.start_mark)
+            return super().compose_node(parent, index)
+
+    return _NoAliasLoader
+
+
+def load_yaml(path) -> object:
+    """The YAML document at ``path``, size-capped and without aliases (ParamError 'spec')."""
+    import yaml
+    path = str(path)
+    try:
+        size = os.path.getsize(path)
+    except OSError as exc:
+        raise ParamError('spec', path, 'a readable YAML file', exc.strerror or str(exc)) from None
+    if size > MAX_SPEC_BYTES:
+        raise ParamError('spec', path, f'a YAML file of at most {MAX_SPEC_BYTES} bytes',
+                         f'{size} bytes')
+    try:
+        with open(path, encoding='utf-8') as f:
+            return yaml.load(f, Loader=_safe_loader())  # noqa: S506 - SafeLoader subclass
+    except (yaml.YAMLError, UnicodeDecodeError) as exc:
+        msg = ' '.join(str(exc).split())
+        raise ParamError('spec', path, 'a valid YAML file', f'malformed: {msg}') from None
+
+
+# ---- checks ------------------------------------------------------------------------------
+
+def _mapping(where, value, keys, required=()):
+    if not isinstance(value, dict):
+        raise ParamError(where, value, 'a mapping with keys ' + ', '.join(sorted(keys)))
+    for key in value:
+        if key not in keys:
+            raise ParamError(f'{where}.{key}' if where else str(key), value[key],
+                             'known keys: ' + ', '.join(sorted(keys)), 'unknown key')
+    for key in required:
+        if key not in value:
+            raise ParamError(f'{where}.{key}', None, 'required', 'missing')
+    return value
+
+
+def _num(where, value, low=-math.inf, low_open=False, high=math.inf):
+    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
+    if ok:
+        ok = (value > low if low_open else value >= low) and value <= high
+    if not ok:
+        lo = f'({low:g}' if low_open else f'[{low:g}'
+        hi = 'inf)' if math.isinf(high) else f'{high:g}]'
+        raise ParamError(where, value, f'a finite number in {lo}, {hi}')
+    return float(value)
+
+
+def _int(where, value, low, high):
+    if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
+        raise ParamError(where, value, f'an integer in [{low}, {high}]')
+    return int(value)
+
+
+def _str(where, value):
+    if not isinstance(value, str):
+        raise ParamError(where, value, 'a string')
+    return value
+
+
+# ---- the spec ----------------------------------------------------------------------------
+
+@dataclass
+class SweepSpec:
+    """A validated sweep spec. ``doc`` is the normalised mapping (stored with the results)."""
+
+    doc: dict
+    name: str
+    scenario: object           # abb_ros.io.scenario.Scenario (nominal drive, base applied)
+    base: dict
+    parameters: dict           # name -> normalised distribution mapping
+    samples: int               # draws per grid point
+    method: str
+    seed: int
+    partition_size: int
+    operating_omega: float     # [rad/s]
+    speeds: np.ndarray | None  # stability speeds [rad/s] (operating speed included), or None
+    run: dict | None           # {'duration', 'rbar_limit', 'dt'} or None
+
+    @property
+    def grid(self) -> dict:
+        return {k: v['values'] for k, v in self.parameters.items() if v['dist'] == 'grid'}
+
+    @property
+    def drawn(self) -> list:
+        return [k for k, v in self.parameters.items() if v['dist'] != 'grid']
+
+    @property
+    def total(self) -> int:
+        """Number of drives: samples times the grid points."""
+        return self.samples * math.prod(len(v) for v in self.grid.values())
+
+    @property
+    def partitions(self) -> int:
+        return -(-self.total // self.partition_size)
+
+    def partition_bounds(self, i: int) -> tuple[int, int]:
+        start = i * self.partition_size
+        return start, min(start + self.partition_size, self.total)
+
+
+def load_spec(path) -> SweepSpec:
+    """Read and validate a spec file."""
+    doc = load_yaml(path)
+    return parse_spec(doc, base_dir=os.path.dirname(os.path.abspath(str(path))))
+
+
+def parse_spec(doc, base_dir=None) -> SweepSpec:
+    """Validate a spec mapping (as loaded from YAML) and normalise it."""
+    from abb_ros.io.scenario import load_scenario
+    _mapping('', doc, _TOP_KEYS, required=('parameters', 'compute'))
+    doc = copy.deepcopy(doc)
+    name = _str('name', doc.get('name', 'sweep'))
+    description = _str('description', doc.get('description', ''))
+    scen_name = _str('scenario', doc.get('scenario', 'p3'))
+    if base_dir and (scen_name.endswith(('.yaml', '.yml')) or os.sep in scen_name) \
+            and not os.path.isabs(scen_name):
+        scen_path = os.path.join(base_dir, scen_name)
+    else:
+        scen_path = scen_name
+    scenario = load_scenario(scen_path)
+    base = doc.get('base') or {}
+    if not isinstance(base, dict):
+        raise ParamError('base', base, 'a mapping name: value of SI or Eq. (39) names')
+    for key, value in base.items():
+        if key not in SAMPLEABLE:
+            raise ParamError(f'base.{key}', value, 'one of ' + ', '.join(SAMPLEABLE),
+                             'unknown parameter')
+    scenario = scenario.with_settings(base)
+    nominal = scenario.params
+
+    params_doc = doc['parameters']
+    if not isinstance(params_doc, dict) or not params_doc:
+        raise ParamError('parameters', params_doc,
+                         'a non-empty mapping name: {dist: ...} with names from '
+                         + ', '.join(SAMPLEABLE))
+    parameters = {}
+    for pname, dist in params_doc.items():
+        if pname not in SAMPLEABLE:
+            raise ParamError(f'parameters.{pname}', dist, 'one of ' + ', '.join(SAMPLEABLE),
+                             'unknown parameter')
+        parameters[pname] = _distribution(f'parameters.{pname}', pname, dist, nominal)
+
+    sampling = _mapping('sampling', doc.get('sampling') or {}, _SAMPLING_KEYS)
+    method = sampling.get('method', 'random')
+    if method not in METHODS:
+        raise ParamError('sampling.method', method, 'one of ' + ', '.join(METHODS))
+    seed = _int('sampling.seed', sampling.get('seed', 0), 0, 2 ** 63 - 1)
+    has_drawn = any(v['dist'] != 'grid' for v in parameters.values())
+    if 'samples' in doc:
+        samples = _int('samples', doc['samples'], 1, MAX_SAMPLES)
+    elif has_drawn:
+        raise ParamError('samples', None, f'an integer in [1, {MAX_SAMPLES}]', 'missing')
+    else:
+        samples = 1
+    if not has_drawn and samples != 1:
+        raise ParamError('samples', samples, '1 when every parameter is a grid')
+    grid_points = math.prod(len(v['values']) for v in parameters.values()
+                            if v['dist'] == 'grid')
+    if samples * grid_points > MAX_SAMPLES:
+        raise ParamError('samples', samples, f'at most {MAX_SAMPLES} drives in all '
+                         f'(samples x {grid_points} grid points)')
+    partition_size = _int('partition_size', doc.get('partition_size', DEFAULT_PARTITION), 1,
+                          MAX_PARTITION)
+
+    if 'operating_wbar' in doc and 'operating_omega' in doc:
+        raise ParamError('operating_omega', doc['operating_omega'],
+                         'absent when operating_wbar is given (one of the two)')
+    if 'operating_wbar' in doc:
+        operating = _num('operating_wbar', doc['operating_wbar'], 0.0, True) * nominal.omega0
+    elif 'operating_omega' in doc:
+        operating = _num('operating_omega', doc['operating_omega'], 0.0, True)
+    else:
+        operating = scenario.commands[-1].omega if scenario.commands else scenario.omega
+        if operating <= 0:
+            raise ParamError('operating_wbar', None, '(0, inf): the scenario stops the spindle')
+
+    compute = _mapping('compute', doc['compute'], _COMPUTE_KEYS)
+    if not compute:
+        raise ParamError('compute', compute, 'at least one of stability, run')
+    speeds = None
+    if 'stability' in compute:
+        speeds = _speeds(compute['stability'] or {}, nominal.omega0, operating)
+    run = None
+    if 'run' in compute:
+        r = _mapping('compute.run', compute['run'] or {}, _RUN_KEYS)
+        run = {'duration': _num('compute.run.duration', r.get('duration', scenario.duration),
+                                0.0, True, MAX_DURATION),
+               'rbar_limit': _num('compute.run.rbar_limit', r.get('rbar_limit',
+                                                                  DEFAULT_RBAR_LIMIT), 0.0, True),
+               'dt': _num('compute.run.dt', r.get('dt', 1e-4), 0.0, True, 1e-2)}
+    doc.update(name=name, description=description, scenario=scen_name, base=base,
+               parameters=parameters, samples=samples,
+               sampling={'method': method, 'seed': seed}, partition_size=partition_size)
+    return SweepSpec(doc, name, scenario, base, parameters, samples, method, seed,
+                     partition_size, float(operating), speeds, run)
+
+
+def _speeds(st, omega0, operating):
+    """Stability speeds [rad/s], sorted, the operating speed included."""
+    st = _mapping('compute.stability', st, _STABILITY_KEYS)
+    given = [k for k in _STABILITY_KEYS if k in st]
+    if len(given) > 1:
+        raise ParamError(f'compute.stability.{sorted(given)[1]}', st[sorted(given)[1]],
+                         'one of wbar, omega, range (not several)')
+    values = []
+    if 'wbar' in st or 'omega' in st:
+        key = 'wbar' if 'wbar' in st else 'omega'
+        lst = st[key]
+        if not isinstance(lst, list) or not 1 <= len(lst) <= MAX_SPEEDS:
+            raise ParamError(f'compute.stability.{key}', lst,
+                             f'a list of 1..{MAX_SPEEDS} positive speeds')
+        scale = omega0 if key == 'wbar' else 1.0
+        values = [_num(f'compute.stability.{key}', v, 0.0, True) * scale for v in lst]
+    elif 'range' in st:
+        rng = _mapping('compute.stability.range', st['range'], _RANGE_KEYS, required=('points',))
+        keys = [k for k in ('wbar', 'omega') if k in rng]
+        if len(keys) != 1:
+            raise ParamError('compute.stability.range', rng, 'exactly one of wbar: [lo, hi] or '
+                             'omega: [lo, hi], and points')
+        key = keys[0]
+        lohi = rng[key]
+        if not isinstance(lohi, list) or len(lohi) != 2:
+            raise ParamError(f'compute.stability.range.{key}', lohi, 'a list [low, high]')
+        lo = _num(f'compute.stability.range.{key}', lohi[0], 0.0, True)
+        hi = _num(f'compute.stability.range.{key}', lohi[1], 0.0, True)
+        if not hi > lo:
+            raise ParamError(f'compute.stability.range.{key}', lohi,
+                             'a non-empty range [low, high] with low < high')
+        points = _int('compute.stability.range.points', rng['points'], 2, MAX_SPEEDS)
+        scale = omega0 if key == 'wbar' else 1.0
+        values = list(np.linspace(lo, hi, points) * scale)
+    # the operating speed replaces a listed speed within round-off of it (linspace end points)
+    values = [v for v in values if abs(v - operating) > 1e-9 * operating] + [operating]
+    return np.unique(np.asarray(values, dtype=float))
+
+
+def _check_value(where, name, value, nominal):
+    """A value of parameter ``name`` must make a valid drive from the nominal one."""
+    if isinstance(value, bool) or not isinstance(value, (int, float)) \
+            or not math.isfinite(value):
+        raise ParamError(where, value, 'a finite number')
+    try:
+        apply_settings(nominal, {name: value})
+    except ParamError as exc:
+        raise ParamError(where, value, exc.valid, f'outside the valid range of {name}') from None
+
+
+def _distribution(where, name, dist, nominal):
+    if not isinstance(dist, dict) or 'dist' not in dist:
+        raise ParamError(where, dist, 'a mapping {dist: ' + ' | '.join(DISTRIBUTIONS) + ', ...}')
+    kind = dist['dist']
+    if kind not in DISTRIBUTIONS:
+        raise ParamError(f'{where}.dist', kind, 'one of ' + ', '.join(DISTRIBUTIONS))
+    required, optional = DISTRIBUTIONS[kind]
+    _mapping(where, dist, required | optional | {'dist'}, required=sorted(required))
+    if name == 'n' and kind not in ('list', 'grid'):
+        raise ParamError(f'{where}.dist', kind, 'list or grid (n is a whole number)')
+    out = {'dist': kind}
+    if kind in ('uniform', 'normal') or (kind == 'grid' and 'values' not in dist):
+        if kind == 'grid' and not {'low', 'high', 'points'} <= set(dist):
+            raise ParamError(where, dist, 'a grid with values: [...] or low, high and points')
+        for key in ('low', 'high', 'mean'):
+            if key in dist:
+                _check_value(f'{where}.{key}', name, dist[key], nominal)
+                out[key] = float(dist[key])
+        if not out['high'] > out['low']:
+            raise ParamError(f'{where}.high', dist['high'],
+                             f'greater than low = {out["low"]:g} (the range is empty)')
+        if kind == 'normal':
+            out['std'] = _num(f'{where}.std', dist['std'], 0.0, True)
+        if kind == 'grid':
+            out['points'] = _int(f'{where}.points', dist['points'], 2, MAX_SAMPLES)
+            out['values'] = [float(v) for v in np.linspace(out['low'], out['high'],
+                                                            out['points'])]
+        return out
+    values = dist['values']
+    if not isinstance(values, list) or not values:
+        raise ParamError(f'{where}.values', values, 'a non-empty list of values')
+    if len(values) > MAX_SAMPLES:
+        raise ParamError(f'{where}.values', '...', f'at most {MAX_SAMPLES} values')
+    for v in values:
+        if name == 'n' and (isinstance(v, bool) or not isinstance(v, int)):
+            raise ParamError(f'{where}.values', v, 'whole numbers of balls')
+        _check_value(f'{where}.values', name, v, nominal)
+    out['values'] = [int(v) if name == 'n' else float(v) for v in values]
+    return out
+
+
+# ---- drawing -----------------------------------------------------------------------------
+
+def _unit_draws(method, seed, count, dims):
+    """(count, dims) points in [0, 1): pseudo-random, Latin hypercube or scrambled Sobol."""
+    if dims == 0:
+        return np.zeros((count, 0))
+    if method == 'random':
+        return np.random.default_rng(seed).random((count, dims))
+    from scipy.stats import qmc
+    if method == 'lhs':
+        return qmc.LatinHypercube(d=dims, rng=np.random.default_rng(seed)).random(count)
+    with warnings.catch_warnings():   # balance properties want 2^m points; any count is valid
+        warnings.simplefilter('ignore', UserWarning)
+        return qmc.Sobol(d=dims, scramble=True, rng=np.random.default_rng(seed)).random(count)
+
+
+def _transform(dist, u):
+    kind = dist['dist']
+    if kind == 'uniform':
+        return dist['low'] + (dist['high'] - dist['low']) * u
+    if kind == 'normal':
+        from scipy.stats import truncnorm
+        a = (dist['low'] - dist['mean']) / dist['std']
+        b = (dist['high'] - dist['mean']) / dist['std']
+        x = truncnorm.ppf(u, a, b, loc=dist['mean'], scale=dist['std'])
+        return np.clip(x, dist['low'], dist['high'])
+    values = np.asarray(dist['values'])
+    return values[np.minimum((u * len(values)).astype(np.int64), len(values) - 1)]
+
+
+def draw_samples(spec: SweepSpec) -> dict:
+    """Every sample of the sweep, drawn up front from the seed: {parameter: array (total,)}.
+
+    Sample i = g * samples + j is grid point g (grid parameters in spec order, the last
+    fastest) with draw j.
+    """
+    drawn = spec.drawn
+    u = _unit_draws(spec.method, spec.seed, spec.samples, len(drawn))
+    draws = {name: _transform(spec.parameters[name], u[:, i]) for i, name in enumerate(drawn)}
+    grid = spec.grid
+    combos = list(itertools.product(*grid.values())) if grid else [()]
+    out = {}
+    for name in spec.parameters:
+        if name in grid:
+            col = np.repeat(np.asarray([c[list(grid).index(name)] for c in combos]), spec.samples)
+        else:
+            col = np.tile(draws[name], len(combos))
+        out[name] = col.astype(np.int64) if name == 'n' else col.astype(float)
+    return out

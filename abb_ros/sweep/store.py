@@ -1,0 +1,139 @@
+"""The results of a sweep on disk: a Parquet dataset, one file per partition.
+
+``DIR/part-00012.parquet`` holds partition 12. Each file is written to a temporary name in
+the same directory and renamed into place (``os.replace``, atomic on POSIX), so a file with
+the final name is always complete: an interrupted sweep loses at most the partitions it was
+computing, and ``--resume`` recomputes exactly the partitions whose file is missing. Every
+file carries the normalised spec (JSON) and the package version in its Parquet key-value
+metadata (``abb_ros.spec``, ``abb_ros.version``); ``DIR/_sweep.json`` holds the same, written
+when the sweep starts (readers of the dataset skip names starting with ``_`` and ``.``).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+from pathlib import Path
+
+import numpy as np
+
+__all__ = ['package_version', 'spec_json', 'part_path', 'write_partition', 'finished_partitions',
+           'read_results', 'read_manifest', 'write_manifest', 'MANIFEST', 'SPEC_KEY',
+           'VERSION_KEY']
+
+MANIFEST = '_sweep.json'
+SPEC_KEY = b'abb_ros.spec'
+VERSION_KEY = b'abb_ros.version'
+_PART = re.compile(r'^part-(\d{5,})\.parquet$')
+
+
+def package_version() -> str:
+    try:
+        from importlib.metadata import version
+        return version('abb_ros')
+    except Exception:  # noqa: BLE001 - not installed (source tree on sys.path)
+        return 'unknown'
+
+
+def spec_json(spec) -> str:
+    """The normalised spec as canonical JSON (what resume compares)."""
+    return json.dumps(spec.doc, sort_keys=True, separators=(',', ':'))
+
+
+def part_path(out_dir, index: int) -> Path:
+    return Path(out_dir) / f'part-{index:05d}.parquet'
+
+
+def _atomic_write_bytes(path: Path, data: bytes) -> None:
+    tmp = path.with_name(f'.{path.name}.tmp-{os.getpid()}')
+    with open(tmp, 'wb') as f:
+        f.write(data)
+        f.flush()
+        os.fsync(f.fileno())
+    os.replace(tmp, path)
+
+
+def write_manifest(out_dir, spec, partitions: int) -> None:
+    doc = {'spec': spec.doc, 'version': package_version(), 'partitions': partitions,
+           'samples': spec.total}
+    _atomic_write_bytes(Path(out_dir) / MANIFEST,
+                        (json.dumps(doc, indent=1, sort_keys=True) + '\n').encode())
+
+
+def read_manifest(out_dir) -> dict | None:
+    path = Path(out_dir) / MANIFEST
+    if not path.exists():
+        return None
+    with open(path, encoding='utf-8') as f:
+        return json.load(f)
+
+
+def to_table(result: dict, spec):
+    """The partition's columns as a pyarrow Table with the spec and version as metadata."""
+    import pyarrow as pa
+    arrays = {}
+    for name, values in result.items():
+        if name == 'phi_final_deg':
+            lengths = np.array([len(v) for v in values], dtype=np.int32)
+            offsets = np.concatenate([[0], np.cumsum(lengths)]).astype(np.int32)
+            flat = np.concatenate(values) if len(values) else np.zeros(0)
+            arrays[name] = pa.ListArray.from_arrays(pa.array(offsets),
+                                                    pa.array(flat, pa.float64()))
+        elif isinstance(values, np.ndarray) and values.dtype == object:
+            arrays[name] = pa.array(list(values), pa.string())
+        else:
+            arrays[name] = pa.array(np.asarray(values))
+    table = pa.table(arrays)
+    meta = {SPEC_KEY: spec_json(spec).encode(), VERSION_KEY: package_version().encode()}
+    return table.replace_schema_metadata(meta)
+
+
+def write_partition(out_dir, index: int, result: dict, spec) -> Path:
+    """Write partition ``index`` atomically (temporary name, then rename)."""
+    import pyarrow.parquet as pq
+    path = part_path(out_dir, index)
+    tmp = path.with_name(f'.{path.name}.tmp-{os.getpid()}')
+    pq.write_table(to_table(result, spec), tmp)
+    os.replace(tmp, path)
+    return path
+
+
+def finished_partitions(out_dir, count: int) -> set:
+    """Indices < count whose file exists and holds a readable Parquet footer."""
+    import pyarrow.parquet as pq
+    done = set()
+    for entry in os.listdir(out_dir):
+        m = _PART.match(entry)
+        if not m or int(m.group(1)) >= count:
+            continue
+        try:
+            pq.read_metadata(Path(out_dir) / entry)
+        except Exception:  # noqa: BLE001 - unreadable: compute it again
+            continue
+        done.add(int(m.group(1)))
+    return done
+
+
+def remove_temporaries(out_dir) -> None:
+    """Temporary files left by an interrupted writer."""
+    for entry in os.listdir(out_dir):
+        if entry.startswith('.part-') and '.tmp-' in entry:
+            os.remove(Path(out_dir) / entry)
+
+
+def read_results(out_dir):
+    """All finished partitions as one pyarrow Table sorted by sample, and the metadata of the
+    first file ({'spec': dict, 'version': str}); raises FileNotFoundError without any."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    files = sorted(p for p in Path(out_dir).iterdir() if _PART.match(p.name))
+    if not files:
+        raise FileNotFoundError(f'no part-*.parquet files in {out_dir}')
+    tables = [pq.read_table(p) for p in files]
+    meta = tables[0].schema.metadata or {}
+    table = pa.concat_tables([t.replace_schema_metadata(None) for t in tables])
+    table = table.sort_by('sample')
+    info = {'spec': json.loads(meta.get(SPEC_KEY, b'{}')),
+            'version': meta.get(VERSION_KEY, b'unknown').decode()}
+    return table, info
