@@ -333,9 +333,11 @@ class SimulatorNode(Node):
                       **self.counters, steps=self.sim.steps, sim_time=self.sim.t,
                       rbar=self.sim.rbar, omega=self.sim.omega,
                       wbar=self.drive.wbar(self.sim.omega), speed_cmd=self.speed_cmd,
-                      spindle_mode=self.settings.spindle_mode, current_cmd=self.current_cmd,
-                      motor_current=self.sim.motor_current,
+                      spindle_mode=self.settings.spindle_mode,
                       n=self.drive.n, paused=self.paused, fault=self.fault)
+        if self.settings.spindle_mode == 'torque':
+            values.update(current_cmd=self.current_cmd, motor_current=self.sim.motor_current,
+                          motor_torque=self.sim.motor_torque)
         self._pubs['/diagnostics'].publish(ros_messages.diagnostics(
             self.stamp_ns(), f'{self.get_fully_qualified_name()}: simulation', level,
             message, values))
