@@ -1,0 +1,47 @@
+"""The simulator node in torque mode over real rclpy and DDS: spindle/current_cmd refused
+when non-finite, saturated beyond the current limit, and the motor torque in
+joint_states.effort[0] (docs/torque_mode.md)."""
+
+import math
+
+import pytest
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
+
+from abb_ros.model.integrate import TorqueMotor
+from test_simulator_node import QOS, Plant
+
+pytestmark = pytest.mark.ros
+
+
+@pytest.fixture
+def torque_plant():
+    plant = Plant(real_time_factor=0.0, publish_rate_hz=100,
+                  **{'imu.rate_hz': 100, 'spindle.mode': 'torque'})
+    yield plant
+    plant.close()
+
+
+def test_current_commands_are_refused_or_saturated_and_the_torque_is_the_effort(torque_plant):
+    plant = torque_plant
+    states = plant.collect(JointState, 'joint_states')
+    plant.wait(lambda: states, 'joint_states')
+    assert list(states[0].effort) == [0.0] * len(states[0].name)     # no current at start
+    pub = plant.node.create_publisher(Float64, 'spindle/current_cmd', QOS)
+    plant.wait(lambda: pub.get_subscription_count() > 0, 'current_cmd subscriber')
+    for bad in (math.nan, math.inf, -math.inf):
+        pub.publish(Float64(data=bad))
+    plant.wait(lambda: plant.values().get('commands_refused') == '3', 'three refusals')
+    assert plant.values()['spindle_mode'] == 'torque'
+    pub.publish(Float64(data=5.0))                                    # beyond the 1 A limit
+    plant.wait(lambda: plant.values().get('commands_saturated') == '1', 'a saturation')
+    motor = TorqueMotor()
+    plant.wait(lambda: states[-1].effort[0] != 0.0, 'effort under the command')
+    seen = len(states)
+    plant.wait(lambda: len(states) > seen + 20, 'joint_states under torque')
+    driven = [m for m in states if m.effort[0] != 0.0]
+    for m in driven:   # effort = K_t i(omega) with the command saturated and voltage-limited
+        assert m.effort[0] == pytest.approx(motor.K_t * motor.current(m.velocity[0], 5.0),
+                                            rel=1e-12)
+    assert max(m.effort[0] for m in driven) <= motor.K_t * motor.I_max
+    assert driven[-1].velocity[0] > driven[0].velocity[0]            # it accelerates
