@@ -45,3 +45,22 @@ def test_current_commands_are_refused_or_saturated_and_the_torque_is_the_effort(
                                             rel=1e-12)
     assert max(m.effort[0] for m in driven) <= motor.K_t * motor.I_max
     assert driven[-1].velocity[0] > driven[0].velocity[0]            # it accelerates
+
+
+def test_headless_cdr_of_joint_states_with_effort_is_what_rclpy_serialises():
+    """Live and headless agree in torque mode: the CDR the headless bags hold decodes to the
+    JointState the live node publishes, effort included."""
+    import numpy as np
+    from rclpy.serialization import deserialize_message
+
+    from abb_ros.io import cdr, ros_messages
+    from abb_ros.model.sampling import Sample
+    y = np.arange(18, dtype=float) / 7.0
+    sample = Sample(steps=12345, n=2, y=y, imu=None, effort=3.5e-3)
+    _, contents = ros_messages.sample_contents(sample, 100_000, None)
+    assert dict(contents)['joint_states'][3] == [3.5e-3, 0.0, 0.0]
+    live = dict(ros_messages.sample_messages(sample, 100_000, None))['joint_states']
+    _, headless = cdr.sample_cdr(sample, 100_000, None)
+    assert list(live.effort) == [3.5e-3, 0.0, 0.0]
+    decoded = deserialize_message(dict(headless)['joint_states'], JointState)
+    assert decoded == live     # (bytes differ only in CDR padding, which rclpy leaves unset)
