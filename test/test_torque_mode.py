@@ -54,6 +54,17 @@ def test_without_imbalance_the_motor_torque_spins_the_rotor_and_yaws_the_deck():
     assert sim.motor_torque == pytest.approx(motor.K_t * 0.5)
 
 
+def test_a_torque_motor_starts_at_zero_current_and_switching_modes_resets_the_command():
+    params = DriveParams()
+    sim = Simulation(params, 300.0, DT, spindle=TorqueMotor())
+    assert sim.motor_current == 0.0 and sim.omega == 300.0
+    sim.set_command(0.4)
+    sim.set_spindle(ConstantSpeed())
+    assert sim.omega_cmd == 300.0           # out of torque mode: hold the present speed
+    sim.set_spindle(TorqueMotor())
+    assert sim.motor_current == 0.0         # into torque mode: 0 A until commanded
+
+
 def test_speed_modes_report_no_motor_current():
     sim = Simulation(DriveParams(), 300.0, DT, spindle=ConstantSpeed())
     assert math.isnan(sim.motor_current) and math.isnan(sim.motor_torque)
@@ -187,3 +198,31 @@ def test_kernel_mode_constant_is_distinct_from_the_speed_profiles():
     assert kernels.SPINDLE_TORQUE not in (kernels.SPINDLE_CONSTANT, kernels.SPINDLE_MOTOR,
                                           kernels.SPINDLE_RAMP)
     assert TorqueMotor().pack(0.0).shape == (kernels.N_SPINDLE_TORQUE,)
+
+
+# ---- headless -------------------------------------------------------------------------------
+
+def test_headless_torque_run_records_the_motor_torque_as_joint_effort(tmp_path, capsys):
+    """abb-sim run of the shipped torque scenario: joint_states.effort = [K_t i, 0, 0], i = 0
+    at step 0 (the command of t = 0 applies from there on, as in speed mode), then the full
+    0.05 A (far below the voltage limit); the spindle accelerates."""
+    from abb_ros.cli import main
+    from abb_ros.io.bag_reader import read_bag
+    out = tmp_path / 'bag'
+    assert main(['run', '--scenario', 'runup_torque_weak', '--duration', '0.1', '--out',
+                 str(out), '--no-progress']) == 0
+    states = [m for _, m, _ in read_bag(out, ['joint_states'])]
+    assert len(states) > 50
+    assert list(states[0].effort) == [0.0, 0.0, 0.0]
+    for m in states[1:]:
+        assert list(m.effort) == [TorqueMotor().K_t * WEAK_A, 0.0, 0.0]
+    assert states[-1].velocity[0] > states[0].velocity[0] + 5.0
+
+
+def test_speed_loop_settings_on_a_torque_scenario_are_one_line_naming_them(tmp_path, capsys):
+    from abb_ros.cli import main
+    code = main(['run', '--scenario', 'runup_torque_weak', '--set', 'spindle.tau=0.1',
+                 '--out', str(tmp_path / 'bag'), '--no-progress'])
+    err = capsys.readouterr().err.strip().splitlines()
+    assert code == 2 and len(err) == 1 and "'spindle.tau'" in err[0] and 'torque' in err[0]
+    assert not (tmp_path / 'bag').exists()

@@ -172,7 +172,8 @@ class Simulation:
     ----------
     params : DriveParams
     omega : float
-        Initial spindle speed [rad/s] (also the initial speed command).
+        Initial spindle speed [rad/s] (also the initial speed command; with a
+        :class:`TorqueMotor` the initial current command is 0 A).
     dt : float
         Step [s].
     spindle : ConstantSpeed | Ramp | SpindleMotor
@@ -190,7 +191,7 @@ class Simulation:
         self.t0 = float(t0)
         self.steps = 0
         self.spindle = SpindleMotor() if spindle is None else spindle
-        self.omega_cmd = float(omega)
+        self.omega_cmd = 0.0 if isinstance(self.spindle, TorqueMotor) else float(omega)
         self._set_params(params)
         self._y0 = initial_state(params, omega) if y0 is None else np.array(y0, dtype=float)
         self.reset(self._y0)
@@ -229,6 +230,11 @@ class Simulation:
             self.motor_current else math.nan
 
     def set_spindle(self, spindle) -> None:
+        """A new spindle model at the next step boundary. Into torque mode the command
+        becomes 0 A, out of it the present speed (:meth:`set_command` to choose)."""
+        torque = isinstance(spindle, TorqueMotor)
+        if torque != isinstance(self.spindle, TorqueMotor):
+            self.omega_cmd = 0.0 if torque else self.omega
         self.spindle = spindle
         self._S = spindle.pack(self.omega_cmd)
 
