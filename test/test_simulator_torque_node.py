@@ -64,3 +64,35 @@ def test_headless_cdr_of_joint_states_with_effort_is_what_rclpy_serialises():
     assert list(live.effort) == [3.5e-3, 0.0, 0.0]
     decoded = deserialize_message(dict(headless)['joint_states'], JointState)
     assert decoded == live     # (bytes differ only in CDR padding, which rclpy leaves unset)
+
+
+def test_spindle_mode_switches_at_run_time_and_back():
+    """spindle.mode set at run time applies at the next step: torque mode publishes efforts
+    (0 A: no current command yet, so the rotor coasts down under friction and load); back in
+    speed mode effort is empty again and the speed loop returns to the last speed command."""
+    plant = Plant(real_time_factor=0.0, publish_rate_hz=100, **{'imu.rate_hz': 100})
+    try:
+        states = plant.collect(JointState, 'joint_states')
+        plant.wait(lambda: states, 'joint_states')
+        assert list(states[-1].effort) == []
+        held = states[-1].velocity[0]
+        assert all(r.successful for r in plant.set_params(**{'spindle.mode': 'torque'}))
+        plant.wait(lambda: list(states[-1].effort) == [0.0, 0.0, 0.0], 'torque-mode efforts')
+        seen = len(states)
+        plant.wait(lambda: len(states) > seen + 20, 'joint_states in torque mode')
+        assert states[-1].velocity[0] < held                            # coasting down
+        assert all(r.successful for r in plant.set_params(**{'spindle.mode': 'speed'}))
+        plant.wait(lambda: list(states[-1].effort) == [], 'speed mode again')
+        plant.wait(lambda: abs(states[-1].velocity[0] - held) < 1e-3, 'back at the command')
+    finally:
+        plant.close()
+
+
+def test_a_bad_spindle_mode_is_refused_naming_the_choices():
+    plant = Plant(real_time_factor=0.0, publish_rate_hz=100, **{'imu.rate_hz': 100})
+    try:
+        result, = plant.set_params(**{'spindle.mode': 'current'})
+        assert not result.successful
+        assert 'spindle.mode' in result.reason and 'speed, torque' in result.reason
+    finally:
+        plant.close()
