@@ -226,8 +226,8 @@ class Simulation:
     def motor_torque(self) -> float:
         """Electromagnetic torque K_t i [N m] of a :class:`TorqueMotor` (NaN in speed
         modes): joint_states.effort[0]."""
-        return self.spindle.K_t * self.motor_current if self.motor_current == \
-            self.motor_current else math.nan
+        current = self.motor_current
+        return math.nan if math.isnan(current) else self.spindle.K_t * current
 
     def set_spindle(self, spindle) -> None:
         """A new spindle model at the next step boundary. Into torque mode the command

@@ -10,6 +10,7 @@ drive this class, so the same seed, parameters and commands give the same sample
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -73,9 +74,9 @@ class PlantSampler:
             s = self.sim.layout
             qdd = self.sim.accelerations()
             reading = self.imu.read(self.sim.y[s.q], self.sim.y[s.qd], qdd)
-        effort = self.sim.motor_torque if state_due else None
+        effort = self.sim.motor_torque if state_due else math.nan
         return Sample(steps, self.sim.params.n, y, reading,
-                      None if effort is None or effort != effort else effort)
+                      None if math.isnan(effort) else effort)
 
     def next_period(self) -> list[Sample]:
         """Advance to the next state instant (a multiple of publish_every), returning every
