@@ -337,6 +337,46 @@ def first_order_residual(params, y, qdd):
     return e0 + e1
 
 
+@functools.lru_cache(maxsize=None)
+def theta_expression(n):
+    """Lagrange's equation for a FREE theta (torque mode): d/dt dT/dtheta' - dT/dtheta +
+    dV/dtheta + dF/dtheta', exact; it equals the generalised force Q_theta of the motor."""
+    q, qd, qdd, _ = symbols(n)
+    T, V, F = energies(n)
+    return (time_derivative(sp.diff(T, qd[0]), q, qd, qdd) - sp.diff(T, q[0])
+            + sp.diff(V, q[0]) + sp.diff(F, qd[0]))
+
+
+@functools.lru_cache(maxsize=None)
+def compiled_theta(n):
+    """Complex-valued numeric :func:`theta_expression` (a one-element list) for n balls."""
+    src, path = _load('lagrange_theta', n, lambda: _function_source(
+        'lagrange_theta', [theta_expression(n)], symbols(n)))
+    namespace = {'sin': cmath.sin, 'cos': cmath.cos, 'sqrt': cmath.sqrt}
+    exec(compile(src, path, 'exec'), namespace)
+    return namespace['lagrange_theta']
+
+
+def theta_residuals(params, y, qdd):
+    """(exact, first order) of :func:`theta_expression` at (y, qdd), like
+    :func:`exact_residual` and :func:`first_order_residual`."""
+    n = params.n
+    N = 7 + n
+    f = compiled_theta(n)
+    deck = np.zeros(N, dtype=bool)
+    deck[1:7] = True
+    y = np.asarray(y, dtype=float)
+    q, qd, qdd = y[:N], y[N:], np.asarray(qdd, dtype=float)
+    P = _pack(params)
+
+    def at(scale):
+        return ([complex(v) for v in np.where(deck, scale * x, x)] for x in (q, qd, qdd))
+
+    exact = f(*at(1.0), P)[0].real
+    first = f(*at(0.0), P)[0].real + f(*at(1j * COMPLEX_STEP), P)[0].imag / COMPLEX_STEP
+    return exact, first
+
+
 def paper_residual(params, y, qdd):
     """Eqs. (18)-(24) as printed (theta'' ignored), numpy, same API as lagrange_residual."""
     n = params.n

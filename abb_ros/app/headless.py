@@ -113,7 +113,7 @@ def run_scenario(scenario: Scenario, dt: float = DEFAULT_DT, publish_dt: float =
     done = 0
     while done < total:
         while commands and commands[0].t <= sim.t + 1e-12:
-            sim.set_speed_command(commands.pop(0).omega)
+            sim.set_command(commands.pop(0).value)
         # periods until the next command or the next progress report
         chunk = min(total - done, 1000)
         if commands:

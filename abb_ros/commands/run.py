@@ -60,11 +60,16 @@ def _run_options(node: dict) -> dict:
 def _spindle(spindle, node: dict):
     """The scenario's spindle with spindle.max_accel / spindle.tau applied (a constant-speed
     spindle becomes the motor of the simulator node, with its defaults for the other)."""
-    from abb_ros.model.integrate import SpindleMotor
+    from abb_ros.model.integrate import SpindleMotor, TorqueMotor
     from abb_ros.model.param_spec import specs_for
+    from abb_ros.model.params import ParamError
     changes = {k[len('spindle.'):]: v for k, v in node.items() if k.startswith('spindle.')}
     if not changes:
         return spindle
+    if isinstance(spindle, TorqueMotor):
+        name = sorted(changes)[0]
+        raise ParamError(f'spindle.{name}', changes[name], 'none: the scenario drives the '
+                         'spindle by torque (spindle: model: torque)')
     if not isinstance(spindle, SpindleMotor):
         specs = specs_for('simulator')
         spindle = SpindleMotor(specs['spindle.max_accel'].default, specs['spindle.tau'].default)

@@ -109,17 +109,18 @@ def _header(frame_id: str) -> Layout:
 
 
 @functools.lru_cache(maxsize=None)
-def _joint_state_layout(n: int):
+def _joint_state_layout(n: int, efforts: int = 0):
     joints = n + 1
     return (_header(TOPIC_FRAMES['joint_states']).strings(joint_names(n))
-            .sequence('d', joints).sequence('d', joints).const('I', 0).compile())
+            .sequence('d', joints).sequence('d', joints).sequence('d', efforts).compile())
 
 
 def joint_state(sec: int, nanosec: int, content) -> bytes:
-    """sensor_msgs/JointState of ros_messages.joint_state_content: (n, position, velocity)."""
-    n, position, velocity = content
-    st, (c0, c1, c2, c3) = _joint_state_layout(n)
-    return st.pack(c0, sec, nanosec, c1, *position, c2, *velocity, c3)
+    """sensor_msgs/JointState of ros_messages.sample_contents: (n, position, velocity,
+    effort)."""
+    n, position, velocity, effort = content
+    st, (c0, c1, c2, c3) = _joint_state_layout(n, len(effort))
+    return st.pack(c0, sec, nanosec, c1, *position, c2, *velocity, c3, *effort)
 
 
 def _fixed(frame_id: str, doubles: int):

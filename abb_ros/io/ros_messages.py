@@ -96,11 +96,13 @@ def sample_contents(sample: Sample, dt_ns: int, imu_config: ImuConfig, epoch_ns:
                     with_clock: bool = False) -> tuple[int, list[tuple[str, object]]]:
     """(stamp [ns], [(topic, content)]) of one :class:`Sample`, in publishing order:
     ``/clock`` first (when the simulator owns time; content None), then the state topics,
-    then ``deck/imu``. ``joint_states`` content is (n, position, velocity)."""
+    then ``deck/imu``. ``joint_states`` content is (n, position, velocity, effort), effort
+    [] in speed mode, else [motor torque, 0 (balls)...] [N m]."""
     out = [('/clock', None)] if with_clock else []
     y = sample.y
     if y is not None:
-        out += [('joint_states', (sample.n,) + joint_state_content(y, sample.n)),
+        effort = [] if sample.effort is None else [sample.effort] + [0.0] * sample.n
+        out += [('joint_states', (sample.n,) + joint_state_content(y, sample.n) + (effort,)),
                 ('deck/pose', deck_pose_content(y)),
                 ('deck/twist', deck_twist_content(y, sample.n))]
     if sample.imu is not None:
@@ -115,12 +117,13 @@ def sample_contents(sample: Sample, dt_ns: int, imu_config: ImuConfig, epoch_ns:
 # builtin_interfaces/Time.
 
 def _fill_joint_state(msg: JointState, stamp: Time, content) -> JointState:
-    n, position, velocity = content
+    n, position, velocity, effort = content
     msg.header.stamp = stamp
     if len(msg.name) != n + 1:
         msg.name = joint_names(n)
     msg.position = position
     msg.velocity = velocity
+    msg.effort = effort
     return msg
 
 
@@ -164,7 +167,7 @@ _FILL = {'joint_states': _fill_joint_state, 'deck/pose': _fill_pose,
 def joint_state(stamp, y: np.ndarray, n: int, out: JointState | None = None) -> JointState:
     """Spindle angle theta and speed omega; ball angles phi_i and rates phi_i' [rad, rad/s]."""
     return _fill_joint_state(JointState() if out is None else out, _stamp(stamp),
-                             (n,) + joint_state_content(y, n))
+                             (n,) + joint_state_content(y, n) + ([],))
 
 
 def deck_pose(stamp, y: np.ndarray, out: PoseStamped | None = None) -> PoseStamped:

@@ -17,6 +17,14 @@ A scenario is a YAML file (``config/scenarios/<name>.yaml``)::
       commands:             # timed speed commands, wbar or omega [rad/s]
         - {t: 2.0, wbar: 2.7}
 
+or, with the spindle free and driven by torque (docs/torque_mode.md)::
+
+    spindle:
+      model: torque
+      motor: {torque_constant: 0.01, current_limit: 1.0}   # optional motor.* names
+      commands:             # timed winding-current commands [A] (saturate at the limit)
+        - {t: 0.0, current: 0.5}
+
 Errors name the field and what is valid (:class:`~abb_ros.model.params.ParamError`).
 """
 
@@ -31,10 +39,11 @@ import numpy as np
 
 from abb_ros.io.safe_yaml import YamlFileError, load_file
 from abb_ros.model import kernels
-from abb_ros.model.integrate import INITIAL_DECK, ConstantSpeed, SpindleMotor
+from abb_ros.model.integrate import INITIAL_DECK, ConstantSpeed, SpindleMotor, TorqueMotor
 from abb_ros.model.params import PARAM_SPECS, DriveParams, ParamError, apply_settings
 
-__all__ = ['Scenario', 'load_scenario', 'scenario_dir', 'list_scenarios', 'SpeedCommand']
+__all__ = ['Scenario', 'load_scenario', 'scenario_dir', 'list_scenarios', 'SpeedCommand',
+           'CurrentCommand']
 
 _TOP_KEYS = {'name', 'description', 'drive', 'set', 'initial', 'duration', 'spindle'}
 
@@ -45,6 +54,23 @@ class SpeedCommand:
 
     t: float
     omega: float
+
+    @property
+    def value(self) -> float:
+        """The command of Simulation.set_command."""
+        return self.omega
+
+
+@dataclass(frozen=True)
+class CurrentCommand:
+    """At time t [s], command the spindle motor's winding current [A] (torque mode)."""
+
+    t: float
+    current: float
+
+    @property
+    def value(self) -> float:
+        return self.current
 
 
 @dataclass
@@ -183,6 +209,8 @@ def load_scenario(name_or_path: str, base: DriveParams | None = None) -> Scenari
 
 
 def _spindle(spec, params):
+    if isinstance(spec, dict) and spec.get('model') == 'torque':
+        return _torque_spindle(spec)
     spec = _mapping('scenario.spindle', spec, {'model', 'max_accel', 'tau', 'commands'})
     model = spec.get('model', 'constant')
     if model == 'constant':
@@ -192,7 +220,7 @@ def _spindle(spec, params):
                              '(use model: motor)')
         return ConstantSpeed(), []
     if model != 'motor':
-        raise ParamError('scenario.spindle.model', _short(model), 'constant or motor')
+        raise ParamError('scenario.spindle.model', _short(model), 'constant, motor or torque')
     motor = SpindleMotor(
         max_accel=_number('scenario.spindle.max_accel', spec.get('max_accel', 1000.0), 0, True,
                           unit='rad/s^2'),
@@ -214,5 +242,32 @@ def _spindle(spec, params):
         else:
             omega = _number(where + '.omega', cmd['omega'], 0.0, unit='rad/s')
         commands.append(SpeedCommand(t, omega))
+    commands.sort(key=lambda c: c.t)
+    return motor, commands
+
+
+def _torque_spindle(spec):
+    """model: torque: a TorqueMotor (motor.* names, MOTOR_DEFAULTS) and timed currents [A]."""
+    from abb_ros.model.param_spec import MOTOR_DEFAULTS
+    spec = _mapping('scenario.spindle', spec, {'model', 'motor', 'commands'})
+    given = _mapping('scenario.spindle.motor', spec.get('motor') or {}, set(MOTOR_DEFAULTS))
+    values = {}
+    for name, value in given.items():
+        low_open = name not in ('viscous_friction', 'coulomb_friction')
+        values['motor.' + name] = _number(f'scenario.spindle.motor.{name}', value, 0.0,
+                                          low_open)
+    motor = TorqueMotor.from_values(values)
+    listed = spec.get('commands') or []
+    if not isinstance(listed, list):
+        raise ParamError('scenario.spindle.commands', _short(listed),
+                         'a list of {t: seconds, current: amperes}')
+    commands = []
+    for i, cmd in enumerate(listed):
+        where = f'scenario.spindle.commands[{i}]'
+        cmd = _mapping(where, cmd, {'t', 'current'})
+        if set(cmd) != {'t', 'current'}:
+            raise ParamError(where, _short(cmd), 'a mapping {t: seconds, current: amperes}')
+        commands.append(CurrentCommand(_number(where + '.t', cmd['t'], 0.0, unit='s'),
+                                       _number(where + '.current', cmd['current'], unit='A')))
     commands.sort(key=lambda c: c.t)
     return motor, commands

@@ -8,7 +8,9 @@ right-hand side with scipy's adaptive DOP853 at tight tolerances.
 The spindle speed is an input: :class:`ConstantSpeed` (the paper's case), :class:`Ramp`
 (constant angular acceleration over an interval) or :class:`SpindleMotor` (tracks a
 commanded speed as a first-order lag with an acceleration limit, as a speed-controlled
-spindle motor does).
+spindle motor does); or the spindle is free and driven by torque: :class:`TorqueMotor` (a
+current-commanded DC/BLDC motor, docs/torque_mode.md), with :meth:`Simulation.set_command`
+the current command.
 """
 
 from __future__ import annotations
@@ -20,11 +22,12 @@ import numpy as np
 
 from abb_ros.model import kernels
 from abb_ros.model.dynamics import solver_buffers
+from abb_ros.model.param_spec import MOTOR_DEFAULTS
 from abb_ros.model.params import DriveParams, ParamError
 from abb_ros.model.state import StateLayout
 
 __all__ = ['DEFAULT_DT', 'ConstantSpeed', 'Ramp', 'SpindleMotor', 'StateError', 'Simulation',
-           'initial_state', 'reference_solution', 'Trajectory', 'simulate']
+           'initial_state', 'reference_solution', 'Trajectory', 'simulate', 'TorqueMotor']
 
 DEFAULT_DT = 1.0 / 10000.0
 """Default fixed step [s] (10 kHz); see docs/verification.md for the accuracy
@@ -78,6 +81,52 @@ class SpindleMotor:
                         dtype=float)
 
 
+@dataclass(frozen=True)
+class TorqueMotor:
+    """Free spindle driven by a current-commanded DC/BLDC motor (docs/torque_mode.md).
+
+    The command of :meth:`pack` is the winding current [A]. K_t [N m/A] (= K_e [V s/rad]),
+    R_w [ohm], I_max [A], V_s [V] > 0; bearing friction b_v [N m s] and T_c [N m] >= 0,
+    smoothed over omega_c [rad/s] > 0.
+    """
+
+    K_t: float = MOTOR_DEFAULTS['torque_constant']
+    R_w: float = MOTOR_DEFAULTS['resistance']
+    I_max: float = MOTOR_DEFAULTS['current_limit']
+    b_v: float = MOTOR_DEFAULTS['viscous_friction']
+    T_c: float = MOTOR_DEFAULTS['coulomb_friction']
+    omega_c: float = MOTOR_DEFAULTS['friction_smoothing']
+    V_s: float = MOTOR_DEFAULTS['voltage_limit']
+
+    FIELDS = dict(K_t='torque_constant', R_w='resistance', I_max='current_limit',
+                  b_v='viscous_friction', T_c='coulomb_friction', omega_c='friction_smoothing',
+                  V_s='voltage_limit')
+    """Field -> parameter name (``motor.<name>``, param_spec.MOTOR_DEFAULTS)."""
+
+    @classmethod
+    def from_values(cls, values) -> 'TorqueMotor':
+        """From {``motor.<name>``: value}; missing names take their defaults."""
+        return cls(**{f: float(values.get('motor.' + name, MOTOR_DEFAULTS[name]))
+                      for f, name in cls.FIELDS.items()})
+
+    def __post_init__(self):
+        for name in ('K_t', 'R_w', 'I_max', 'b_v', 'T_c', 'omega_c', 'V_s'):
+            value = getattr(self, name)
+            positive = name not in ('b_v', 'T_c')
+            if not (isinstance(value, (int, float)) and math.isfinite(value)
+                    and (value > 0 or (not positive and value == 0))):
+                raise ParamError(f'motor.{self.FIELDS[name]}', value,
+                                 '(0, inf)' if positive else '[0, inf)')
+
+    def pack(self, current_cmd: float = 0.0) -> np.ndarray:
+        return np.array([kernels.SPINDLE_TORQUE, current_cmd, self.K_t, self.R_w, self.I_max,
+                         self.b_v, self.T_c, self.omega_c, self.V_s], dtype=float)
+
+    def current(self, omega: float, current_cmd: float) -> float:
+        """Winding current [A] at speed omega for the command (limits applied)."""
+        return float(kernels.PY.motor_current(float(omega), self.pack(current_cmd)))
+
+
 class StateError(RuntimeError):
     """The state became non-finite or left the sane envelope; integration stopped.
 
@@ -123,7 +172,8 @@ class Simulation:
     ----------
     params : DriveParams
     omega : float
-        Initial spindle speed [rad/s] (also the initial speed command).
+        Initial spindle speed [rad/s] (also the initial speed command; with a
+        :class:`TorqueMotor` the initial current command is 0 A).
     dt : float
         Step [s].
     spindle : ConstantSpeed | Ramp | SpindleMotor
@@ -141,7 +191,7 @@ class Simulation:
         self.t0 = float(t0)
         self.steps = 0
         self.spindle = SpindleMotor() if spindle is None else spindle
-        self.omega_cmd = float(omega)
+        self.omega_cmd = 0.0 if isinstance(self.spindle, TorqueMotor) else float(omega)
         self._set_params(params)
         self._y0 = initial_state(params, omega) if y0 is None else np.array(y0, dtype=float)
         self.reset(self._y0)
@@ -160,7 +210,31 @@ class Simulation:
         self.omega_cmd = float(omega_cmd)
         self._S = self.spindle.pack(self.omega_cmd)
 
+    def set_command(self, command: float) -> None:
+        """New spindle command, taken at the next step boundary: the speed [rad/s], or the
+        winding current [A] for a :class:`TorqueMotor`."""
+        self.set_speed_command(command)
+
+    @property
+    def motor_current(self) -> float:
+        """Winding current [A] of a :class:`TorqueMotor` now (NaN in speed modes)."""
+        if not isinstance(self.spindle, TorqueMotor):
+            return math.nan
+        return self.spindle.current(self.omega, self.omega_cmd)
+
+    @property
+    def motor_torque(self) -> float:
+        """Electromagnetic torque K_t i [N m] of a :class:`TorqueMotor` (NaN in speed
+        modes): joint_states.effort[0]."""
+        current = self.motor_current
+        return math.nan if math.isnan(current) else self.spindle.K_t * current
+
     def set_spindle(self, spindle) -> None:
+        """A new spindle model at the next step boundary. Into torque mode the command
+        becomes 0 A, out of it the present speed (:meth:`set_command` to choose)."""
+        torque = isinstance(spindle, TorqueMotor)
+        if torque != isinstance(self.spindle, TorqueMotor):
+            self.omega_cmd = 0.0 if torque else self.omega
         self.spindle = spindle
         self._S = spindle.pack(self.omega_cmd)
 

@@ -14,7 +14,9 @@ Packed inputs (plain float arrays, so the kernels stay free of Python objects):
     Spindle profile: ``[mode, omega_cmd, max_accel, tau, t0, t1, ramp_accel]`` with mode
     0 = constant speed (theta'' = 0, the paper's case), 1 = motor tracking omega_cmd as a
     first-order lag of time constant tau limited to +-max_accel, 2 = ramp: theta'' =
-    ramp_accel for t0 <= t < t1, else 0.
+    ramp_accel for t0 <= t < t1, else 0. Mode 3 = torque (theta free, docs/torque_mode.md):
+    ``[3, i_cmd, K_t, R_w, I_max, b_v, T_c, omega_c, V_s]`` (N_SPINDLE_TORQUE values), the
+    current command and the motor of :func:`motor_current` and :func:`spindle_torque`.
 
 State ``y = [q, q']`` with ``q = [theta, X, Y, Z, alpha, beta, gamma, phi_1..phi_n]``: the
 kernels index it with the offsets of :mod:`abb_ros.model.state` (DECK, PHI; N = PHI + n).
@@ -34,6 +36,8 @@ PARAM_ORDER = ('a', 'b', 'd', 'R', 'M_P', 'M', 'm', 'J_Px', 'J_Py', 'J_Pz', 'J_x
 N_PARAMS = len(PARAM_ORDER)
 N_SPINDLE = 7
 SPINDLE_CONSTANT, SPINDLE_MOTOR, SPINDLE_RAMP = 0, 1, 2
+SPINDLE_TORQUE = 3
+N_SPINDLE_TORQUE = 9
 
 # Envelope of sane states; outside it the small-angle model is meaningless and the
 # integration stops (docs/architecture.md, Errors). Deck translations in m, angles in rad,
@@ -237,9 +241,131 @@ def solve_deck(A, f, u):
     solve3(A, f, 2, 3, 4, u)
 
 @kernel
+def motor_current(omega, S):
+    """Winding current [A] of the current-commanded DC/BLDC drive (S of mode 3): the
+    command, limited by the supply voltage (R_w i + K_t omega within +-V_s, back-EMF
+    constant K_e = K_t in SI), then clipped to +-I_max (inductance neglected: the current
+    loop is much faster than the mechanics)."""
+    i = S[1]
+    K_t, R_w, i_max, V_s = S[2], S[3], S[4], S[8]
+    hi = (V_s - K_t * omega) / R_w
+    lo = (-V_s - K_t * omega) / R_w
+    if i > hi:
+        i = hi
+    elif i < lo:
+        i = lo
+    if i > i_max:
+        i = i_max
+    elif i < -i_max:
+        i = -i_max
+    return i
+
+
+@kernel
+def spindle_torque(omega, S):
+    """Q_theta [N m]: motor torque K_t i minus bearing friction b_v omega + T_c
+    tanh(omega / omega_c) (Coulomb friction smoothed over omega_c)."""
+    return S[2] * motor_current(omega, S) - S[5] * omega - S[6] * math.tanh(omega / S[7])
+
+
+@kernel
+def theta_row(y, n, P, a, col):
+    """The free-theta equation to first order in the deck coordinates (docs/torque_mode.md):
+
+        (J_z + I_r)(theta'' + gamma'') - S1 X'' + C1 Y'' + m R^2 sum phi_i'' = Q_theta,
+
+    I_r = M eps^2 + n m R^2, S1, C1 = sum mu r (sin, cos) psi over G and the balls. Fills
+    ``a`` (6) with its deck coefficients and ``col`` (6) with the coefficients of theta'' in
+    the deck rows of :func:`assemble` (the terms it moves to the right when theta'' is
+    known); returns J_z + I_r, the coefficient of theta'' (the balls' column is m R^2)."""
+    R, M, m, J_z, eps = P[3], P[5], P[6], P[12], P[16]
+    al, be, ga = y[DECK + 3], y[DECK + 4], y[DECK + 5]
+    S1 = 0.0
+    C1 = 0.0
+    for j in range(n + 1):
+        if j == 0:
+            mr = M * eps
+            psi = y[THETA]
+        else:
+            mr = m * R
+            psi = y[THETA] + y[PHI - 1 + j]
+        S1 += mr * math.sin(psi)
+        C1 += mr * math.cos(psi)
+    I_th = J_z + M * eps * eps + n * m * R * R
+    a[0] = -S1
+    a[1] = C1
+    a[2] = 0.0
+    a[3] = 0.0
+    a[4] = 0.0
+    a[5] = I_th
+    col[0] = -S1 - ga * C1
+    col[1] = C1 - ga * S1
+    col[2] = al * C1 + be * S1
+    col[3] = be * I_th
+    col[4] = 0.0
+    col[5] = I_th
+    return I_th
+
+
+@kernel
+def accel_free_theta(t, y, n, P, S, qdd, A, W, f, B, fb, u):
+    """q'' with theta a degree of freedom driven by Q_theta = :func:`spindle_torque`.
+
+    The deck and ball rows of :func:`assemble` (assembled with theta'' = 0, the column of
+    theta'' from :func:`theta_row`) and the theta row: the balls are eliminated from both
+    (block m R^2 I), the deck solved for the right-hand side and for theta'''s column
+    (:func:`solve_deck`), theta'' from the theta row (a scalar Schur complement, the
+    rotor inertia the motor sees), then back-substitution."""
+    N = PHI + n
+    assemble(y, n, P, 0.0, A, W, f, B, fb)
+    a = np.empty(6)
+    col = np.empty(6)
+    uc = np.empty(6)
+    I_th = theta_row(y, n, P, a, col)
+    Q = spindle_torque(y[N + THETA], S)
+    mR2 = P[6] * P[3] * P[3]
+    inv = 1.0 / mR2
+    for i in range(6):
+        for b in range(n):
+            w = W[i, b] * inv
+            if w != 0.0:
+                A[i, 0] -= w * B[b, 0]
+                A[i, 1] -= w * B[b, 1]
+                A[i, 5] -= w * B[b, 5]
+                f[i] -= w * fb[b]
+                col[i] -= w * mR2
+    for b in range(n):
+        # in the theta row, m R^2 phi_b'' = fb_b - B_b u - m R^2 theta''
+        a[0] -= B[b, 0]
+        a[1] -= B[b, 1]
+        a[5] -= B[b, 5]
+        Q -= fb[b]
+        I_th -= mR2
+    solve_deck(A, f, u)
+    solve_deck(A, col, uc)
+    num = Q
+    den = I_th
+    for i in range(6):
+        num -= a[i] * u[i]
+        den -= a[i] * uc[i]
+    thdd = num / den
+    qdd[THETA] = thdd
+    for i in range(6):
+        u[i] -= uc[i] * thdd
+        qdd[DECK + i] = u[i]
+    for b in range(n):
+        acc = fb[b] - mR2 * thdd
+        for j in range(6):
+            acc -= B[b, j] * u[j]
+        qdd[PHI + b] = acc * inv
+
+@kernel
 def accel(t, y, n, P, S, qdd, A, W, f, B, fb, u):
     """q'' at (t, y): eliminate the ball accelerations (their block is m R^2 I: Schur
     complement), solve the deck (:func:`solve_deck`), then back-substitute the balls."""
+    if S[0] == SPINDLE_TORQUE:
+        accel_free_theta(t, y, n, P, S, qdd, A, W, f, B, fb, u)
+        return
     N = PHI + n
     thdd = spindle_accel(t, y[N + THETA], S)
     assemble(y, n, P, thdd, A, W, f, B, fb)

@@ -231,6 +231,18 @@ def _imu(field, unit, description):
                      low=0.0, high=_INF, applies=_AT_STEP, nodes=_SIM, commands=_RUN)
 
 
+MOTOR_DEFAULTS = dict(torque_constant=0.01, resistance=2.0, current_limit=1.0,
+                      voltage_limit=12.0, viscous_friction=1.0e-7, coulomb_friction=1.0e-4,
+                      friction_smoothing=1.0)
+"""The spindle motor of torque mode (``motor.*``, docs/torque_mode.md): a small DC/BLDC
+spindle motor of an optical drive."""
+
+
+def _motor(field, unit, description, low_open=True):
+    return ParamSpec('motor.' + field, MOTOR_DEFAULTS[field], unit, description, low=0.0,
+                     low_open=low_open, high=_INF, applies=_AT_STEP, nodes=_SIM)
+
+
 SIMULATOR_SPECS = (
     ParamSpec('integration_rate_hz', 10000, 'Hz', 'fixed RK4 step rate; 1e9 must be a '
               'multiple of it (integer-nanosecond step)', INTEGER, 10, 10**7, read_only=True,
@@ -270,6 +282,17 @@ SIMULATOR_SPECS = (
     _imu('gyro_noise_density', 'rad/s/sqrt(Hz)', 'gyro white noise'),
     _imu('gyro_bias', 'rad/s', 'gyro turn-on bias std'),
     _imu('gyro_bias_random_walk', 'rad/s^2/sqrt(Hz)', 'gyro bias random walk'),
+    ParamSpec('spindle.mode', 'speed', '', 'speed: theta prescribed, spindle/speed_cmd '
+              'through the speed loop above; torque: theta free, driven by the motor.* '
+              'motor from spindle/current_cmd (docs/torque_mode.md)', STRING,
+              choices=('speed', 'torque'), applies=_AT_STEP, nodes=_SIM),
+    _motor('torque_constant', 'N m/A', 'K_t; the back-EMF constant K_e = K_t [V s/rad]'),
+    _motor('resistance', 'ohm', 'winding resistance R_w'),
+    _motor('current_limit', 'A', 'drive current limit I_max (commands beyond it saturate)'),
+    _motor('voltage_limit', 'V', 'supply voltage V_s: |R_w i + K_t omega| <= V_s'),
+    _motor('viscous_friction', 'N m s', 'bearing viscous friction b_v', low_open=False),
+    _motor('coulomb_friction', 'N m', 'bearing Coulomb friction T_c', low_open=False),
+    _motor('friction_smoothing', 'rad/s', 'speed omega_c of T_c tanh(omega / omega_c)'),
 )
 """The simulator node's own parameters (config/simulator.yaml)."""
 

@@ -10,6 +10,7 @@ drive this class, so the same seed, parameters and commands give the same sample
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -22,12 +23,14 @@ __all__ = ['Sample', 'PlantSampler']
 @dataclass(frozen=True)
 class Sample:
     """The plant at step ``steps``: ``y`` (state copy, shape (2N,)) when the state is due,
-    ``imu`` when the IMU is due (else None); ``n`` the ball count of ``y``."""
+    ``imu`` when the IMU is due (else None); ``n`` the ball count of ``y``; ``effort`` the
+    spindle motor's torque [N m] in torque mode (None in speed modes)."""
 
     steps: int
     n: int
     y: np.ndarray | None
     imu: ImuReading | None
+    effort: float | None = None
 
     def stamp_ns(self, dt_ns: int, epoch_ns: int = 0) -> int:
         """The exact time stamp [ns] of this sample: epoch + steps * dt."""
@@ -71,7 +74,9 @@ class PlantSampler:
             s = self.sim.layout
             qdd = self.sim.accelerations()
             reading = self.imu.read(self.sim.y[s.q], self.sim.y[s.qd], qdd)
-        return Sample(steps, self.sim.params.n, y, reading)
+        effort = self.sim.motor_torque if state_due else math.nan
+        return Sample(steps, self.sim.params.n, y, reading,
+                      None if math.isnan(effort) else effort)
 
     def next_period(self) -> list[Sample]:
         """Advance to the next state instant (a multiple of publish_every), returning every

@@ -23,6 +23,7 @@ from rclpy.parameter import Parameter
 
 from abb_ros.model.param_spec import (DOUBLE, DOUBLE_ARRAY, DRIVE_PREFIX, INTEGER, ParamSpec,
                                       check_rates, imu_config, specs_for)
+from abb_ros.model.integrate import SpindleMotor, TorqueMotor
 from abb_ros.model.params import DriveParams, ParamError
 from abb_ros.model.sensors import ImuConfig
 
@@ -104,6 +105,14 @@ class SimSettings:
     spindle_tau: float
     seed: int
     imu: ImuConfig
+    spindle_mode: str = 'speed'
+    motor: TorqueMotor = TorqueMotor()
+
+    def spindle(self):
+        """The Simulation's spindle: the speed loop, or the motor in torque mode."""
+        if self.spindle_mode == 'torque':
+            return self.motor
+        return SpindleMotor(self.spindle_max_accel, self.spindle_tau)
 
     @property
     def dt_ns(self) -> int:
@@ -157,7 +166,8 @@ def settings_from(values: Mapping[str, Any]) -> tuple[DriveParams, SimSettings]:
         initial_speed=float(values['spindle.initial_speed']),
         spindle_max_accel=float(values['spindle.max_accel']),
         spindle_tau=float(values['spindle.tau']), seed=int(values['seed']),
-        imu=imu_config(values))
+        imu=imu_config(values), spindle_mode=str(values['spindle.mode']),
+        motor=TorqueMotor.from_values(values))
     return drive, settings
 
 

@@ -30,7 +30,7 @@ from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 
 from abb_ros.io import ros_messages
-from abb_ros.model.integrate import Simulation, SpindleMotor, StateError, initial_state
+from abb_ros.model.integrate import Simulation, StateError, initial_state
 from abb_ros.model.sampling import PlantSampler
 from abb_ros.model.sensors import ImuModel
 from abb_ros.nodes import ros_params
@@ -57,7 +57,7 @@ class SimulatorNode(Node):
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._dt_ns = s.dt_ns
         self.sim = Simulation(self.drive, s.initial_speed, self._dt_ns * 1e-9,
-                              spindle=SpindleMotor(s.spindle_max_accel, s.spindle_tau))
+                              spindle=s.spindle())
         self.imu = ImuModel(s.imu, seed=s.seed)
         self.sampler = PlantSampler(self.sim, self.imu, s.publish_every, s.imu_every)
         _warm_up(self.sim)
@@ -69,14 +69,20 @@ class SimulatorNode(Node):
         self.pending_drive = self.drive
         self.fault = ''
         self.paused = s.start_paused
-        self.counters = dict(overruns=0, slips=0, commands_accepted=0, commands_refused=0)
+        self.counters = dict(overruns=0, slips=0, commands_accepted=0, commands_refused=0,
+                             commands_saturated=0)
         self.speed_cmd = s.initial_speed
+        self.current_cmd = 0.0
+        if s.spindle_mode == 'torque':
+            self.sim.set_command(0.0)
         self._params_changed = False
 
         self._pubs = {topic: self.create_publisher(kind, topic, QOS_DEPTH)
                       for topic, kind in ros_messages.TOPIC_TYPES.items()}
         self._reuse = {topic: kind() for topic, kind in ros_messages.TOPIC_TYPES.items()}
         self.create_subscription(Float64, 'spindle/speed_cmd', self._on_speed_cmd, QOS_DEPTH)
+        self.create_subscription(Float64, 'spindle/current_cmd', self._on_current_cmd,
+                                 QOS_DEPTH)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(SetBool, '~/pause', self._on_pause)
         self.create_service(Trigger, '~/step', self._on_step)
@@ -209,7 +215,31 @@ class SimulatorNode(Node):
             return
         self.counters['commands_accepted'] += 1
         self.speed_cmd = value
-        self.sim.set_speed_command(value)
+        if self.settings.spindle_mode == 'speed':
+            self.sim.set_speed_command(value)
+
+    def _on_current_cmd(self, msg: Float64) -> None:
+        """spindle/current_cmd [A] (torque mode): NaN/inf refused; beyond +-current_limit
+        saturated at the limit (as a real drive does) and counted."""
+        value = msg.data
+        limit = self.settings.motor.I_max
+        if not math.isfinite(value):
+            self.counters['commands_refused'] += 1
+            self.get_logger().warning(
+                f'refused spindle/current_cmd {value!r}: a finite current in A is valid; '
+                f'keeping {self.current_cmd:g} A', throttle_duration_sec=WARN_THROTTLE_S)
+            return
+        self.counters['commands_accepted'] += 1
+        if abs(value) > limit:
+            self.counters['commands_saturated'] += 1
+        self.current_cmd = value
+        if self.settings.spindle_mode == 'torque':
+            self.sim.set_command(value)
+
+    def _set_spindle(self, s) -> None:
+        """The spindle of settings s, with the command of its mode."""
+        self.sim.set_spindle(s.spindle())
+        self.sim.set_command(self.current_cmd if s.spindle_mode == 'torque' else self.speed_cmd)
 
     def _on_parameters_set(self, parameters) -> None:
         # Validated already; applied at the next step boundary by _apply_parameters.
@@ -229,7 +259,7 @@ class SimulatorNode(Node):
             self.drive = drive.replace(n=self.drive.n)
             self.get_logger().info(f'n = {drive.n} applies on ~/reset')
         self.sim.set_params(self.drive)
-        self.sim.set_spindle(SpindleMotor(s.spindle_max_accel, s.spindle_tau))
+        self._set_spindle(s)
         self.imu.reconfigure(s.imu)
         self.sampler.set_rates(s.publish_every, s.imu_every)
         if (s.real_time_factor, s.publish_rate_hz) != (old.real_time_factor,
@@ -243,8 +273,9 @@ class SimulatorNode(Node):
         s = self.settings
         self.drive = self.pending_drive
         self.sim.reset(y0=initial_state(self.drive, s.initial_speed), params=self.drive)
-        self.sim.set_speed_command(s.initial_speed)
         self.speed_cmd = s.initial_speed
+        self.current_cmd = 0.0
+        self._set_spindle(s)
         self.imu.seed = s.seed
         self.imu.reset()
         cleared = self.fault
@@ -302,7 +333,11 @@ class SimulatorNode(Node):
                       **self.counters, steps=self.sim.steps, sim_time=self.sim.t,
                       rbar=self.sim.rbar, omega=self.sim.omega,
                       wbar=self.drive.wbar(self.sim.omega), speed_cmd=self.speed_cmd,
+                      spindle_mode=self.settings.spindle_mode,
                       n=self.drive.n, paused=self.paused, fault=self.fault)
+        if self.settings.spindle_mode == 'torque':
+            values.update(current_cmd=self.current_cmd, motor_current=self.sim.motor_current,
+                          motor_torque=self.sim.motor_torque)
         self._pubs['/diagnostics'].publish(ros_messages.diagnostics(
             self.stamp_ns(), f'{self.get_fully_qualified_name()}: simulation', level,
             message, values))
