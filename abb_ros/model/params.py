@@ -99,6 +99,22 @@ PARAM_SPECS: dict[str, _Spec] = {
     'eps': _Spec('m', 'mass eccentricity of the rotor, epsilon', **_NONNEG),
     'n': _Spec('', 'number of balancing balls, n (0 = drive without ABB)',
                low=0, low_open=False, high=MAX_BALLS),
+    # ---- beyond the paper (issue 12, docs/beyond_the_paper.md); zero = the paper's model ----
+    'r_ball': _Spec('m', 'ball radius (0 = point balls, the paper); needed by contact and '
+                    'rolling resistance', **_NONNEG),
+    'contact_E': _Spec('Pa', "Young's modulus of the balls for the Hertzian ball-ball contact "
+                       '(0 = balls pass through each other, the paper; steel 2.0e11)', **_NONNEG),
+    'contact_nu': _Spec('', "Poisson's ratio of the balls (steel 0.3)", low=0.0, low_open=False,
+                        high=0.5),
+    'contact_damping': _Spec('s/m', 'Hunt-Crossley damping factor chi of the ball-ball contact: '
+                             'F = K delta^1.5 (1 + chi delta\')', **_NONNEG),
+    'rolling_mu': _Spec('m', 'rolling-resistance coefficient (lever arm) between ball and race '
+                        '(0 = none, the paper)', **_NONNEG),
+    'rolling_stick_rate': _Spec('rad/s', 'half-width of the Karnopp stick band of rolling '
+                                'resistance in phi_i\'', **_POS),
+    'ball_rotation': _Spec('', "1 = the balls roll on the race (their spin inertia "
+                           '2/5 m r_ball^2 adds 2/5 m R^2 to the ball mass term), 0 = the paper',
+                           low=0, low_open=False, high=1),
 }
 
 DIMENSIONLESS_NAMES = ('mbar', 'epsbar', 'zeta', 'Dbar', 'wbar')
@@ -130,6 +146,14 @@ class DriveParams:
     D: float = 5e-6
     eps: float = 0.25e-3
     n: int = 2
+    # ---- beyond the paper (issue 12); zero = the paper's model --------------------------------
+    r_ball: float = 0.0
+    contact_E: float = 0.0
+    contact_nu: float = 0.3
+    contact_damping: float = 0.0
+    rolling_mu: float = 0.0
+    rolling_stick_rate: float = 1e-3
+    ball_rotation: int = 0
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
@@ -142,6 +166,41 @@ class DriveParams:
             if not self.n.is_integer():
                 raise ParamError('n', self.n, PARAM_SPECS['n'].valid_text(), 'not an integer')
             object.__setattr__(self, 'n', int(self.n))
+        self._check_beyond_paper()
+
+    def _check_beyond_paper(self):
+        """Consistency of the issue-12 terms: what needs a ball size, and whether balls fit."""
+        if float(self.ball_rotation) not in (0.0, 1.0):
+            raise ParamError('ball_rotation', self.ball_rotation, '0 or 1')
+        object.__setattr__(self, 'ball_rotation', int(self.ball_rotation))
+        for name in ('contact_E', 'rolling_mu'):
+            if getattr(self, name) > 0 and self.r_ball <= 0:
+                raise ParamError('r_ball', self.r_ball, '(0, R) m',
+                                 f'{name} > 0 needs a ball radius')
+        if self.r_ball >= self.R:
+            raise ParamError('r_ball', self.r_ball, f'[0, R = {self.R:g}) m')
+        if self.contact_E > 0 and self.n * 2.0 * math.asin(self.r_ball / self.R) > 2 * math.pi:
+            raise ParamError('r_ball', self.r_ball,
+                             f'at most R sin(pi/n) = {self.R * math.sin(math.pi / self.n):g} m',
+                             f'{self.n} balls of this size do not fit on the race')
+
+    @property
+    def beyond_paper(self) -> tuple[str, ...]:
+        """Names of the active issue-12 terms (contact, rolling resistance, ball rotation):
+        terms the paper's equations and its linear analysis do not have."""
+        active = []
+        if self.contact_E > 0:
+            active.append('contact')
+        if self.rolling_mu > 0:
+            active.append('rolling_mu')
+        if self.ball_rotation:
+            active.append('ball_rotation')
+        return tuple(active)
+
+    @property
+    def contact_separation(self) -> float:
+        """Smallest angular separation of two touching balls, 2 asin(r_ball / R) [rad]."""
+        return 2.0 * math.asin(self.r_ball / self.R)
 
     # ---- derived quantities -------------------------------------------------------------
     @property
