@@ -91,7 +91,7 @@ def lagrange_residual(params: DriveParams, y, qdd, kern=None) -> np.ndarray:
     kern.assemble(y, n, kernels.pack_params(params), float(qdd[0]), A, W, f, B, fb)
     u = qdd[1:7]
     phidd = qdd[7:]
-    mR2 = params.m * params.R ** 2
+    mR2 = params.m * params.R ** 2 * (1.4 if params.ball_rotation else 1.0)   # 7/5: rolling
     deck = A @ u + W[:, :n] @ phidd - f
     balls = B[:n] @ u + mR2 * phidd - fb[:n]
     return np.concatenate([deck, balls])

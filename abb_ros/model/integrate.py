@@ -230,6 +230,17 @@ class Simulation:
         return n_coords(self.params.n)
 
     @property
+    def refined_steps(self) -> int:
+        """Steps integrated in contact sub-steps since the last parameter change (issue 12:
+        the step is refined automatically while balls touch)."""
+        return int(self._work[6, 0])
+
+    @property
+    def max_substeps(self) -> int:
+        """Most sub-steps taken in one step since the last parameter change (1: none)."""
+        return max(1, int(self._work[6, 1]))
+
+    @property
     def theta(self) -> float:
         return float(self.y[0])
 

@@ -124,7 +124,7 @@ def drive_descriptor(name: str) -> ParameterDescriptor:
     d = ParameterDescriptor(description=f'{spec.description} [{spec.unit or "-"}]; valid '
                             f'{spec.valid_text()}' + ('; a change applies on ~/reset'
                                                       if name == 'n' else ''))
-    if name == 'n':
+    if name in ('n', 'ball_rotation'):         # integer parameters
         d.integer_range = [IntegerRange(from_value=int(spec.low), to_value=int(spec.high),
                                         step=1)]
     else:

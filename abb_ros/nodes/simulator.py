@@ -302,7 +302,8 @@ class SimulatorNode(Node):
                       **self.counters, steps=self.sim.steps, sim_time=self.sim.t,
                       rbar=self.sim.rbar, omega=self.sim.omega,
                       wbar=self.drive.wbar(self.sim.omega), speed_cmd=self.speed_cmd,
-                      n=self.drive.n, paused=self.paused, fault=self.fault)
+                      n=self.drive.n, paused=self.paused, fault=self.fault,
+                      contact_refined_steps=self.sim.refined_steps)
         self._pubs['/diagnostics'].publish(ros_messages.diagnostics(
             self.stamp_ns(), f'{self.get_fully_qualified_name()}: simulation', level,
             message, values))

@@ -1,0 +1,63 @@
+"""Real-time factor of the fixed-step RK4 with and without issue 12's terms (n = 10).
+
+P3 with ten balls (config/scenarios/p3_n10_scattered.yaml: m = 0.156 g each, wbar = 2.7, metal
+washers, the scattered start that leaves room for balls of steel size, r_ball = 1.67 mm), at
+the node's default step (10 kHz), integration alone (the compiled kernels), for:
+- the paper's model;
+- steel balls with Hertzian contact;
+- contact + rolling resistance (1e-6 m) + rolling-ball spin inertia;
+- the same from a chain start (ten balls touching side by side at 0.1 deg beyond contact: the
+  worst case, contact sub-steps in every step while they part).
+The node keeps real time when the factor is above 1 (its own overhead is small: see
+benchmarks/bench_simulator_node.py). Nothing is asserted (shared, noisy machines).
+
+Run: nice -n 10 .venv/bin/python benchmarks/bench_contact.py [--seconds 2]
+"""
+
+import argparse
+import math
+import time
+
+import numpy as np
+
+from abb_ros.io.scenario import load_scenario
+from abb_ros.model.beyond import with_steel_balls
+from abb_ros.model.integrate import DEFAULT_DT, ConstantSpeed, Simulation, initial_state
+
+
+def _rtf(params, omega, phi0, seconds):
+    y0 = initial_state(params, omega, phi0=phi0)
+    nsteps = int(round(seconds / DEFAULT_DT))
+    best = math.inf
+    sim = None
+    for _ in range(2):
+        sim = Simulation(params, omega, DEFAULT_DT, spindle=ConstantSpeed(), y0=y0)
+        sim.advance(1)                   # compile outside the timing
+        t0 = time.perf_counter()
+        sim.advance(nsteps)
+        best = min(best, time.perf_counter() - t0)
+    return seconds / best, sim
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
+    parser.add_argument('--seconds', type=float, default=2.0)
+    args = parser.parse_args()
+    scenario = load_scenario('p3_n10_scattered')
+    paper = scenario.params
+    steel = with_steel_balls(paper)
+    full = with_steel_balls(paper, rolling_mu=1e-6, rotation=True)
+    chain = np.arange(10) * (steel.contact_separation + math.radians(0.1))
+    print(f'n = 10, P3, {args.seconds:g} s per run, RK4 at {DEFAULT_DT * 1e6:g} us, '
+          f'r_ball = {steel.r_ball * 1e3:.3f} mm')
+    for label, params, phi0 in (('paper model', paper, scenario.phi0),
+                                ('contact', steel, scenario.phi0),
+                                ('contact + rolling + rotation', full, scenario.phi0),
+                                ('contact + rolling + rotation, chain start', full, chain)):
+        rtf, sim = _rtf(params, scenario.omega, phi0, args.seconds)
+        print(f'  {label:42s} real-time factor {rtf:7.2f}x   refined steps '
+              f'{sim.refined_steps:6d}   max sub-steps {sim.max_substeps}')
+
+
+if __name__ == '__main__':
+    main()
