@@ -4,6 +4,7 @@
     .venv/bin/python scripts/beyond_the_paper.py p1        # contact at P1 (~2 min)
     .venv/bin/python scripts/beyond_the_paper.py rolling   # rbar residual vs rolling_mu (~15 min)
     .venv/bin/python scripts/beyond_the_paper.py spinup    # spin-up trap table (~10 min)
+    .venv/bin/python scripts/beyond_the_paper.py collision # impact and energy ledger (~1 min)
 
 Balls: solid steel of the scenario's mass (abb_ros.model.beyond.with_steel_balls). Figures go
 to docs/figures/beyond/; tables are printed (Markdown).
@@ -189,12 +190,58 @@ def study_spinup():
     fig.savefig(os.path.join(FIG_DIR, 'spinup_trap.png'), dpi=110)
 
 
+def study_collision():
+    """Clamped race: an elastic head-on impact (momentum) and a damped one with rolling
+    resistance (energy ledger). Figures collision.png and energy_ledger.png."""
+    from abb_ros.model.beyond import clamped_race, collision_state, race_energy_ledger
+    from abb_ros.model.integrate import ConstantSpeed, Simulation
+    plt = _plt()
+    fig, ax = plt.subplots(1, 2, figsize=(10, 3.8))
+    dt = 1e-7
+    params = clamped_race()
+    y0 = collision_state(params, 0.0, gap=1e-6, speed=0.05)
+    sim = Simulation(params, 0.0, dt=dt, spindle=ConstantSpeed(), y0=y0)
+    ys = np.concatenate([y0[None], sim.trajectory(1000, 1)])
+    t = np.arange(len(ys)) * dt * 1e6
+    v = ys[:, 16:18] * params.R
+    p = params.m * params.R * v.sum(axis=1)
+    print(f'elastic impact at 0.05 m/s, dt = {dt:g} s: speeds after {v[-1]} m/s; momentum '
+          f'change {abs(p[-1] - p[0]) / p[0]:.2e} relative')
+    ax[0].plot(t, v[:, 0], label='ball 1')
+    ax[0].plot(t, v[:, 1], label='ball 2')
+    ax[0].plot(t, p / (params.m * params.R) / 1, 'k:', label='momentum / (m R)')
+    ax[0].set_xlabel('t [us]')
+    ax[0].set_ylabel('R phi_i\' [m/s]')
+    ax[0].set_title('clamped race, elastic Hertz impact')
+    ax[0].legend(fontsize=7)
+    params = clamped_race(rolling_mu=1e-5, contact_damping=0.5, D=5e-6)
+    omega = 811.0
+    y0 = collision_state(params, omega, gap=1e-6, speed=0.05)
+    sim = Simulation(params, omega, dt=dt, spindle=ConstantSpeed(), y0=y0)
+    ys = np.concatenate([y0[None], sim.trajectory(40000, 1)])
+    led = race_energy_ledger(params, omega, ys, dt)
+    ref = abs(led['input'][-1])
+    for key in ('input', 'kinetic', 'potential', 'dissipated'):
+        ax[1].plot(led['t'] * 1e3, led[key] / ref, label=key)
+    ax[1].plot(led['t'] * 1e3, led['residual'] / ref * 1e6, 'k', label='residual x 1e6')
+    ax[1].set_xlabel('t [ms]')
+    ax[1].set_ylabel('energy / |input work|')
+    ax[1].set_title('811 rad/s, chi = 0.5 s/m, mu = 1e-5 m')
+    ax[1].legend(fontsize=7)
+    print(f'damped impact with rolling: input {led["input"][-1]:.6e} J, dissipated '
+          f'{led["dissipated"][-1]:.6e} J, largest |residual| {np.abs(led["residual"]).max():.3e} '
+          f'J = {np.abs(led["residual"]).max() / ref:.2e} of the input')
+    fig.tight_layout()
+    fig.savefig(os.path.join(FIG_DIR, 'collision_energy.png'), dpi=110)
+
+
 def main(argv=None):
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument('study', choices=('p1', 'rolling', 'spinup'))
+    parser.add_argument('study', choices=('p1', 'rolling', 'spinup', 'collision'))
     args = parser.parse_args(argv)
     os.makedirs(FIG_DIR, exist_ok=True)
-    {'p1': study_p1, 'rolling': study_rolling, 'spinup': study_spinup}[args.study]()
+    {'p1': study_p1, 'rolling': study_rolling, 'spinup': study_spinup,
+     'collision': study_collision}[args.study]()
     return 0
 
 

@@ -13,30 +13,17 @@ import numpy as np
 import pytest
 
 from abb_ros.model import kernels
-from abb_ros.model.beyond import STEEL_E, steel_ball_radius
+from abb_ros.model.beyond import STEEL_E, clamped_race, collision_state, race_energy_ledger
 from abb_ros.model.integrate import ConstantSpeed, Ramp, Simulation, initial_state
 from abb_ros.model.params import DriveParams, ParamError
 
 M_BALL = 0.78e-3
 """P1/P3 ball mass (mbar = 0.03) [kg]; steel radius 2.873 mm."""
-HEAVY = 1e9
 
 
 def clamped(**kw):
-    """Drive with an immovable deck and rotor (see the module docstring), two steel balls."""
-    base = dict(n=2, m=M_BALL, eps=0.0, D=0.0, M_P=HEAVY, J_Px=HEAVY, J_Py=HEAVY, J_Pz=HEAVY,
-                r_ball=steel_ball_radius(M_BALL),
-                contact_E=STEEL_E, contact_nu=0.3)
-    base.update(kw)
-    return DriveParams(**base)
-
-
-def two_balls(params, omega, gap, speed):
-    """Ball 1 at 0 moving towards ball 2 (at rest, gap [m] beyond contact) at speed [m/s]."""
-    sep = params.contact_separation + gap / params.R
-    y = initial_state(params, omega, phi0=[0.0, sep], deck0=(0.0,) * 6)
-    y[7 + 2 + 7] = speed / params.R
-    return y
+    """Two steel balls on a race whose deck cannot move (see the module docstring)."""
+    return clamped_race(2, M_BALL, **kw)
 
 
 def momentum(params, y):
@@ -52,7 +39,7 @@ def test_head_on_collision_conserves_momentum_along_the_race(rotation):
     step is refined automatically (sub-steps), the momentum along the race is conserved to
     1e-9 relative and the equal balls exchange their velocities (to 1e-3)."""
     params = clamped(ball_rotation=rotation)
-    y0 = two_balls(params, 0.0, gap=1e-6, speed=0.05)
+    y0 = collision_state(params, 0.0, gap=1e-6, speed=0.05)
     sim = Simulation(params, 0.0, spindle=ConstantSpeed(), y0=y0)
     sim.advance(20)                                           # 2 ms: the contact lasts ~30 us
     p0, p1 = momentum(params, y0), momentum(params, sim.y)
@@ -117,12 +104,6 @@ def test_contact_and_rolling_need_a_ball_radius_and_balls_must_fit():
         DriveParams(ball_rotation=0.5)
 
 
-def _simpson(y, dx):
-    """Composite Simpson over an odd number of equally spaced samples."""
-    assert len(y) % 2 == 1
-    return dx / 3 * (y[0] + y[-1] + 4 * y[1:-1:2].sum() + 2 * y[2:-1:2].sum())
-
-
 def test_energy_of_a_collision_with_contact_damping_and_rolling_resistance_closes():
     """Clamped race at P3's speed (811 rad/s): ball 1 hits ball 2 at 0.05 m/s with Hunt-Crossley
     damping (chi = 0.5 s/m), ball drag D and rolling resistance (mu = 1e-5 m, both balls end
@@ -137,29 +118,14 @@ def test_energy_of_a_collision_with_contact_damping_and_rolling_resistance_close
     params = clamped(rolling_mu=1e-5, contact_damping=0.5, D=5e-6)
     omega = 811.0
     dt = 1e-7
-    y0 = two_balls(params, omega, gap=1e-6, speed=0.05)
+    y0 = collision_state(params, omega, gap=1e-6, speed=0.05)
     sim = Simulation(params, omega, dt=dt, spindle=ConstantSpeed(), y0=y0)
-    steps = 40000                                             # 4 ms: both balls stop
-    ys = np.concatenate([y0[None], sim.trajectory(steps, 1)])
-    N = 9
-    mR2 = params.m * params.R ** 2
-    P = kernels.pack_params(params)
-    S = ConstantSpeed().pack(omega)
-    Qc, Qf = np.empty(2), np.empty(2)
-    V = np.empty(len(ys))
-    dissipated = np.empty(len(ys))
-    for k, y in enumerate(ys):
-        V[k], contact_power = kernels.JIT.ball_forces(k * dt, y, 2, P, S, Qc, Qf)
-        rates = y[N + 7:]
-        dissipated[k] = (params.D * (rates ** 2).sum() + contact_power - (Qf * rates).sum())
-    T = 0.5 * mR2 * ((omega + ys[:, N + 7:]) ** 2).sum(axis=1)
-    L = mR2 * (omega + ys[:, N + 7:]).sum(axis=1)
-    w_in = omega * (L[-1] - L[0])
-    w_diss = _simpson(dissipated, dt)
-    residual = w_in - (T[-1] - T[0]) - (V[-1] - V[0]) - w_diss
-    print(f'input {w_in:.9e} J, kinetic {T[-1] - T[0]:.9e} J, potential {V[-1] - V[0]:.3e} J, '
-          f'dissipated {w_diss:.9e} J, residual {residual:.3e} J '
+    ys = np.concatenate([y0[None], sim.trajectory(40000, 1)])   # 4 ms: both balls stop
+    led = race_energy_ledger(params, omega, ys, dt)
+    w_in, w_diss, residual = led['input'][-1], led['dissipated'][-1], led['residual'][-1]
+    print(f'input {w_in:.9e} J, kinetic {led["kinetic"][-1]:.9e} J, potential '
+          f'{led["potential"][-1]:.3e} J, dissipated {w_diss:.9e} J, residual {residual:.3e} J '
           f'({abs(residual / w_in):.2e} of the input, {abs(residual / w_diss):.2e} of the '
           'dissipated)')
-    assert np.all(np.abs(ys[-1, N + 7:]) < params.rolling_stick_rate)       # both stuck
+    assert np.all(np.abs(ys[-1, 9 + 7:]) < params.rolling_stick_rate)       # both stuck
     assert w_diss > 0 and abs(residual) < 1e-6 * abs(w_in)

@@ -18,10 +18,9 @@ import pytest
 import lagrange_sympy as L
 from abb_ros.io.scenario import load_scenario
 from abb_ros.model import kernels
-from abb_ros.model.beyond import with_steel_balls
+from abb_ros.model.beyond import simpson, with_steel_balls
 from abb_ros.model.dynamics import solver_buffers
 from abb_ros.model.integrate import ConstantSpeed, Simulation, initial_state
-from test_beyond_contact import _simpson
 
 SECONDS = 2.0
 START_DEG = (30.0, 60.0)
@@ -52,13 +51,13 @@ def ledger(deck_scale):
         rolling[k] = -(Qf * y[N + 7:]).sum()
     T, V, F, tau = L.compiled_energy_terms(n)(list(ys[:, :N].T), list(ys[:, N:].T), list(qdd.T),
                                                L._pack(params))
-    w_in = _simpson(ys[:, N] * tau, dt)
-    w_diss = _simpson(2 * F + rolling, dt)
+    w_in = simpson(ys[:, N] * tau, dt)
+    w_diss = simpson(2 * F + rolling, dt)
     kinetic, potential = T[-1] - T[0], V[-1] - V[0] + V_c[-1] - V_c[0]
     residual = w_in - kinetic - potential - w_diss
     return dict(w_in=w_in, kinetic=kinetic, potential=potential, w_diss=w_diss,
                 residual=residual, relative=residual / w_in, contacts=sim.refined_steps,
-                rolling=_simpson(rolling, dt))
+                rolling=simpson(rolling, dt))
 
 
 @pytest.mark.slow

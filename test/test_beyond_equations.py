@@ -53,7 +53,7 @@ def test_beyond_paper_kernels_are_the_first_order_expansion_of_the_extended_ener
 
 def test_contact_state_really_overlaps_and_pushes_the_balls_apart():
     """The contact states of the test above exercise the contact force: Q_2 = -Q_1 > 0 and of
-    the size K delta^1.5 R cos(dphi/2) (not a vacuous comparison)."""
+    the size K delta^1.5 R (not a vacuous comparison)."""
     from abb_ros.model import kernels
     params, y, _, _ = next(beyond_states(2, True, seed=1))
     P = kernels.pack_params(params)
@@ -61,5 +61,6 @@ def test_contact_state_really_overlaps_and_pushes_the_balls_apart():
     energy, _ = kernels.JIT.contact_forces(y, 2, P, Qc)
     K = kernels.JIT.contact_stiffness(P)
     assert Qc[1] == pytest.approx(-Qc[0])
-    assert Qc[1] == pytest.approx(K * OVERLAP ** 1.5 * params.R, rel=0.05)
+    # K delta^1.5 R cos(dphi/2) (1 + chi delta'): cos(11 deg) = 0.98, chi delta' within 10 %
+    assert 0.8 < Qc[1] / (K * OVERLAP ** 1.5 * params.R) < 1.1
     assert energy == pytest.approx(0.4 * K * OVERLAP ** 2.5, rel=1e-6)
