@@ -221,11 +221,15 @@ def study_collision():
     ys = np.concatenate([y0[None], sim.trajectory(40000, 1)])
     led = race_energy_ledger(params, omega, ys, dt)
     ref = abs(led['input'][-1])
-    for key in ('input', 'kinetic', 'potential', 'dissipated'):
-        ax[1].plot(led['t'] * 1e3, led[key] / ref, label=key)
-    ax[1].plot(led['t'] * 1e3, led['residual'] / ref * 1e6, 'k', label='residual x 1e6')
+    scale = led['dissipated'][-1]
+    t_ms = led['t'] * 1e3
+    ax[1].plot(t_ms, (led['input'] - led['kinetic'] - led['potential']) / scale,
+               label='input - kinetic - potential')
+    ax[1].plot(t_ms, led['dissipated'] / scale, '--', label='dissipated')
+    ax[1].plot(t_ms, led['potential'] / scale * 100, label='contact potential x 100')
+    ax[1].plot(t_ms, led['residual'] / ref * 1e8, 'k', label='residual / |input| x 1e8')
     ax[1].set_xlabel('t [ms]')
-    ax[1].set_ylabel('energy / |input work|')
+    ax[1].set_ylabel('energy / dissipated energy')
     ax[1].set_title('811 rad/s, chi = 0.5 s/m, mu = 1e-5 m')
     ax[1].legend(fontsize=7)
     print(f'damped impact with rolling: input {led["input"][-1]:.6e} J, dissipated '

@@ -39,7 +39,7 @@ def test_p1_balls_sit_touching_at_the_contact_separation_and_never_overlap():
     """Fig. 9 with steel balls: instead of merging into one, the balls gather side by side,
     2 asin(r/R) = 22.087 deg apart (less the Hertz compression under the gathering force, a few
     nm), and the compression over the whole run stays far below the ball size (< 1e-4 r)."""
-    p, result, rbar = _run('p1')
+    p, result, rbar = _run('p1', duration=5.0)          # gathered within 1 s
     phi = result.y[:, 7:9]
     sep = np.abs(((phi[:, 1] - phi[:, 0]) + math.pi) % (2 * math.pi) - math.pi)
     compression = 2 * p.r_ball - 2 * p.R * np.sin(sep / 2)

@@ -433,8 +433,11 @@ def rolling_threshold(y, n, P, b):
 def accel_rolling(y, n, P, mR2, qdd, A, W, f, B, fb, u, Qf):
     """q'' (deck and balls) with rolling resistance: Coulomb with a Karnopp stick band.
 
-    Outside the band |phi_b'| >= rolling_stick_rate the ball slips: Qf_b = -Qmax_b sign(phi_b').
-    Inside it the ball sticks: phi_b'' = -phi_b' / STICK_TIME, and Qf_b is whatever force
+    Band: |phi_b'| < max(rolling_stick_rate, Qmax_b / (m_eff R^2) STICK_TIME), i.e. speeds
+    the rolling resistance alone would take away within STICK_TIME count as rest (a slipping
+    ball cannot jump across the band in one step of dt <= STICK_TIME; a narrower band makes
+    it chatter around zero speed). Outside the band the ball slips: Qf_b = -Qmax_b
+    sign(phi_b'). Inside it the ball sticks: phi_b'' = -phi_b' / STICK_TIME, and Qf_b is whatever force
     that takes (solved with the deck, all balls coupled) while |Qf_b| <= Qmax_b; where it
     would exceed Qmax_b the ball breaks free with Qf_b = Qmax_b sign(Qf_b), and the rest are
     solved again (at most n + 1 solves). Qf receives the forces.
@@ -449,7 +452,10 @@ def accel_rolling(y, n, P, mR2, qdd, A, W, f, B, fb, u, Qf):
     for b in range(n):
         rate = y[N + 7 + b]
         Qmax[b] = rolling_threshold(y, n, P, b)
-        if abs(rate) < P[I_STICK_RATE]:
+        # the band: rolling_stick_rate, or the speed the rolling resistance alone takes away
+        # in STICK_TIME if larger (so that a step of dt <= STICK_TIME cannot jump across it)
+        band = max(P[I_STICK_RATE], Qmax[b] * inv * STICK_TIME)
+        if abs(rate) < band:
             stuck[b] = True
             target[b] = -rate / STICK_TIME
             Qf[b] = 0.0
