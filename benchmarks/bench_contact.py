@@ -6,8 +6,10 @@ the node's default step (10 kHz), integration alone (the compiled kernels), for:
 - the paper's model;
 - steel balls with Hertzian contact;
 - contact + rolling resistance (1e-6 m) + rolling-ball spin inertia;
-- the same from a chain start (ten balls touching side by side at 0.1 deg beyond contact: the
-  worst case, contact sub-steps in every step while they part).
+- the same from a chain start (ten balls touching side by side at 0.1 deg beyond contact:
+  contact sub-steps in many steps while they part);
+- P1 (wbar = 0.8) from the scattered start, paper model vs contact: the balls gather into a
+  touching chain and stay in contact (the worst case: ~20 sub-steps in every step).
 The node keeps real time when the factor is above 1 (its own overhead is small: see
 benchmarks/bench_simulator_node.py). Nothing is asserted (shared, noisy machines).
 
@@ -50,11 +52,15 @@ def main():
     chain = np.arange(10) * (steel.contact_separation + math.radians(0.1))
     print(f'n = 10, P3, {args.seconds:g} s per run, RK4 at {DEFAULT_DT * 1e6:g} us, '
           f'r_ball = {steel.r_ball * 1e3:.3f} mm')
-    for label, params, phi0 in (('paper model', paper, scenario.phi0),
-                                ('contact', steel, scenario.phi0),
-                                ('contact + rolling + rotation', full, scenario.phi0),
-                                ('contact + rolling + rotation, chain start', full, chain)):
-        rtf, sim = _rtf(params, scenario.omega, phi0, args.seconds)
+    p1 = 0.8 * paper.omega0
+    for label, params, phi0, omega in (
+            ('paper model', paper, scenario.phi0, scenario.omega),
+            ('contact', steel, scenario.phi0, scenario.omega),
+            ('contact + rolling + rotation', full, scenario.phi0, scenario.omega),
+            ('contact + rolling + rotation, chain start', full, chain, scenario.omega),
+            ('P1: paper model', paper, scenario.phi0, p1),
+            ('P1: contact (balls gather, touching)', steel, scenario.phi0, p1)):
+        rtf, sim = _rtf(params, omega, phi0, args.seconds)
         print(f'  {label:42s} real-time factor {rtf:7.2f}x   refined steps '
               f'{sim.refined_steps:6d}   max sub-steps {sim.max_substeps}')
 
