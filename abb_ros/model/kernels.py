@@ -437,10 +437,10 @@ def accel_rolling(y, n, P, mR2, qdd, A, W, f, B, fb, u, Qf):
     the rolling resistance alone would take away within STICK_TIME count as rest (a slipping
     ball cannot jump across the band in one step of dt <= STICK_TIME; a narrower band makes
     it chatter around zero speed). Outside the band the ball slips: Qf_b = -Qmax_b
-    sign(phi_b'). Inside it the ball sticks: phi_b'' = -phi_b' / STICK_TIME, and Qf_b is whatever force
-    that takes (solved with the deck, all balls coupled) while |Qf_b| <= Qmax_b; where it
-    would exceed Qmax_b the ball breaks free with Qf_b = Qmax_b sign(Qf_b), and the rest are
-    solved again (at most n + 1 solves). Qf receives the forces.
+    sign(phi_b'). Inside it the ball sticks: phi_b'' = -phi_b' / STICK_TIME, and Qf_b is
+    whatever force that takes (solved with the deck, all balls coupled) while |Qf_b| <= Qmax_b;
+    where it would exceed Qmax_b the ball breaks free with Qf_b = Qmax_b sign(Qf_b), and the
+    rest are solved again (at most n + 1 solves). Qf receives the forces.
     """
     N = 7 + n
     A0 = A.copy()
