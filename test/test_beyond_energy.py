@@ -26,7 +26,7 @@ from abb_ros.model.dynamics import solver_buffers
 from abb_ros.model.integrate import ConstantSpeed, Simulation, initial_state
 
 SECONDS = 0.5
-START_DEG = (30.0, 60.0)
+START_DEG = (30.0, 53.0)
 """Both balls on one side, 30 deg apart (contact at 22.09 deg); ball 1 starts towards ball 2
 at 30 rad/s, so they collide within ~5 ms, then head for +-phi*."""
 
