@@ -9,9 +9,10 @@ Two things keep the balance of a full P3 run from closing to 1e-6 (docs/beyond_t
 Energy): the simulated equations are first order in the deck coordinates (Eqs. 18-24), which
 is not exactly variational (the ball rows drop terms of second order in the deck motion, whose
 power does not vanish), and the rolling resistance switches sign (Coulomb) inside RK4 steps,
-where the integrator is first order. The paper's model alone closes to ~1e-5 over 0.5 s; with
-rolling resistance the residual is the switching error and falls with the step. What closes to
-1e-6 without either is the clamped race:
+where the integrator is first order. The paper's model alone closes to ~1e-4 over 0.5 s; with
+rolling resistance the residual is the switching error and falls with the step. Counting the
+work of the dropped terms closes the paper model's balance to 1e-6; without either effect the
+clamped race closes to 1e-6 directly:
 test_beyond_contact.test_energy_of_a_collision_with_contact_damping_and_rolling_resistance_closes.
 """
 
@@ -31,7 +32,7 @@ START_DEG = (30.0, 53.0)
 at 30 rad/s, so they collide within ~5 ms, then head for +-phi*."""
 
 
-def ledger(params, dt=1e-4, kick=30.0):
+def ledger(params, dt=1e-4, kick=30.0, truncation=False):
     scenario = load_scenario('p3')
     omega = scenario.omega
     n, N = params.n, 7 + params.n
@@ -56,9 +57,18 @@ def ledger(params, dt=1e-4, kick=30.0):
     w_diss = simpson(2 * F + rolling, dt)
     kinetic, potential = T[-1] - T[0], V[-1] - V[0] + V_c[-1] - V_c[0]
     residual = w_in - kinetic - potential - w_diss
-    return dict(w_in=w_in, kinetic=kinetic, potential=potential, w_diss=w_diss,
-                rolling=simpson(rolling, dt), residual=residual, relative=residual / w_in,
-                refined_steps=sim.refined_steps)
+    row = dict(w_in=w_in, kinetic=kinetic, potential=potential, w_diss=w_diss,
+               rolling=simpson(rolling, dt), residual=residual, relative=residual / w_in,
+               refined_steps=sim.refined_steps)
+    if truncation:
+        # power of the terms the first-order equations drop: the exact Lagrange rows (with F)
+        # vanish at first order along the trajectory, so what is left of them is the dropped
+        # part, and residual = -(its work)
+        power = np.array([np.dot(y[N + 1:], L.exact_residual(params, y, a))
+                          for y, a in zip(ys, qdd)])
+        row['truncation_work'] = simpson(power, dt)
+        row['closed'] = (residual + row['truncation_work']) / w_in
+    return row
 
 
 def _show(name, row):
@@ -66,22 +76,27 @@ def _show(name, row):
 
 
 @pytest.mark.slow
-def test_p3_energy_bookkeeping_of_the_paper_model_closes_to_its_truncation():
+def test_p3_energy_bookkeeping_of_the_paper_model_closes_once_the_truncation_is_counted():
     """All new terms off (r_ball = 1 mm alone changes nothing; the sympy spin energy needs it
-    finite): the first-order truncation leaves ~1e-5 of the input work over 0.5 s."""
+    finite). Measured: the balance leaves 1.2e-4 of the input work over 0.5 s whatever the step
+    (1e-4, 2.5e-5, 1e-5 s: docs/beyond_the_paper.md), the work of the terms the paper's
+    first-order equations drop; adding that work (from the exact Lagrange rows) closes it to
+    1e-6."""
     params = load_scenario('p3').params.replace(r_ball=1e-3)
     assert params.beyond_paper == ()
-    row = ledger(params)
+    row = ledger(params, truncation=True)
     _show('paper model', row)
-    assert abs(row['relative']) < 3e-5
+    assert 1e-5 < abs(row['relative']) < 1e-3
+    assert abs(row['closed']) < 1e-6
 
 
 @pytest.mark.slow
 def test_p3_energy_bookkeeping_with_contact_and_rolling_closes_as_the_step_falls():
     """Steel balls with contact, rolling resistance 1e-6 m and rolling balls: the collision
-    and the rolling dissipation are in the run; the balance closes to ~1e-3 of the input work
-    at the default step and four times finer to a small fraction of that: the residual is the
-    integration of the Coulomb switch, not a missing term."""
+    and the rolling dissipation are in the run. Measured: 1.09e-3 of the input work at the
+    default step, 3.6e-4 at 2.5e-5 s, 1.5e-4 at 1e-5 s, towards the paper model's truncation
+    floor (1.2e-4, the test above): the excess is the integration of the Coulomb switch (first
+    order inside a step), not a missing term."""
     params = with_steel_balls(load_scenario('p3').params, rolling_mu=1e-6, rotation=True)
     coarse = ledger(params)
     fine = ledger(params, dt=2.5e-5)
@@ -89,4 +104,4 @@ def test_p3_energy_bookkeeping_with_contact_and_rolling_closes_as_the_step_falls
     _show('dt 2.5e-5', fine)
     assert coarse['refined_steps'] > 0 and coarse['rolling'] > 0       # contact and rolling
     assert abs(coarse['relative']) < 3e-3
-    assert abs(fine['relative']) < abs(coarse['relative']) / 4
+    assert abs(fine['relative']) < abs(coarse['relative']) / 2
