@@ -52,7 +52,11 @@ SPIN_INERTIA = 0.4
 STICK_TIME = 1.0e-3
 """A stuck ball's residual rate phi_i' (inside the stick band) decays with this time [s]."""
 CONTACT_OMEGA_H = 0.3
-"""Largest omega_c h of the stiffest contact per RK4 (sub)step (stability limit 2.78)."""
+"""Largest omega_c h of the stiffest contact per RK4 (sub)step during an impact."""
+CONTACT_OMEGA_H_REST = 2.0
+"""Largest omega_c h of a resting contact (its present overlap exceeds the impact overlap of
+its approach speed): below RK4's stability limit 2.78, its unresolved contact vibration is
+damped numerically, the static compression is exact."""
 MAX_SUBSTEPS = 4096
 
 
@@ -311,28 +315,32 @@ def contact_forces(y, n, P, Qc):
 
 @jit
 def contact_substeps(y, n, P, dt):
-    """RK4 sub-steps per step of dt that keep omega_c h <= CONTACT_OMEGA_H for every pair
-    of balls that can touch within the step (issue 12). omega_c = sqrt(4 k_c / m_b) bounds
-    a chain of balls, with k_c = 1.5 K sqrt(delta_peak), delta_peak the Hertz peak overlap
-    for the present overlap and approach speed; plus the contact damping rate."""
+    """RK4 sub-steps per step of dt that keep omega_c h <= CONTACT_OMEGA_H (impacts) or
+    CONTACT_OMEGA_H_REST (resting contacts) for every pair of balls that can touch within
+    the step (issue 12). omega_c = sqrt(4 k_c / m_b) bounds a chain of balls, with k_c =
+    1.5 K sqrt(delta_peak), delta_peak the Hertz peak overlap for the present overlap and
+    approach speed; plus the contact damping rate."""
     K = contact_stiffness(P)
     chi = P[I_CONTACT_DAMPING]
     mb = P[6] * (1.0 + SPIN_INERTIA * P[I_BALL_ROTATION])
-    wmax = 0.0
+    need = 0.0
     for i in range(n):
         for j in range(i + 1, n):
             delta, rate, lever = pair_state(y, n, P, i, j)
             if delta + 2.0 * max(rate, 0.0) * dt <= 0.0:
                 continue
             d0 = max(delta, 0.0)
-            peak = (d0 * d0 * math.sqrt(d0) + 0.625 * mb * rate * rate / K) ** 0.4
+            static = d0 * d0 * math.sqrt(d0)
+            kinetic = 0.625 * mb * rate * rate / K
+            peak = (static + kinetic) ** 0.4
             if peak <= 0.0:
                 continue
             kc = 1.5 * K * math.sqrt(peak)
             w = math.sqrt(4.0 * kc / mb) + 2.0 * chi * K * peak * math.sqrt(peak) / mb
-            if w > wmax:
-                wmax = w
-    k = int(math.ceil(wmax * dt / CONTACT_OMEGA_H))
+            w /= CONTACT_OMEGA_H if kinetic > static else CONTACT_OMEGA_H_REST
+            if w > need:
+                need = w
+    k = int(math.ceil(need * dt))
     if k < 1:
         k = 1
     if k > MAX_SUBSTEPS:
