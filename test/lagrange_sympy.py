@@ -100,7 +100,8 @@ def energies(n, beyond=False):
     """(T, V, F) of Eqs. (11), (13), (16) as sympy expressions in q, q' (exact, no small angles).
 
     Positions are inertial: body vector p -> (T_beta T_alpha T_gamma)^T p, C at (X, Y, Z).
-    ``beyond``: add issue 12's terms (:func:`beyond_energies`).
+    ``beyond``: add issue 12's terms (:func:`beyond_energies`); 'spin': only the rolling
+    balls' spin energy.
     """
     q, qd, _, par = symbols(n)
     theta, X, Y, Z, alpha, beta, gamma = q[:7]
@@ -140,6 +141,8 @@ def energies(n, beyond=False):
     F += par['D'] * sum(v ** 2 for v in qd[7:]) / 2
     if beyond:
         dT, dV, dF = beyond_energies(n)
+        if beyond == 'spin':           # the rolling balls' spin only (no contact terms)
+            dV = dF = 0
         T, V, F = T + dT, V + dV, F + dF
     return T, V, F
 
@@ -330,7 +333,7 @@ def _load(name, n, build):
 @functools.lru_cache(maxsize=None)
 def compiled_lagrange(n, beyond=False):
     """(real, complex) numeric versions of :func:`lagrange_expressions` for n balls."""
-    name = 'lagrange_beyond' if beyond else 'lagrange'
+    name = {False: 'lagrange', True: 'lagrange_beyond', 'spin': 'lagrange_spin'}[beyond]
     src, path = _load(name, n, lambda: _function_source(
         name, lagrange_expressions(n, beyond), symbols(n)))
     return _exec(src, path, name, (math, cmath))
@@ -367,7 +370,7 @@ def _pack(params):
     return tuple(float(getattr(params, p)) for p in PARAM_NAMES + BEYOND_NAMES)
 
 
-def exact_residual(params, y, qdd):
+def exact_residual(params, y, qdd, beyond=None):
     """Lagrange's Eq. (17) from the energies, exact, shape (6 + n,).
 
     Same API as ``abb_ros.model.dynamics.lagrange_residual``: y = [q, q'] (2N,), qdd (N,)
@@ -376,7 +379,7 @@ def exact_residual(params, y, qdd):
     n = params.n
     N = 7 + n
     y = [float(v) for v in y]
-    f = compiled_lagrange(n, bool(params.beyond_paper))[0]
+    f = compiled_lagrange(n, bool(params.beyond_paper) if beyond is None else beyond)[0]
     return np.array(f(y[:N], y[N:], [float(v) for v in qdd], _pack(params)))
 
 
@@ -384,7 +387,7 @@ COMPLEX_STEP = 1e-30
 """Step of the complex-step derivative: no subtraction, so any tiny step is exact to round-off."""
 
 
-def first_order_residual(params, y, qdd):
+def first_order_residual(params, y, qdd, beyond=None):
     """Lagrange's equations to first order in the deck coordinates, theta and phi_i exact.
 
     E(0) + E'(0), where E(s) has X, Y, Z, alpha, beta, gamma and their rates and accelerations
@@ -392,7 +395,7 @@ def first_order_residual(params, y, qdd):
     """
     n = params.n
     N = 7 + n
-    f = compiled_lagrange(n, bool(params.beyond_paper))[1]
+    f = compiled_lagrange(n, bool(params.beyond_paper) if beyond is None else beyond)[1]
     deck = np.zeros(N, dtype=bool)
     deck[1:7] = True
     y = np.asarray(y, dtype=float)

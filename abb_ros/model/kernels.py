@@ -268,6 +268,13 @@ def contact_stiffness(P):
     return 4.0 / 3.0 * E / (2.0 * (1.0 - nu * nu)) * math.sqrt(0.5 * r)
 
 @jit
+def near(dphi, reach):
+    """True when the angle dphi, wrapped to [-pi, pi), is shorter than reach (a cheap test
+    before :func:`pair_state`)."""
+    dphi -= 2.0 * math.pi * math.floor(dphi / (2.0 * math.pi) + 0.5)
+    return abs(dphi) < reach
+
+@jit
 def pair_state(y, n, P, i, j):
     """(overlap delta, its rate delta', lever) of balls i < j: centres 2 R |sin(dphi/2)|
     apart (dphi = phi_j - phi_i wrapped to [-pi, pi)); delta = 2 r - distance; lever =
@@ -295,12 +302,15 @@ def contact_forces(y, n, P, Qc):
     """
     K = contact_stiffness(P)
     chi = P[I_CONTACT_DAMPING]
+    sep = 2.0 * math.asin(P[I_R_BALL] / P[3])
     for i in range(n):
         Qc[i] = 0.0
     energy = 0.0
     power = 0.0
     for i in range(n):
         for j in range(i + 1, n):
+            if not near(y[7 + j] - y[7 + i], sep):
+                continue
             delta, rate, lever = pair_state(y, n, P, i, j)
             if delta > 0.0:
                 elastic = K * delta * math.sqrt(delta)
@@ -323,9 +333,14 @@ def contact_substeps(y, n, P, dt):
     K = contact_stiffness(P)
     chi = P[I_CONTACT_DAMPING]
     mb = P[6] * (1.0 + SPIN_INERTIA * P[I_BALL_ROTATION])
+    sep = 2.0 * math.asin(P[I_R_BALL] / P[3])
+    N = 7 + n
     need = 0.0
     for i in range(n):
         for j in range(i + 1, n):
+            reach = sep + 2.0 * abs(y[N + 7 + j] - y[N + 7 + i]) * dt
+            if not near(y[7 + j] - y[7 + i], reach):
+                continue
             delta, rate, lever = pair_state(y, n, P, i, j)
             if delta + 2.0 * max(rate, 0.0) * dt <= 0.0:
                 continue
@@ -666,7 +681,7 @@ def rk4_trajectory(y, t0, dt, step0, nsteps, every, n, P, S, work, out):
 
 KERNEL_NAMES = ('spindle_accel', 'assemble', 'solve3', 'solve_deck', 'accel', 'deriv',
                 'check_state', 'rk4_advance', 'rk4_trajectory',
-                'add_ball_rotation', 'contact_stiffness', 'pair_state', 'contact_forces',
+                'add_ball_rotation', 'contact_stiffness', 'near', 'pair_state', 'contact_forces',
                 'contact_substeps', 'rolling_threshold', 'accel_rolling', 'ball_forces',
                 'rk4_step')
 
