@@ -110,8 +110,9 @@ PARAM_SPECS: dict[str, _Spec] = {
                              'F = K delta^1.5 (1 + chi delta\')', **_NONNEG),
     'rolling_mu': _Spec('m', 'rolling-resistance coefficient (lever arm) between ball and race '
                         '(0 = none, the paper)', **_NONNEG),
-    'rolling_stick_rate': _Spec('rad/s', 'half-width of the Karnopp stick band of rolling '
-                                'resistance in phi_i\'', **_POS),
+    'rolling_stick_rate': _Spec('rad/s', 'least half-width of the Karnopp stick band of '
+                                'rolling resistance in phi_i\' (the band is at least the speed '
+                                'rolling resistance takes away in 1 ms)', **_POS),
     'ball_rotation': _Spec('', "1 = the balls roll on the race (their spin inertia "
                            '2/5 m r_ball^2 adds 2/5 m R^2 to the ball mass term), 0 = the paper',
                            low=0, low_open=False, high=1),
