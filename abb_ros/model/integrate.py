@@ -236,6 +236,11 @@ class Simulation:
         return int(self._work[6, 0])
 
     @property
+    def substeps(self) -> int:
+        """RK4 sub-steps taken in the refined steps since the last parameter change."""
+        return int(self._work[6, 2])
+
+    @property
     def max_substeps(self) -> int:
         """Most sub-steps taken in one step since the last parameter change (1: none)."""
         return max(1, int(self._work[6, 1]))

@@ -613,6 +613,7 @@ def rk4_advance(y, t0, dt, step0, nsteps, n, P, S, work):
                 if work.shape[0] > 6:
                     work[6, 0] += 1.0
                     work[6, 1] = max(work[6, 1], float(sub))
+                    work[6, 2] += float(sub)
                 status = check_state(y, n)
                 if status != OK:
                     for i in range(n2):
@@ -710,7 +711,8 @@ if not _PYTHON_TWIN:
 
 def make_work(n: int) -> np.ndarray:
     """Stage buffers for :func:`rk4_advance`: shape (7, 2 (7 + n)); row 6 counts the
-    steps refined for contact ([6, 0]) and the most sub-steps of one step ([6, 1])."""
+    steps refined for contact ([6, 0]), the most sub-steps of one step ([6, 1]) and the
+    sub-steps of all refined steps ([6, 2])."""
     return np.zeros((7, 2 * (7 + n)))
 
 
