@@ -73,3 +73,25 @@ def test_p3_rolling_resistance_leaves_a_residual_that_grows_with_the_coefficient
     assert rows[0][1] < 1e-6
     assert 0 < rows[0][1] < rows[1][1] < rows[2][1]
     assert rows[0][2] < rows[1][2] < rows[2][2]
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('max_accel, trapped', [(1000.0, True), (2000.0, False)])
+def test_spin_up_trap_persists_with_contact(max_accel, trapped):
+    """The P1 -> P3 run-up (config/scenarios/spinup_p1_p3.yaml) with steel balls in contact:
+    at 1000 rad/s^2 the touching pair is still captured into orbiting with the resonant whirl
+    (rbar ~0.19, balls moving at ~525 rad/s relative to the rotor), at 2000 rad/s^2 it
+    balances, as the paper's model does (docs/beyond_the_paper.md, spin-up table)."""
+    scenario = load_scenario('spinup_p1_p3')
+    scenario = dataclasses.replace(
+        scenario, params=with_steel_balls(scenario.params),
+        spindle=dataclasses.replace(scenario.spindle, max_accel=max_accel))
+    result = run_scenario(scenario)
+    rbar = np.sqrt((result.y[:, 1:4] ** 2).sum(axis=1)) / scenario.params.R
+    rates = np.abs(_tail(result.y[:, 16:18], result.t)).max()
+    print(f'max_accel {max_accel:g}: rbar (last s) {_tail(rbar, result.t).max():.3g}, '
+          f'max phi\' {rates:.3g} rad/s, refined steps {result.refined_steps}')
+    if trapped:
+        assert _tail(rbar, result.t).min() > 0.1 and rates > 400
+    else:
+        assert _tail(rbar, result.t).max() < 1e-9
