@@ -62,3 +62,12 @@ def test_node_parameter_descriptor_matches_the_default_type(name):
         assert d.integer_range and not d.floating_point_range
     else:
         assert d.floating_point_range and not d.integer_range
+
+
+def test_overlapping_start_with_contact_exits_2_naming_phi0():
+    """p3_n10 starts its ten balls 1 deg apart: with 1.68 mm balls in contact that is an
+    overlap, refused with one line naming phi0 and the least separation."""
+    code, _, err = abb_sim('run', '--scenario', 'p3_n10', '--set', 'r_ball=1.68e-3',
+                           '--set', 'contact_E=2e11', '--duration', '0.1', '--no-progress')
+    assert code == 2
+    assert "'phi0'" in err and '12.8' in err and len(err.strip().splitlines()) == 1

@@ -118,7 +118,22 @@ def initial_state(params: DriveParams, omega: float, phi0=None, deck0=INITIAL_DE
         raise ParamError('phi0', list(np.degrees(phi)), f'{n} ball angles (n = {n})')
     y[7:N] = phi
     y[N] = omega
+    _check_no_overlap(params, phi)
     return y
+
+
+def _check_no_overlap(params: DriveParams, phi) -> None:
+    """With contact (issue 12) balls may not start closer than 2 asin(r_ball / R)."""
+    if params.contact_E <= 0 or params.n < 2:
+        return
+    d = np.subtract.outer(phi, phi)
+    d = np.abs(d - 2 * math.pi * np.floor(d / (2 * math.pi) + 0.5))
+    d[np.diag_indices(params.n)] = math.inf
+    if d.min() < params.contact_separation * (1 - 1e-12):
+        raise ParamError('phi0', f'{math.degrees(d.min()):.4f} deg between the closest balls',
+                         f'at least 2 asin(r_ball / R) = '
+                         f'{math.degrees(params.contact_separation):.4f} deg',
+                         'with contact the balls cannot overlap')
 
 
 class Simulation:
