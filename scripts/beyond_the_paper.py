@@ -226,7 +226,7 @@ def study_collision():
     ax[1].plot(t_ms, (led['input'] - led['kinetic'] - led['potential']) / scale,
                label='input - kinetic - potential')
     ax[1].plot(t_ms, led['dissipated'] / scale, '--', label='dissipated')
-    ax[1].plot(t_ms, led['potential'] / scale * 100, label='contact potential x 100')
+    ax[1].plot(t_ms, led['potential'] / scale, label='contact potential')
     ax[1].plot(t_ms, led['residual'] / ref * 1e8, 'k', label='residual / |input| x 1e8')
     ax[1].set_xlabel('t [ms]')
     ax[1].set_ylabel('energy / dissipated energy')
