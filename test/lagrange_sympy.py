@@ -41,6 +41,8 @@ from sympy.printing.pycode import PythonCodePrinter
 
 PARAM_NAMES = ('a', 'b', 'd', 'R', 'M_P', 'M', 'm', 'J_Px', 'J_Py', 'J_Pz', 'J_x', 'J_y', 'J_z',
                'k', 'c', 'D', 'eps')
+BEYOND_NAMES = ('r_ball', 'contact_E', 'contact_nu', 'contact_damping', 'ball_rotation')
+"""Issue 12 (docs/beyond_the_paper.md): ball radius, Hertzian contact, rolling-ball spin."""
 DECK_NAMES = ('X', 'Y', 'Z', 'alpha', 'beta', 'gamma')
 
 _SOURCE_HASH = hashlib.sha1(open(__file__, 'rb').read()).hexdigest()[:12]
@@ -59,7 +61,7 @@ def symbols(n):
     q = sp.symbols(names, real=True)
     qd = sp.symbols([s + '_d' for s in names], real=True)
     qdd = sp.symbols([s + '_dd' for s in names], real=True)
-    par = {p: sp.Symbol(p, positive=True) for p in PARAM_NAMES}
+    par = {p: sp.Symbol(p, positive=True) for p in PARAM_NAMES + BEYOND_NAMES}
     return tuple(q), tuple(qd), tuple(qdd), par
 
 
@@ -94,10 +96,12 @@ def corner_offsets(par):
 
 
 @functools.lru_cache(maxsize=None)
-def energies(n):
+def energies(n, beyond=False):
     """(T, V, F) of Eqs. (11), (13), (16) as sympy expressions in q, q' (exact, no small angles).
 
     Positions are inertial: body vector p -> (T_beta T_alpha T_gamma)^T p, C at (X, Y, Z).
+    ``beyond``: add issue 12's terms (:func:`beyond_energies`); 'spin': only the rolling
+    balls' spin energy.
     """
     q, qd, _, par = symbols(n)
     theta, X, Y, Z, alpha, beta, gamma = q[:7]
@@ -135,16 +139,65 @@ def energies(n):
         v_D = velocity(r_D)
         F += par['c'] * v_D.dot(v_D) / 2                              # Eq. (16)
     F += par['D'] * sum(v ** 2 for v in qd[7:]) / 2
+    if beyond:
+        dT, dV, dF = beyond_energies(n)
+        if beyond == 'spin':           # the rolling balls' spin only (no contact terms)
+            dV = dF = 0
+        T, V, F = T + dT, V + dV, F + dF
     return T, V, F
 
 
-@functools.lru_cache(maxsize=None)
-def lagrange_expressions(n):
-    """Lagrange's Eq. (17) for X, Y, Z, alpha, beta, gamma, phi_i: list of 6 + n expressions."""
-    q, qd, qdd, _ = symbols(n)
-    T, V, F = energies(n)
+def contact_overlaps(n):
+    """Overlap delta = 2 r - 2 R sin((phi_j - phi_i)/2) of every pair i < j, with its rate;
+    valid for 0 < phi_j - phi_i < pi (the ordering the numeric checks use)."""
+    q, qd, qdd, par = symbols(n)
     out = []
-    for k in range(1, len(q)):
+    for i in range(n):
+        for j in range(i + 1, n):
+            delta = 2 * par['r_ball'] - 2 * par['R'] * sp.sin((q[7 + j] - q[7 + i]) / 2)
+            out.append((delta, time_derivative(delta, q, qd, qdd)))
+    return out
+
+
+def beyond_energies(n):
+    """Issue 12's additions (dT, dV, dF), exact.
+
+    dT: each ball rolls on the race (contact at radius R + r): its angular velocity is the deck's
+    (Eq. 10) plus (theta' - (R/r) phi_i') about the deck z axis; a sphere's inertia is isotropic,
+    so T_spin = 1/2 J_b |omega|^2, J_b = ball_rotation 2/5 m r^2.
+    dV: Hertz, 2/5 K delta^(5/2) per overlapping pair, K = 4/3 E/(2 (1 - nu^2)) sqrt(r/2).
+    dF: Hunt-Crossley, 1/2 chi K delta^(3/2) delta'^2 per overlapping pair.
+    Every pair is taken as overlapping (evaluate only where they all are).
+    """
+    q, qd, _, par = symbols(n)
+    r, R = par['r_ball'], par['R']
+    w_P = deck_angular_velocity(*q[4:7], *qd[4:7])
+    Jb = par['ball_rotation'] * sp.Rational(2, 5) * par['m'] * r ** 2
+    dT = 0
+    for i in range(n):
+        w = w_P + sp.Matrix([0, 0, qd[0] - R / r * qd[7 + i]])
+        dT += Jb * w.dot(w) / 2
+    nu = par['contact_nu']
+    K = sp.Rational(4, 3) * par['contact_E'] / (2 * (1 - nu ** 2)) * sp.sqrt(r / 2)
+    dV = 0
+    dF = 0
+    for delta, rate in contact_overlaps(n):
+        dV += sp.Rational(2, 5) * K * delta ** sp.Rational(5, 2)
+        dF += par['contact_damping'] * K * delta ** sp.Rational(3, 2) * rate ** 2 / 2
+    return dT, dV, dF
+
+
+@functools.lru_cache(maxsize=None)
+def lagrange_expressions(n, beyond=False, theta_row=False):
+    """Lagrange's Eq. (17) for X, Y, Z, alpha, beta, gamma, phi_i: list of 6 + n expressions.
+
+    ``theta_row``: prepend theta's row, the torque the spindle motor must apply to impose
+    theta(t) (its input power is theta' times it).
+    """
+    q, qd, qdd, _ = symbols(n)
+    T, V, F = energies(n, beyond)
+    out = []
+    for k in range(0 if theta_row else 1, len(q)):
         p_k = sp.diff(T, qd[k])
         out.append(time_derivative(p_k, q, qd, qdd) - sp.diff(T, q[k])
                    + sp.diff(V, q[k]) + sp.diff(F, qd[k]))
@@ -158,7 +211,7 @@ def deck_scaling(n, s):
 
 
 @functools.lru_cache(maxsize=None)
-def first_order(n):
+def first_order(n, beyond=False):
     """Lagrange's equations to first order in the deck coordinates (theta, phi_i exact).
 
     E(s) with every deck quantity scaled by s; returns E(0) + E'(0), each term simplified.
@@ -166,7 +219,7 @@ def first_order(n):
     s = sp.Symbol('s_scale')
     sub = deck_scaling(n, s)
     out = []
-    for e in lagrange_expressions(n):
+    for e in lagrange_expressions(n, beyond):
         es = e.xreplace(sub)
         e0 = es.xreplace({s: 0})
         e1 = sp.diff(es, s).xreplace({s: 0})
@@ -253,7 +306,7 @@ def _function_source(name, exprs, args):
     lines = [f'def {name}(q, qd, qdd, P):']
     for group, vec in ((q, 'q'), (qd, 'qd'), (qdd, 'qdd')):
         lines.append('    ' + ', '.join(str(v) for v in group) + f', = {vec}')
-    lines.append('    ' + ', '.join(PARAM_NAMES) + ', = P')
+    lines.append('    ' + ', '.join(PARAM_NAMES + BEYOND_NAMES) + ', = P')
     for sym, e in repl:
         lines.append(f'    {sym} = {printer.doprint(e)}')
     lines.append('    return [' + ', '.join(printer.doprint(e) for e in reduced) + ']')
@@ -278,24 +331,46 @@ def _load(name, n, build):
 
 
 @functools.lru_cache(maxsize=None)
-def compiled_lagrange(n):
+def compiled_lagrange(n, beyond=False):
     """(real, complex) numeric versions of :func:`lagrange_expressions` for n balls."""
-    src, path = _load('lagrange', n, lambda: _function_source(
-        'lagrange', lagrange_expressions(n), symbols(n)))
+    name = {False: 'lagrange', True: 'lagrange_beyond', 'spin': 'lagrange_spin'}[beyond]
+    src, path = _load(name, n, lambda: _function_source(
+        name, lagrange_expressions(n, beyond), symbols(n)))
+    return _exec(src, path, name, (math, cmath))
+
+
+def _exec(src, path, name, libs):
     code = compile(src, path, 'exec')
     out = []
-    for lib in (math, cmath):
+    for lib in libs:
         namespace = {'sin': lib.sin, 'cos': lib.cos, 'sqrt': lib.sqrt}
         exec(code, namespace)
-        out.append(namespace['lagrange'])
+        out.append(namespace[name])
     return tuple(out)
 
 
+@functools.lru_cache(maxsize=None)
+def compiled_energy_terms(n):
+    """numpy function (q, qd, qdd, P) -> [T, V, F, tau], exact, with the rolling balls' spin
+    energy (the contact's potential and damping come from the kernels, being pairwise and
+    piecewise): the energies and theta's row of Lagrange's equations (the spindle torque),
+    vectorised over arrays of states (the energy bookkeeping of docs/beyond_the_paper.md)."""
+    def build():
+        q, qd, qdd, _ = symbols(n)
+        T, V, F = energies(n)
+        T += beyond_energies(n)[0]          # spin of rolling balls; contact: from the kernels
+        tau = (time_derivative(sp.diff(T, qd[0]), q, qd, qdd) - sp.diff(T, q[0])
+               + sp.diff(V, q[0]) + sp.diff(F, qd[0]))
+        return _function_source('energy_terms', [T, V, F, tau], symbols(n))
+    src, path = _load('energy_terms', n, build)
+    return _exec(src, path, 'energy_terms', (np,))[0]
+
+
 def _pack(params):
-    return tuple(float(getattr(params, p)) for p in PARAM_NAMES)
+    return tuple(float(getattr(params, p)) for p in PARAM_NAMES + BEYOND_NAMES)
 
 
-def exact_residual(params, y, qdd):
+def exact_residual(params, y, qdd, beyond=None):
     """Lagrange's Eq. (17) from the energies, exact, shape (6 + n,).
 
     Same API as ``abb_ros.model.dynamics.lagrange_residual``: y = [q, q'] (2N,), qdd (N,)
@@ -304,7 +379,7 @@ def exact_residual(params, y, qdd):
     n = params.n
     N = 7 + n
     y = [float(v) for v in y]
-    f = compiled_lagrange(n)[0]
+    f = compiled_lagrange(n, bool(params.beyond_paper) if beyond is None else beyond)[0]
     return np.array(f(y[:N], y[N:], [float(v) for v in qdd], _pack(params)))
 
 
@@ -312,7 +387,7 @@ COMPLEX_STEP = 1e-30
 """Step of the complex-step derivative: no subtraction, so any tiny step is exact to round-off."""
 
 
-def first_order_residual(params, y, qdd):
+def first_order_residual(params, y, qdd, beyond=None):
     """Lagrange's equations to first order in the deck coordinates, theta and phi_i exact.
 
     E(0) + E'(0), where E(s) has X, Y, Z, alpha, beta, gamma and their rates and accelerations
@@ -320,7 +395,7 @@ def first_order_residual(params, y, qdd):
     """
     n = params.n
     N = 7 + n
-    f = compiled_lagrange(n)[1]
+    f = compiled_lagrange(n, bool(params.beyond_paper) if beyond is None else beyond)[1]
     deck = np.zeros(N, dtype=bool)
     deck[1:7] = True
     y = np.asarray(y, dtype=float)

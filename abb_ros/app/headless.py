@@ -41,6 +41,8 @@ class RunResult:
     wall_time: float       # [s], integration and writing (the one-time compile excluded)
     messages: int          # written to the bag (0 without one)
     compile_time: float = 0.0   # [s], numba's one-time compilation of the kernels
+    refined_steps: int = 0      # steps split into contact sub-steps (issue 12)
+    max_substeps: int = 1       # most sub-steps in one step
 
     @property
     def real_time_factor(self) -> float:
@@ -132,4 +134,5 @@ def run_scenario(scenario: Scenario, dt: float = DEFAULT_DT, publish_dt: float =
             progress(chunk * publish_every * dt)
     states = np.concatenate([np.atleast_2d(s) for s in states])
     wall = time.perf_counter() - start
-    return RunResult(scenario, np.array(times), states, wall, written, compile_time)
+    return RunResult(scenario, np.array(times), states, wall, written, compile_time,
+                     sim.refined_steps, sim.max_substeps)

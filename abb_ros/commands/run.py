@@ -179,6 +179,11 @@ def run(args) -> dict:
         'real_time_factor': round(result.real_time_factor, 2),
         'compile_time_s': round(result.compile_time, 3),
     }
+    if p.beyond_paper:
+        summary['beyond_paper'] = list(p.beyond_paper)
+    if result.refined_steps:
+        summary['contact_refined_steps'] = result.refined_steps
+        summary['contact_max_substeps'] = result.max_substeps
     if args.out:
         summary['bag'] = str(args.out)
         summary['messages'] = result.messages

@@ -45,6 +45,10 @@ def run(args) -> dict:
            'verdict': res.verdict, 'balanced': res.balanced,
            'balanced_equilibrium_exists': res.exists,
            'phi_star_deg': [math.degrees(v) for v in res.phi_star]}
+    if params.beyond_paper:
+        out['note'] = ('linear analysis of the paper\'s model: it ignores '
+                       + ', '.join(params.beyond_paper)
+                       + ' (docs/beyond_the_paper.md); the time simulation has them')
     if res.exists:
         out['lam_max_in_plane'] = res.lam_in
         out['lam_max_out_of_plane'] = res.lam_out

@@ -88,7 +88,8 @@ def rk4_metrics_batch(Y, P, S, t0, dt, step0, nsteps, n, rbar_limit, metrics, st
         last = metrics[b, 2]
         for s in range(nsteps):
             t = t0 + (step0 + s) * dt
-            st = rk4_step(t, dt, y, n, Pb, Sb, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B, fb, u)
+            st, _ = rk4_step(t, dt, y, n, Pb, Sb, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B,
+                             fb, u)
             if st != OK:
                 status[b] = st
                 metrics[b, 3] = t

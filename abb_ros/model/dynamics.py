@@ -80,7 +80,7 @@ def lagrange_residual(params: DriveParams, y, qdd, kern=None) -> np.ndarray:
     layout = StateLayout(n)
     u = qdd[layout.deck_slice]
     phidd = qdd[layout.phi_slice]
-    mR2 = params.m * params.R ** 2
+    mR2 = params.m * params.R ** 2 * (1.4 if params.ball_rotation else 1.0)   # 7/5: rolling
     deck = A @ u + W[:, :n] @ phidd - f
     balls = B[:n] @ u + mR2 * phidd - fb[:n]
     return np.concatenate([deck, balls])

@@ -162,7 +162,31 @@ def initial_state(params: DriveParams, omega: float, phi0=None, deck0=INITIAL_DE
     phi = default_phi0(n) if phi0 is None else np.asarray(phi0, dtype=float)
     if phi.shape != (n,):
         raise ParamError('phi0', list(np.degrees(phi)), f'{n} ball angles (n = {n})')
+    _check_no_overlap(params, phi)
     return StateLayout(n).pack(theta=theta0, deck=deck0, phi=phi, omega=omega)
+
+
+def _check_no_overlap(params: DriveParams, phi) -> None:
+    """With contact (issue 12) balls may not start closer than 2 asin(r_ball / R)."""
+    if params.contact_E <= 0 or params.n < 2:
+        return
+    d = np.subtract.outer(phi, phi)
+    d = np.abs(d - 2 * math.pi * np.floor(d / (2 * math.pi) + 0.5))
+    d[np.diag_indices(params.n)] = math.inf
+    if d.min() < params.contact_separation * (1 - 1e-12):
+        raise ParamError('phi0', f'{math.degrees(d.min()):.4f} deg between the closest balls',
+                         f'at least 2 asin(r_ball / R) = '
+                         f'{math.degrees(params.contact_separation):.4f} deg',
+                         'with contact the balls cannot overlap')
+
+
+def _check_torque_terms(params: DriveParams, spindle) -> None:
+    """The free-theta equation of torque mode (docs/torque_mode.md) has ball contact but not
+    yet rolling resistance or rolling balls (docs/beyond_the_paper.md): refuse the mix."""
+    if isinstance(spindle, TorqueMotor) and (params.rolling_mu > 0 or params.ball_rotation):
+        name = 'rolling_mu' if params.rolling_mu > 0 else 'ball_rotation'
+        raise ParamError(name, getattr(params, name), '0 in torque mode (spindle.mode torque)',
+                         'the free-theta equation does not have this term yet')
 
 
 class Simulation:
@@ -197,6 +221,7 @@ class Simulation:
         self.reset(self._y0)
 
     def _set_params(self, params: DriveParams):
+        _check_torque_terms(params, self.spindle)
         self.params = params
         self.layout = StateLayout.of(params.n)
         self._P = kernels.pack_params(params)
@@ -232,6 +257,7 @@ class Simulation:
     def set_spindle(self, spindle) -> None:
         """A new spindle model at the next step boundary. Into torque mode the command
         becomes 0 A, out of it the present speed (:meth:`set_command` to choose)."""
+        _check_torque_terms(self.params, spindle)
         torque = isinstance(spindle, TorqueMotor)
         if torque != isinstance(self.spindle, TorqueMotor):
             self.omega_cmd = 0.0 if torque else self.omega
@@ -298,6 +324,22 @@ class Simulation:
     @property
     def N(self) -> int:
         return self.layout.N
+
+    @property
+    def refined_steps(self) -> int:
+        """Steps integrated in contact sub-steps since the last parameter change (issue 12:
+        the step is refined automatically while balls touch)."""
+        return int(self._work[6, 0])
+
+    @property
+    def substeps(self) -> int:
+        """RK4 sub-steps taken in the refined steps since the last parameter change."""
+        return int(self._work[6, 2])
+
+    @property
+    def max_substeps(self) -> int:
+        """Most sub-steps taken in one step since the last parameter change (1: none)."""
+        return max(1, int(self._work[6, 1]))
 
     @property
     def theta(self) -> float:

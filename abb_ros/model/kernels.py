@@ -32,7 +32,9 @@ from abb_ros.model.jit import KernelSet
 from abb_ros.model.state import DECK, PHI, THETA
 
 PARAM_ORDER = ('a', 'b', 'd', 'R', 'M_P', 'M', 'm', 'J_Px', 'J_Py', 'J_Pz', 'J_x', 'J_y', 'J_z',
-               'k', 'c', 'D', 'eps', 'n')
+               'k', 'c', 'D', 'eps', 'n',
+               'r_ball', 'contact_E', 'contact_nu', 'contact_damping', 'rolling_mu',
+               'rolling_stick_rate', 'ball_rotation')
 N_PARAMS = len(PARAM_ORDER)
 N_SPINDLE = 7
 SPINDLE_CONSTANT, SPINDLE_MOTOR, SPINDLE_RAMP = 0, 1, 2
@@ -47,6 +49,21 @@ MAX_ANGLE = 0.3
 MAX_BALL_RATE = 1.0e5
 
 OK, NONFINITE, ENVELOPE = 0, 1, 2
+
+# Beyond the paper (issue 12, docs/beyond_the_paper.md): indices into P, and constants.
+I_R_BALL, I_CONTACT_E, I_CONTACT_NU, I_CONTACT_DAMPING = 18, 19, 20, 21
+I_ROLLING_MU, I_STICK_RATE, I_BALL_ROTATION = 22, 23, 24
+SPIN_INERTIA = 0.4
+"""J_b = 2/5 m r_ball^2 of a solid sphere."""
+STICK_TIME = 1.0e-3
+"""A stuck ball's residual rate phi_i' (inside the stick band) decays with this time [s]."""
+CONTACT_OMEGA_H = 0.3
+"""Largest omega_c h of the stiffest contact per RK4 (sub)step during an impact."""
+CONTACT_OMEGA_H_REST = 2.0
+"""Largest omega_c h of a resting contact (its present overlap exceeds the impact overlap of
+its approach speed): below RK4's stability limit 2.78, its unresolved contact vibration is
+damped numerically, the static compression is exact."""
+MAX_SUBSTEPS = 4096
 
 
 
@@ -164,6 +181,11 @@ def assemble(y, n, P, thdd, A, W, f, B, fb):
     for i in range(6):
         for j in range(6):
             A[i, j] = 0.0
+    if P[I_CONTACT_E] > 0.0 and n > 1:
+        Qc = np.empty(n)
+        contact_forces(y, n, P, Qc)
+        for i in range(n):
+            fb[i] += Qc[i]
     # Eq. (18), X
     A[0, 0] = Mt
     A[0, 5] = M_P * d - S1
@@ -194,6 +216,141 @@ def assemble(y, n, P, thdd, A, W, f, B, fb):
     A[5, 1] = C1
     f[5] = (-kab * (c * gad + k * ga) - 4.0 * d * c * Xd - 4.0 * d * k * X
             - (Ir + J_z) * thdd)
+    if P[I_BALL_ROTATION] != 0.0:
+        add_ball_rotation(y, n, P, thdd, A, W, f, B, fb)
+
+@kernel
+def add_ball_rotation(y, n, P, thdd, A, W, f, B, fb):
+    """Rolling balls' spin inertia J_b = 2/5 m r^2 (issue 12), first order in the deck.
+
+    A ball rolling on the race (contact at radius R + r) spins at Omega = theta' + gamma'
+    + alpha' beta - (R / r) phi_i' about z, plus the deck's alpha', beta'; its kinetic
+    energy 1/2 J_b |omega|^2 adds J_b (R/r)^2 = 2/5 m R^2 to the ball row's phi_i'' (7/5 in
+    all), J_b R/r = 2/5 m R r to the gamma'' and theta'' couplings, J_b to the deck's
+    rotational inertias and the spin terms J_b Omega beta', -J_b Omega alpha' (like J_z).
+    """
+    N = PHI + n
+    R, m, r = P[3], P[6], P[I_R_BALL]
+    Jb = SPIN_INERTIA * m * r * r
+    JbRr = SPIN_INERTIA * m * R * r          # J_b R / r
+    be = y[5]
+    ald, bed = y[N + 4], y[N + 5]
+    om = y[N]
+    spin = 0.0                               # sum J_b (theta' - R/r phi_i')
+    for i in range(n):
+        spin += Jb * om - JbRr * y[N + PHI + i]
+        W[3, i] -= JbRr * be
+        W[5, i] -= JbRr
+        B[i, 5] -= JbRr
+        fb[i] += JbRr * thdd
+    A[3, 3] += n * Jb
+    A[4, 4] += n * Jb
+    A[5, 5] += n * Jb
+    f[3] -= n * Jb * thdd * be + spin * bed
+    f[4] += spin * ald
+    f[5] -= n * Jb * thdd
+
+@kernel
+def contact_stiffness(P):
+    """K of the Hertzian law F = K delta^1.5 between two equal balls of radius r:
+    K = 4/3 E* sqrt(r/2), E* = E / (2 (1 - nu^2)) [N/m^1.5]."""
+    r, E, nu = P[I_R_BALL], P[I_CONTACT_E], P[I_CONTACT_NU]
+    return 4.0 / 3.0 * E / (2.0 * (1.0 - nu * nu)) * math.sqrt(0.5 * r)
+
+@kernel
+def near(dphi, reach):
+    """True when the angle dphi, wrapped to [-pi, pi), is shorter than reach (a cheap test
+    before :func:`pair_state`)."""
+    dphi -= 2.0 * math.pi * math.floor(dphi / (2.0 * math.pi) + 0.5)
+    return abs(dphi) < reach
+
+@kernel
+def pair_state(y, n, P, i, j):
+    """(overlap delta, its rate delta', lever) of balls i < j: centres 2 R |sin(dphi/2)|
+    apart (dphi = phi_j - phi_i wrapped to [-pi, pi)); delta = 2 r - distance; lever =
+    d distance / d phi_j = R cos(dphi/2) sign(dphi) = -d distance / d phi_i."""
+    N = PHI + n
+    R, r = P[3], P[I_R_BALL]
+    dphi = y[PHI + j] - y[PHI + i]
+    dphi -= 2.0 * math.pi * math.floor(dphi / (2.0 * math.pi) + 0.5)
+    half = 0.5 * dphi
+    lever = R * math.cos(half)
+    if dphi < 0.0:
+        lever = -lever
+    delta = 2.0 * r - 2.0 * R * abs(math.sin(half))
+    rate = -lever * (y[N + PHI + j] - y[N + PHI + i])
+    return delta, rate, lever
+
+@kernel
+def contact_forces(y, n, P, Qc):
+    """Generalized forces Qc (one per ball row) of the ball-ball contacts (issue 12).
+
+    Hunt-Crossley: F = K delta^1.5 (1 + chi delta') >= 0 along the line of centres, from the
+    potential 2/5 K delta^2.5 and the dissipation 1/2 chi K delta^1.5 delta'^2; on ball j
+    Q_j = F lever, on ball i the opposite (internal: no force on the deck or the rotor).
+    Returns (contact potential energy [J], contact damping power [W]).
+    """
+    K = contact_stiffness(P)
+    chi = P[I_CONTACT_DAMPING]
+    sep = 2.0 * math.asin(P[I_R_BALL] / P[3])
+    for i in range(n):
+        Qc[i] = 0.0
+    energy = 0.0
+    power = 0.0
+    for i in range(n):
+        for j in range(i + 1, n):
+            if not near(y[PHI + j] - y[PHI + i], sep):
+                continue
+            delta, rate, lever = pair_state(y, n, P, i, j)
+            if delta > 0.0:
+                elastic = K * delta * math.sqrt(delta)
+                force = elastic * (1.0 + chi * rate)
+                if force < 0.0:
+                    force = 0.0
+                Qc[j] += force * lever
+                Qc[i] -= force * lever
+                energy += 0.4 * elastic * delta
+                power += (elastic - force) * rate
+    return energy, -power
+
+@kernel
+def contact_substeps(y, n, P, dt):
+    """RK4 sub-steps per step of dt that keep omega_c h <= CONTACT_OMEGA_H (impacts) or
+    CONTACT_OMEGA_H_REST (resting contacts) for every pair of balls that can touch within
+    the step (issue 12). omega_c = sqrt(4 k_c / m_b) bounds a chain of balls, with k_c =
+    1.5 K sqrt(delta_peak), delta_peak the Hertz peak overlap for the present overlap and
+    approach speed; plus the contact damping rate."""
+    K = contact_stiffness(P)
+    chi = P[I_CONTACT_DAMPING]
+    mb = P[6] * (1.0 + SPIN_INERTIA * P[I_BALL_ROTATION])
+    sep = 2.0 * math.asin(P[I_R_BALL] / P[3])
+    N = PHI + n
+    need = 0.0
+    for i in range(n):
+        for j in range(i + 1, n):
+            reach = sep + 2.0 * abs(y[N + PHI + j] - y[N + PHI + i]) * dt
+            if not near(y[PHI + j] - y[PHI + i], reach):
+                continue
+            delta, rate, lever = pair_state(y, n, P, i, j)
+            if delta + 2.0 * max(rate, 0.0) * dt <= 0.0:
+                continue
+            d0 = max(delta, 0.0)
+            static = d0 * d0 * math.sqrt(d0)
+            kinetic = 0.625 * mb * rate * rate / K
+            peak = (static + kinetic) ** 0.4
+            if peak <= 0.0:
+                continue
+            kc = 1.5 * K * math.sqrt(peak)
+            w = math.sqrt(4.0 * kc / mb) + 2.0 * chi * K * peak * math.sqrt(peak) / mb
+            w /= CONTACT_OMEGA_H if kinetic > static else CONTACT_OMEGA_H_REST
+            if w > need:
+                need = w
+    k = int(math.ceil(need * dt))
+    if k < 1:
+        k = 1
+    if k > MAX_SUBSTEPS:
+        k = MAX_SUBSTEPS
+    return k
 
 @kernel
 def solve3(A, f, i0, i1, i2, u):
@@ -370,6 +527,13 @@ def accel(t, y, n, P, S, qdd, A, W, f, B, fb, u):
     thdd = spindle_accel(t, y[N + THETA], S)
     assemble(y, n, P, thdd, A, W, f, B, fb)
     mR2 = P[6] * P[3] * P[3]
+    if P[I_BALL_ROTATION] != 0.0:
+        mR2 += SPIN_INERTIA * mR2            # J_b (R/r)^2: a rolling ball's 7/5
+    if P[I_ROLLING_MU] > 0.0 and n > 0:
+        Qf = np.empty(n)
+        accel_rolling(y, n, P, mR2, qdd, A, W, f, B, fb, u, Qf)
+        qdd[0] = thdd
+        return
     inv = 1.0 / mR2
     for i in range(6):
         for b in range(n):
@@ -389,6 +553,118 @@ def accel(t, y, n, P, S, qdd, A, W, f, B, fb, u):
         for j in range(6):
             acc -= B[b, j] * u[j]
         qdd[PHI + b] = acc * inv
+
+@kernel
+def rolling_threshold(y, n, P, b):
+    """Largest rolling-resistance generalized force on ball b [N m]: torque mu N about the
+    contact, N = m R psi_b'^2 the centrifugal load on the race (first order), as a force
+    mu N / r at the centre, times R (issue 12)."""
+    N = PHI + n
+    psid = y[N] + y[N + PHI + b]
+    R = P[3]
+    return P[I_ROLLING_MU] * P[6] * R * psid * psid / P[I_R_BALL] * R
+
+@kernel
+def accel_rolling(y, n, P, mR2, qdd, A, W, f, B, fb, u, Qf):
+    """q'' (deck and balls) with rolling resistance: Coulomb with a Karnopp stick band.
+
+    Band: |phi_b'| < max(rolling_stick_rate, Qmax_b / (m_eff R^2) STICK_TIME), i.e. speeds
+    the rolling resistance alone would take away within STICK_TIME count as rest (a slipping
+    ball cannot jump across the band in one step of dt <= STICK_TIME; a narrower band makes
+    it chatter around zero speed). Outside the band the ball slips: Qf_b = -Qmax_b
+    sign(phi_b'). Inside it the ball sticks: phi_b'' = -phi_b' / STICK_TIME, and Qf_b is
+    whatever force that takes (solved with the deck, all balls coupled) while |Qf_b| <= Qmax_b;
+    where it would exceed Qmax_b the ball breaks free with Qf_b = Qmax_b sign(Qf_b), and the
+    rest are solved again (at most n + 1 solves). Qf receives the forces.
+    """
+    N = PHI + n
+    A0 = A.copy()
+    f0 = f.copy()
+    inv = 1.0 / mR2
+    stuck = np.zeros(n, dtype=np.bool_)
+    Qmax = np.empty(n)
+    target = np.zeros(n)
+    for b in range(n):
+        rate = y[N + PHI + b]
+        Qmax[b] = rolling_threshold(y, n, P, b)
+        # the band: rolling_stick_rate, or the speed the rolling resistance alone takes away
+        # in STICK_TIME if larger (so that a step of dt <= STICK_TIME cannot jump across it)
+        band = max(P[I_STICK_RATE], Qmax[b] * inv * STICK_TIME)
+        if abs(rate) < band:
+            stuck[b] = True
+            target[b] = -rate / STICK_TIME
+            Qf[b] = 0.0
+        else:
+            Qf[b] = -Qmax[b] if rate > 0.0 else Qmax[b]
+    for _ in range(n + 1):
+        for i in range(6):
+            f[i] = f0[i]
+            for j in range(6):
+                A[i, j] = A0[i, j]
+        for i in range(6):
+            for b in range(n):
+                if stuck[b]:
+                    f[i] -= W[i, b] * target[b]
+                else:
+                    w = W[i, b] * inv
+                    A[i, 0] -= w * B[b, 0]
+                    A[i, 1] -= w * B[b, 1]
+                    A[i, 5] -= w * B[b, 5]
+                    f[i] -= w * (fb[b] + Qf[b])
+        solve_deck(A, f, u)
+        released = False
+        for b in range(n):
+            if stuck[b]:
+                need = mR2 * target[b] - fb[b]
+                for j in range(6):
+                    need += B[b, j] * u[j]
+                if abs(need) > Qmax[b]:
+                    stuck[b] = False
+                    Qf[b] = Qmax[b] if need > 0.0 else -Qmax[b]
+                    released = True
+                else:
+                    Qf[b] = need
+        if not released:
+            break
+    for i in range(6):
+        qdd[1 + i] = u[i]
+    for b in range(n):
+        if stuck[b]:
+            qdd[PHI + b] = target[b]
+        else:
+            acc = fb[b] + Qf[b]
+            for j in range(6):
+                acc -= B[b, j] * u[j]
+            qdd[PHI + b] = acc * inv
+
+@kernel
+def ball_forces(t, y, n, P, S, Qc, Qf):
+    """Diagnostics (issue 12): contact forces Qc and rolling-resistance forces Qf on the ball
+    rows at (t, y); returns (contact energy [J], contact damping power [W])."""
+    N = PHI + n
+    nb = max(n, 1)
+    A = np.empty((6, 6))
+    W = np.empty((6, nb))
+    f = np.empty(6)
+    B = np.empty((nb, 6))
+    fb = np.empty(nb)
+    u = np.empty(6)
+    qdd = np.empty(N)
+    energy = 0.0
+    power = 0.0
+    for i in range(n):
+        Qc[i] = 0.0
+        Qf[i] = 0.0
+    if P[I_CONTACT_E] > 0.0 and n > 1:
+        energy, power = contact_forces(y, n, P, Qc)
+    if P[I_ROLLING_MU] > 0.0 and n > 0:
+        thdd = spindle_accel(t, y[N], S)
+        assemble(y, n, P, thdd, A, W, f, B, fb)
+        mR2 = P[6] * P[3] * P[3]
+        if P[I_BALL_ROTATION] != 0.0:
+            mR2 += SPIN_INERTIA * mR2
+        accel_rolling(y, n, P, mR2, qdd, A, W, f, B, fb, u, Qf)
+    return energy, power
 
 @kernel
 def deriv(t, y, n, P, S, dy, qdd, A, W, f, B, fb, u):
@@ -417,32 +693,47 @@ def check_state(y, n):
     return OK
 
 @kernel
+def rk4_substep(t, h, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u):
+    """One classical RK4 step of h from (t, y), y updated in place (no state check)."""
+    n2 = y.shape[0]
+    deriv(t, y, n, P, S, k1, qdd, A, W, f, B, fb, u)
+    for i in range(n2):
+        yt[i] = y[i] + 0.5 * h * k1[i]
+    deriv(t + 0.5 * h, yt, n, P, S, k2, qdd, A, W, f, B, fb, u)
+    for i in range(n2):
+        yt[i] = y[i] + 0.5 * h * k2[i]
+    deriv(t + 0.5 * h, yt, n, P, S, k3, qdd, A, W, f, B, fb, u)
+    for i in range(n2):
+        yt[i] = y[i] + h * k3[i]
+    deriv(t + h, yt, n, P, S, k4, qdd, A, W, f, B, fb, u)
+    h6 = h / 6.0
+    for i in range(n2):
+        y[i] = y[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+
+@kernel
 def rk4_step(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B, fb, u):
-    """One classical RK4 step of dt from (t, y), y updated in place; k1..k4, yt and ysave
-    are stage buffers of shape (2N,), the rest the solver scratch of :func:`accel`. Returns
-    the :func:`check_state` status of the new state; when it is not OK, y is put back to its
-    value before the step."""
+    """One step of dt from (t, y), y updated in place: one classical RK4 step, or, while
+    balls touch (issue 12), as many RK4 sub-steps as :func:`contact_substeps` asks for.
+    k1..k4, yt and ysave are stage buffers of shape (2N,), the rest the solver scratch of
+    :func:`accel`. Returns (status, sub-steps): the :func:`check_state` status of the new
+    state (when it is not OK, y is put back to its value before the step)."""
     n2 = y.shape[0]
     for i in range(n2):
         ysave[i] = y[i]
-    deriv(t, y, n, P, S, k1, qdd, A, W, f, B, fb, u)
-    for i in range(n2):
-        yt[i] = y[i] + 0.5 * dt * k1[i]
-    deriv(t + 0.5 * dt, yt, n, P, S, k2, qdd, A, W, f, B, fb, u)
-    for i in range(n2):
-        yt[i] = y[i] + 0.5 * dt * k2[i]
-    deriv(t + 0.5 * dt, yt, n, P, S, k3, qdd, A, W, f, B, fb, u)
-    for i in range(n2):
-        yt[i] = y[i] + dt * k3[i]
-    deriv(t + dt, yt, n, P, S, k4, qdd, A, W, f, B, fb, u)
-    h6 = dt / 6.0
-    for i in range(n2):
-        y[i] = y[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+    sub = 1
+    if P[I_CONTACT_E] > 0.0 and n > 1:
+        sub = contact_substeps(y, n, P, dt)
+    if sub == 1:
+        rk4_substep(t, dt, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u)
+    else:
+        h = dt / sub
+        for j in range(sub):
+            rk4_substep(t + j * h, h, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u)
     status = check_state(y, n)
     if status != OK:
         for i in range(n2):
             y[i] = ysave[i]
-    return status
+    return status, sub
 
 @kernel
 def rk4_advance(y, t0, dt, step0, nsteps, n, P, S, work):
@@ -464,7 +755,12 @@ def rk4_advance(y, t0, dt, step0, nsteps, n, P, S, work):
     u = np.empty(6)
     for s in range(nsteps):
         t = t0 + (step0 + s) * dt
-        status = rk4_step(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B, fb, u)
+        status, sub = rk4_step(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B,
+                               fb, u)
+        if sub > 1 and work.shape[0] > 6:   # contact statistics (issue 12)
+            work[6, 0] += 1.0
+            work[6, 1] = max(work[6, 1], float(sub))
+            work[6, 2] += float(sub)
         if status != OK:
             return s, status
     return nsteps, OK
@@ -496,8 +792,10 @@ pure-Python twin of every kernel, the same source run by the interpreter."""
 
 
 def make_work(n: int) -> np.ndarray:
-    """Stage buffers for :func:`rk4_advance`: shape (6, 2 (7 + n))."""
-    return np.zeros((6, 2 * (PHI + n)))
+    """Stage buffers for :func:`rk4_advance`: shape (7, 2 (7 + n)); row 6 counts the
+    steps refined for contact ([6, 0]), the most sub-steps of one step ([6, 1]) and the
+    sub-steps of all refined steps ([6, 2])."""
+    return np.zeros((7, 2 * (PHI + n)))
 
 
 def pack_params(params) -> np.ndarray:

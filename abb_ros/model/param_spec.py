@@ -219,8 +219,26 @@ DRIVE_SPECS = (
     ParamSpec('drive.n', 2, '', 'number of balancing balls, n (0 = drive without ABB)',
               INTEGER, 0, MAX_BALLS, applies='on ~/reset (simulator)', nodes=_BOTH,
               commands=_ALL_CLI),
+    # ---- beyond the paper (docs/beyond_the_paper.md); zero = the paper's model ----
+    _drive('r_ball', 0.0, 'm', 'ball radius (0 = point balls, the paper); needed by contact '
+           'and rolling resistance', **_NONNEG),
+    _drive('contact_E', 0.0, 'Pa', "Young's modulus of the balls for the Hertzian ball-ball "
+           'contact (0 = balls pass through each other, the paper; steel 2.0e11)', **_NONNEG),
+    _drive('contact_nu', 0.3, '', "Poisson's ratio of the balls (steel 0.3)", low=0.0,
+           low_open=False, high=0.5),
+    _drive('contact_damping', 0.0, 's/m', 'Hunt-Crossley damping factor chi of the ball-ball '
+           "contact: F = K delta^1.5 (1 + chi delta')", **_NONNEG),
+    _drive('rolling_mu', 0.0, 'm', 'rolling-resistance coefficient (lever arm) between ball '
+           'and race (0 = none, the paper)', **_NONNEG),
+    _drive('rolling_stick_rate', 1e-3, 'rad/s', 'least half-width of the Karnopp stick band '
+           "of rolling resistance in phi_i' (the band is at least the speed rolling resistance "
+           'takes away in 1 ms)'),
+    ParamSpec('drive.ball_rotation', 0, '', '1 = the balls roll on the race (their spin '
+              'inertia 2/5 m r_ball^2 adds 2/5 m R^2 to the ball mass term), 0 = the paper',
+              INTEGER, 0, 1, applies='at the next step', nodes=_BOTH, commands=_ALL_CLI),
 )
-"""The physical parameters of Table 1 (rubber washers, eps = 0.25 mm, n = 2), SI."""
+"""The physical parameters of Table 1 (rubber washers, eps = 0.25 mm, n = 2), SI, and the
+optional terms beyond the paper (zero = the paper's model)."""
 
 _INF = math.inf
 _AT_STEP = 'at the next step'

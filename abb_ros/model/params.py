@@ -66,6 +66,14 @@ class DriveParams:
     D: float = _default('D')
     eps: float = _default('eps')
     n: int = _default('n')
+    # ---- beyond the paper (docs/beyond_the_paper.md); zero = the paper's model ----------
+    r_ball: float = _default('r_ball')
+    contact_E: float = _default('contact_E')
+    contact_nu: float = _default('contact_nu')
+    contact_damping: float = _default('contact_damping')
+    rolling_mu: float = _default('rolling_mu')
+    rolling_stick_rate: float = _default('rolling_stick_rate')
+    ball_rotation: int = _default('ball_rotation')
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
@@ -78,6 +86,41 @@ class DriveParams:
             if not self.n.is_integer():
                 raise ParamError('n', self.n, PARAM_SPECS['n'].valid_text(), 'not an integer')
             object.__setattr__(self, 'n', int(self.n))
+        self._check_beyond_paper()
+
+    def _check_beyond_paper(self):
+        """Consistency of the issue-12 terms: what needs a ball size, and whether balls fit."""
+        if float(self.ball_rotation) not in (0.0, 1.0):
+            raise ParamError('ball_rotation', self.ball_rotation, '0 or 1')
+        object.__setattr__(self, 'ball_rotation', int(self.ball_rotation))
+        for name in ('contact_E', 'rolling_mu'):
+            if getattr(self, name) > 0 and self.r_ball <= 0:
+                raise ParamError('r_ball', self.r_ball, '(0, R) m',
+                                 f'{name} > 0 needs a ball radius')
+        if self.r_ball >= self.R:
+            raise ParamError('r_ball', self.r_ball, f'[0, R = {self.R:g}) m')
+        if self.contact_E > 0 and self.n * 2.0 * math.asin(self.r_ball / self.R) > 2 * math.pi:
+            raise ParamError('r_ball', self.r_ball,
+                             f'at most R sin(pi/n) = {self.R * math.sin(math.pi / self.n):g} m',
+                             f'{self.n} balls of this size do not fit on the race')
+
+    @property
+    def beyond_paper(self) -> tuple[str, ...]:
+        """Names of the active issue-12 terms (contact, rolling resistance, ball rotation):
+        terms the paper's equations and its linear analysis do not have."""
+        active = []
+        if self.contact_E > 0:
+            active.append('contact')
+        if self.rolling_mu > 0:
+            active.append('rolling_mu')
+        if self.ball_rotation:
+            active.append('ball_rotation')
+        return tuple(active)
+
+    @property
+    def contact_separation(self) -> float:
+        """Smallest angular separation of two touching balls, 2 asin(r_ball / R) [rad]."""
+        return 2.0 * math.asin(self.r_ball / self.R)
 
     # ---- derived quantities -------------------------------------------------------------
     @property

@@ -240,6 +240,8 @@ class AnalysisNode(Node):
             message += f' (n = {self.n_seen} from joint_states; drive.n = {self.drive.n} ' \
                        'applies on the simulator\'s ~/reset)'
         values = dict(a.values, parameters_from=self.parameters_from)
+        if self.drive.beyond_paper:      # issue 12: terms the paper's linear analysis ignores
+            values['ignored_by_linear_analysis'] = ', '.join(self.drive.beyond_paper)
         stamp = self.speed[1] if self.speed else None
         stamp_ns = (stamp.sec * 1_000_000_000 + stamp.nanosec) if stamp is not None \
             else self.get_clock().now().nanoseconds

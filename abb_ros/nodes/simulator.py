@@ -334,7 +334,8 @@ class SimulatorNode(Node):
                       rbar=self.sim.rbar, omega=self.sim.omega,
                       wbar=self.drive.wbar(self.sim.omega), speed_cmd=self.speed_cmd,
                       spindle_mode=self.settings.spindle_mode,
-                      n=self.drive.n, paused=self.paused, fault=self.fault)
+                      n=self.drive.n, paused=self.paused, fault=self.fault,
+                      contact_refined_steps=self.sim.refined_steps)
         if self.settings.spindle_mode == 'torque':
             values.update(current_cmd=self.current_cmd, motor_current=self.sim.motor_current,
                           motor_torque=self.sim.motor_torque)

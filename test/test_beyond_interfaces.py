@@ -1,0 +1,73 @@
+"""Issue 12: the beyond-the-paper parameters flow through every interface (CLI run, stability,
+scenarios, ROS parameter descriptors of the simulator and analysis nodes)."""
+
+import json
+
+import pytest
+
+from abb_ros.cli import main
+from abb_ros.io.scenario import load_scenario
+from abb_ros.model.params import PARAM_SPECS, DriveParams
+from abb_ros.nodes import ros_params
+from test_cli_run import abb_sim
+
+STEEL_P1 = ['--set', 'r_ball=2.873e-3', '--set', 'contact_E=2e11', '--set', 'rolling_mu=1e-6',
+            '--set', 'ball_rotation=1']
+
+
+def test_headless_run_takes_the_new_parameters_and_reports_refined_steps():
+    """abb-sim run --set r_ball=... on P1: the balls meet within 0.3 s (docs/beyond_the_paper.md,
+    P1 figure), so contact sub-steps are reported in the summary, with the active terms."""
+    code, out, err = abb_sim('run', '--scenario', 'p1', '--duration', '0.5', '--json',
+                             '--no-progress', *STEEL_P1)
+    assert code == 0, err
+    summary = json.loads(out)
+    assert summary['beyond_paper'] == ['contact', 'rolling_mu', 'ball_rotation']
+    assert summary['contact_refined_steps'] > 0 and summary['contact_max_substeps'] > 1
+
+
+def test_stability_says_which_terms_the_linear_analysis_ignores(capsys):
+    code = main(['stability', '--set', 'mbar=0.03', '--set', 'wbar=2.7', '--json', *STEEL_P1])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0
+    assert 'contact, rolling_mu, ball_rotation' in out['note']
+    assert out['verdict'] == 'balanced'
+
+
+def test_stability_of_the_paper_model_has_no_note(capsys):
+    main(['stability', '--set', 'mbar=0.03', '--set', 'wbar=2.7', '--json'])
+    assert 'note' not in json.loads(capsys.readouterr().out)
+
+
+def test_bad_beyond_paper_value_exits_2_naming_it():
+    code, _, err = abb_sim('run', '--scenario', 'p3', '--set', 'rolling_mu=1e-6')
+    assert code == 2
+    assert "'r_ball'" in err and 'rolling_mu' in err and len(err.strip().splitlines()) == 1
+
+
+def test_scenario_settings_take_the_new_parameters():
+    scenario = load_scenario('p3').with_settings({'r_ball': 2e-3, 'contact_E': 2e11})
+    assert scenario.params.beyond_paper == ('contact',)
+
+
+@pytest.mark.parametrize('name', ['r_ball', 'contact_E', 'contact_nu', 'contact_damping',
+                                  'rolling_mu', 'rolling_stick_rate', 'ball_rotation'])
+def test_node_parameter_descriptor_matches_the_default_type(name):
+    """drive.<name> is declared by the simulator and analysis nodes from DriveParams: an integer
+    parameter (ball_rotation) gets an integer range, the others a floating-point range."""
+    d = ros_params.drive_descriptor(name)
+    default = getattr(DriveParams(), name)
+    assert name in PARAM_SPECS
+    if isinstance(default, int):
+        assert d.integer_range and not d.floating_point_range
+    else:
+        assert d.floating_point_range and not d.integer_range
+
+
+def test_overlapping_start_with_contact_exits_2_naming_phi0():
+    """p3_n10 starts its ten balls 1 deg apart: with 1.68 mm balls in contact that is an
+    overlap, refused with one line naming phi0 and the least separation."""
+    code, _, err = abb_sim('run', '--scenario', 'p3_n10', '--set', 'r_ball=1.68e-3',
+                           '--set', 'contact_E=2e11', '--duration', '0.1', '--no-progress')
+    assert code == 2
+    assert "'phi0'" in err and '12.8' in err and len(err.strip().splitlines()) == 1
