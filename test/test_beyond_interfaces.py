@@ -9,13 +9,12 @@ from abb_ros.cli import main
 from abb_ros.io.scenario import load_scenario
 from abb_ros.model.params import PARAM_SPECS, DriveParams
 from abb_ros.nodes import ros_params
-from test_cli_run import abb_sim
 
 STEEL_P1 = ['--set', 'r_ball=2.873e-3', '--set', 'contact_E=2e11', '--set', 'rolling_mu=1e-6',
             '--set', 'ball_rotation=1']
 
 
-def test_headless_run_takes_the_new_parameters_and_reports_refined_steps():
+def test_headless_run_takes_the_new_parameters_and_reports_refined_steps(abb_sim):
     """abb-sim run --set r_ball=... on P1: the balls meet within 0.3 s (docs/beyond_the_paper.md,
     P1 figure), so contact sub-steps are reported in the summary, with the active terms."""
     code, out, err = abb_sim('run', '--scenario', 'p1', '--duration', '0.5', '--json',
@@ -39,7 +38,7 @@ def test_stability_of_the_paper_model_has_no_note(capsys):
     assert 'note' not in json.loads(capsys.readouterr().out)
 
 
-def test_bad_beyond_paper_value_exits_2_naming_it():
+def test_bad_beyond_paper_value_exits_2_naming_it(abb_sim):
     code, _, err = abb_sim('run', '--scenario', 'p3', '--set', 'rolling_mu=1e-6')
     assert code == 2
     assert "'r_ball'" in err and 'rolling_mu' in err and len(err.strip().splitlines()) == 1
@@ -55,16 +54,16 @@ def test_scenario_settings_take_the_new_parameters():
 def test_node_parameter_descriptor_matches_the_default_type(name):
     """drive.<name> is declared by the simulator and analysis nodes from DriveParams: an integer
     parameter (ball_rotation) gets an integer range, the others a floating-point range."""
-    d = ros_params.drive_descriptor(name)
-    default = getattr(DriveParams(), name)
     assert name in PARAM_SPECS
+    d = ros_params.descriptor(PARAM_SPECS[name])
+    default = getattr(DriveParams(), name)
     if isinstance(default, int):
         assert d.integer_range and not d.floating_point_range
     else:
         assert d.floating_point_range and not d.integer_range
 
 
-def test_overlapping_start_with_contact_exits_2_naming_phi0():
+def test_overlapping_start_with_contact_exits_2_naming_phi0(abb_sim):
     """p3_n10 starts its ten balls 1 deg apart: with 1.68 mm balls in contact that is an
     overlap, refused with one line naming phi0 and the least separation."""
     code, _, err = abb_sim('run', '--scenario', 'p3_n10', '--set', 'r_ball=1.68e-3',

@@ -5,17 +5,6 @@ import json
 
 import pytest
 
-from abb_ros.cli import main
-
-
-@pytest.fixture
-def abb_sim(capsys):
-    """``abb_sim(*args) -> (exit code, stdout, stderr)`` of ``abb-sim`` run in this process."""
-    def run(*args):
-        code = main(list(args))
-        out = capsys.readouterr()
-        return code, out.out, out.err
-    return run
 
 
 def test_run_p3_prints_one_json_summary(abb_sim):
