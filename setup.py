@@ -28,6 +28,7 @@ setup(
             'analysis = abb_ros.nodes.analysis:main',
             'recorder = abb_ros.nodes.recorder:main',
             'abb-sim = abb_ros.cli:main',
+            'warmup = abb_ros.model.warmup:main',
         ],
     },
 )

@@ -56,6 +56,12 @@ NODE_PARAMS: dict[str, _P] = {
     'spindle.max_accel': _P(2000.0, 'spindle motor acceleration limit [rad/s^2]', 0.0, _INF),
     'spindle.tau': _P(0.05, 'spindle motor speed-loop time constant [s]', 0.0, _INF),
     'seed': _P(0, 'seed of the IMU noise generator (applies on ~/reset)', 0, 2**31 - 1),
+    'max_stamp_lag': _P(0.1, 'largest lag of a stamp behind its schedule (the wall clock at '
+                        'real_time_factor 1) [s]; a later plant drops the excess (counted in '
+                        'slips) and reports ERROR', 0.001, 3600.0),
+    'record.path': _P('', 'bag directory the node records what it publishes to (must not '
+                      'exist); empty: no recording at start (~/start_recording uses it, or '
+                      'abb_bag_<date>-<time>)'),
     'imu.rate_hz': _P(int(TYPICAL_IMU.rate), 'IMU output rate [Hz]; must divide '
                       'integration_rate_hz', 1, 10**6),
     'imu.position': _P([0.0, 0.0, 0.0], 'IMU mounting point on the deck, deck axes from C '
