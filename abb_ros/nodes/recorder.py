@@ -101,7 +101,7 @@ class Recorder(Node):
         self._recorded: dict[str, object] = {}
         self.losses: dict[str, LossCounter] = {}
         self.unchecked: set[str] = set()
-        self._publishers: dict[str, int] = {}
+        self._publisher_counts: dict[str, int] = {}
         self.exit_code = None
         self.failure = ''
         self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
@@ -112,7 +112,7 @@ class Recorder(Node):
 
     def _discover(self) -> None:
         for name in self.losses:
-            self._publishers[name] = self.count_publishers(name)
+            self._publisher_counts[name] = self.count_publishers(name)
         for name, types in self.get_topic_names_and_types():
             if name in self._wanted and name not in self._recorded and types:
                 offered = self.get_publishers_info_by_topic(name)
@@ -131,7 +131,7 @@ class Recorder(Node):
         self.bag.add_topic(name, type_name, qos=profiles,
                            type_hash=digest if digest.startswith('RIHS01_') else None)
         self.losses[name] = LossCounter()
-        self._publishers[name] = len(offered)
+        self._publisher_counts[name] = len(offered)
         self._recorded[name] = self.create_subscription(
             cls, name, functools.partial(self._on_message, name, self.losses[name]),
             request_qos(profiles, self._depth), raw=True)
@@ -141,7 +141,7 @@ class Recorder(Node):
         if self.exit_code is not None:
             return
         if topic not in self.unchecked:
-            if self._publishers.get(topic, 1) == 1:
+            if self._publisher_counts.get(topic, 1) == 1:
                 losses.see(info['publication_sequence_number'])
             else:
                 self.unchecked.add(topic)
