@@ -8,8 +8,12 @@ with a QoS adapted to the offers as rosbag2 does; the CDR bytes go to the bag un
 with the node clock (receive time). SIGINT/SIGTERM finish the bag; a full disk ends the
 recording with an error, the bag readable up to its last chunk (exit code 1).
 
-Losses: a topic with one publisher numbers its messages (DDS publication sequence number,
-in each message's info); every gap after the first message received is a loss. Losses are
+Receiving: the subscriptions belong to a hidden helper node (``_<name>_taps``) that no
+executor spins; a timer takes every queued message of every topic in one batch each
+``DRAIN_PERIOD_S`` (with its message info: receive time and publication sequence number; the
+EventsExecutor does not pass message info to callbacks in Jazzy), and once more before the
+bag is closed. Losses: a topic with one publisher numbers its messages (DDS publication
+sequence number); every gap after the first message received is a loss. Losses are
 counted per topic, reported once a second on ``/diagnostics`` (status ``<node>: recording``,
 WARN while any message was lost) and written into the bag's metadata (``custom_data``
 ``abb_ros.lost_messages``: {topic: count}). A topic with several publishers cannot be
@@ -18,7 +22,6 @@ checked this way (``abb_ros.loss_unchecked`` lists it).
 
 from __future__ import annotations
 
-import functools
 import json
 import sys
 import time
@@ -37,6 +40,9 @@ DEFAULT_TOPICS = ['joint_states', 'deck/pose', 'deck/twist', 'deck/imu', 'stabil
                   '/diagnostics', 'spindle/speed_cmd']
 DEFAULT_QUEUE_DEPTH = 1000  # 1 s of messages at 1 kHz before the middleware drops any
 DIAGNOSTICS_PERIOD_S = 1.0
+DRAIN_PERIOD_S = 0.01
+"""How often the subscription queues are emptied into the bag [s] (queue_depth messages must
+last this long at the topic's rate)."""
 SEQUENCE_UNSUPPORTED = 0
 """rmw's RMW_MESSAGE_INFO_SEQUENCE_NUMBER_UNSUPPORTED."""
 
@@ -105,9 +111,13 @@ class Recorder(Node):
         self.exit_code = None
         self.failure = ''
         self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
+        self._taps = Node(f'_{self.get_name()}_taps', namespace=self.get_namespace(),
+                          context=self.context, start_parameter_services=False,
+                          enable_rosout=False)
         self.get_logger().info(f'recording {len(self._wanted)} topics to {self.bag.path}')
         self._discover()
         self.create_timer(float(period), self._discover)
+        self.create_timer(DRAIN_PERIOD_S, self.drain)
         self.create_timer(DIAGNOSTICS_PERIOD_S, self.publish_diagnostics)
 
     def _discover(self) -> None:
@@ -116,7 +126,9 @@ class Recorder(Node):
         for name, types in self.get_topic_names_and_types():
             if name in self._wanted and name not in self._recorded and types:
                 offered = self.get_publishers_info_by_topic(name)
-                if offered:
+                if any((i.node_name, i.node_namespace) != (self.get_name(),
+                                                           self.get_namespace())
+                       for i in offered):   # not only this node's own /diagnostics
                     self._subscribe(name, types[0], offered)
 
     def _subscribe(self, name: str, type_name: str, offered) -> None:
@@ -132,25 +144,34 @@ class Recorder(Node):
                            type_hash=digest if digest.startswith('RIHS01_') else None)
         self.losses[name] = LossCounter()
         self._publisher_counts[name] = len(offered)
-        self._recorded[name] = self.create_subscription(
-            cls, name, functools.partial(self._on_message, name, self.losses[name]),
-            request_qos(profiles, self._depth), raw=True)
+        # Taken by drain(), never by an executor: the callback is not called.
+        self._recorded[name] = self._taps.create_subscription(
+            cls, name, _never_called, request_qos(profiles, self._depth), raw=True)
         self.get_logger().info(f'recording {name} [{type_name}]')
 
-    def _on_message(self, topic: str, losses: LossCounter, data: bytes, info) -> None:
-        if self.exit_code is not None:
-            return
-        if topic not in self.unchecked:
-            if self._publisher_counts.get(topic, 1) == 1:
-                losses.see(info['publication_sequence_number'])
-            else:
+    def drain(self) -> None:
+        """Write every message waiting in the subscriptions' queues to the bag."""
+        for topic, sub in self._recorded.items():
+            if sub is None:
+                continue
+            losses = self.losses[topic]
+            checked = self._publisher_counts.get(topic, 1) == 1
+            if not checked:
                 self.unchecked.add(topic)
-        try:
-            self.bag.write(topic, data, self.get_clock().now().nanoseconds)
-        except BagWriteError as exc:
-            self.failure = f'recording stopped: {exc.strerror}'
-            self.get_logger().error(self.failure)
-            self.exit_code = 1   # the spin loop ends; close() reports
+            while self.exit_code is None:
+                with sub.handle:
+                    taken = sub.handle.take_message(sub.msg_type, True)
+                if taken is None:
+                    break
+                data, info = taken
+                if checked and topic not in self.unchecked:
+                    losses.see(info['publication_sequence_number'])
+                try:
+                    self.bag.write(topic, data, info['received_timestamp'])
+                except BagWriteError as exc:
+                    self.failure = f'recording stopped: {exc.strerror}'
+                    self.get_logger().error(self.failure)
+                    self.exit_code = 1   # the spin loop ends; close() reports
 
     @property
     def lost(self) -> dict[str, int]:
@@ -179,6 +200,8 @@ class Recorder(Node):
     def close(self) -> None:
         """Finish the bag (summary, metadata.yaml); works after the context has shut down."""
         logger = rclpy.logging.get_logger(self.get_name())  # not via /rosout, maybe gone
+        if not self.bag.closed and self.context.ok():
+            self.drain()   # what arrived since the last drain
         if not self.bag.closed:
             try:
                 self.bag.set_custom_data('abb_ros.lost_messages', json.dumps(self.lost))
@@ -192,6 +215,15 @@ class Recorder(Node):
         logger.info(
             f'{self.bag.message_count} messages on {len(self.bag.topics)} topics in '
             f'{self.bag.path}' + (f'; {lost} message(s) lost: {self.lost}' if lost else ''))
+
+
+    def destroy_node(self):
+        self._taps.destroy_node()
+        return super().destroy_node()
+
+
+def _never_called(data) -> None:
+    raise AssertionError('the recorder takes its messages in drain()')
 
 
 def main(args=None) -> int:
