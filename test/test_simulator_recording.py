@@ -3,9 +3,11 @@
 1. ``record.path`` at real_time_factor 0 (the node owns time, as the headless run): the bag
    holds every message from step 0 on, byte-identical and in the same order as the headless
    ``run_scenario`` bag of the same scenario (test_live_vs_headless's parameters).
-2. ``~/start_recording`` / ``~/stop_recording`` at real_time_factor 1 (in process, over DDS): the
-   bag is finished whole, its joint_states stamps are contiguous, and each message equals the
-   bytes a subscriber received with the same stamp.
+2. ``~/start_recording`` / ``~/stop_recording`` at real_time_factor 1 (in process, over DDS;
+   ``max_stamp_lag`` 5 s so that a loaded machine makes the node catch up rather than drop
+   periods): the bag is finished whole, its joint_states stamps are contiguous, each message
+   equals the bytes a subscriber received with the same stamp, and every message the
+   subscriber received within the recording's span is in the bag.
 """
 
 import signal
@@ -91,7 +93,7 @@ def test_recording_in_the_node_equals_the_headless_bag_message_for_message(tmp_p
 def test_recording_started_and_stopped_by_service_holds_what_a_subscriber_received(
         plant_factory, tmp_path):
     bag = tmp_path / 'bag'
-    p = plant_factory(**{'record.path': ''})
+    p = plant_factory(**{'record.path': '', 'max_stamp_lag': 5.0})
     p.sim.set_parameters([Parameter('record.path', value=str(bag))])
     received = {}
     p.node.create_subscription(JointState, 'joint_states',
@@ -109,9 +111,11 @@ def test_recording_started_and_stopped_by_service_holds_what_a_subscriber_receiv
     assert is_finished(bag)
     recorded = by_topic(bag)['/joint_states']
     stamps = [stamp_of(d) for d in recorded]
-    assert len(stamps) > 500
+    assert len(stamps) > 300
     assert all(b - a == PERIOD_NS for a, b in zip(stamps, stamps[1:])), 'a gap in the bag'
     common = [d for d in recorded if stamp_of(d) in received]
     assert len(common) >= 0.9 * len(recorded)
     assert all(received[stamp_of(d)] == d for d in common)
+    in_span = [s for s in received if stamps[0] <= s <= stamps[-1]]
+    assert set(in_span) <= set(stamps), 'the subscriber got a message the bag lacks'
     assert not p.call(Trigger, '/abb_simulator/stop_recording', Trigger.Request()).success
