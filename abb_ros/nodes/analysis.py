@@ -13,9 +13,11 @@ balanced. A thin rclpy adapter over :mod:`abb_ros.model.speed_bands`:
 * a worker thread computes the |lambda|max-vs-speed table over 0..max_spindle_speed whenever
   the parameters change (about 0.3 s for 300 speeds), and refines the current point exactly
   when it is idle; the executor only interpolates, so it never waits on a computation.
-* each ``joint_states`` (the velocity of joint ``spindle`` = omega, read from the raw CDR
-  bytes by :mod:`abb_ros.io.joint_speed`: no message is deserialised) updates the verdict,
-  published at most at ``publish_rate_hz`` and at least every ``heartbeat_s``:
+* the latest ``joint_states`` (the velocity of joint ``spindle`` = omega) updates the
+  verdict at ``publish_rate_hz``: it is taken from a depth-1 best-effort subscription
+  (:mod:`abb_ros.nodes.taps`) by the publishing timer and read from its CDR bytes
+  (:mod:`abb_ros.io.joint_speed`), so the 1 kHz topic costs no Python callback per message.
+  The verdict is published at most at ``publish_rate_hz`` and at least every ``heartbeat_s``:
   ``stability/margin`` (Float64, 1 - max of the in- and out-of-plane |lambda|max; -inf while
   no balanced equilibrium exists) and ``/diagnostics`` (status ``<node>: stability``). The
   level rule is in speed_bands. Until the first verdict the status is STALE and says why
@@ -35,7 +37,7 @@ from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescr
 from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
-from rclpy.qos import qos_profile_parameter_events
+from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_parameter_events
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
@@ -45,6 +47,7 @@ from abb_ros.model import speed_bands
 from abb_ros.model.params import DriveParams, ParamError
 from abb_ros.nodes import ros_params
 from abb_ros.nodes.entry_point import run_node
+from abb_ros.nodes.taps import Taps
 from abb_ros.model.table_worker import REFINE_TOL_RAD_S, TableWorker
 
 NODE_NAME = 'abb_analysis'
@@ -116,7 +119,6 @@ class AnalysisNode(Node):
         self.sync_error = ''
         self.speed = None          # (omega [rad/s], header stamp [ns]) of the last joint_states
         self._read_speed = JointSpeedReader()
-        self._rate_hz = self.get_parameter('publish_rate_hz').value
         self.n_seen = None
         self._dirty = False
         self._last_pub = 0.0
@@ -127,8 +129,10 @@ class AnalysisNode(Node):
         self._margin_pub = self.create_publisher(Float64, 'stability/margin', QOS_DEPTH)
         self._diag_pub = self.create_publisher(ros_messages.TOPIC_TYPES['/diagnostics'],
                                                '/diagnostics', QOS_DEPTH)
-        self.create_subscription(JointState, 'joint_states', self._on_joint_states, QOS_DEPTH,
-                                 raw=True)
+        self._taps = Taps(self)
+        self._joint_states = self._taps.subscribe(
+            JointState, 'joint_states', QoSProfile(depth=1,
+                                                   reliability=ReliabilityPolicy.BEST_EFFORT))
         self.create_subscription(ParameterEvent, '/parameter_events', self._on_parameter_event,
                                  qos_profile_parameter_events)
         self._param_client = AsyncParameterClient(self, self.sim_fqn)
@@ -156,7 +160,6 @@ class AnalysisNode(Node):
                 self.drive, self.omega_max, self.points = config
                 self._request_table()
         if 'publish_rate_hz' in names:
-            self._rate_hz = self.get_parameter('publish_rate_hz').value
             self.destroy_timer(self._timer)
             self._timer = self.create_timer(1.0 / self.get_parameter('publish_rate_hz').value,
                                             self._on_timer)
@@ -231,10 +234,13 @@ class AnalysisNode(Node):
         self._dirty = True
         if math.isfinite(omega) and omega > 0:
             self.worker.want(omega)
-        if time.monotonic() - self._last_pub >= 1.0 / self._rate_hz:
-            self.publish_status()
 
     def _on_timer(self) -> None:
+        latest = None
+        while (taken := Taps.take(self._joint_states)) is not None:
+            latest = taken
+        if latest is not None:
+            self._on_joint_states(latest[0])
         if self._dirty or time.monotonic() - self._last_pub >= \
                 self.get_parameter('heartbeat_s').value:
             self.publish_status()
@@ -285,6 +291,7 @@ class AnalysisNode(Node):
 
     def destroy_node(self):
         self.worker.stop()
+        self._taps.destroy()
         return super().destroy_node()
 
 

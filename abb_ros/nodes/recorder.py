@@ -35,6 +35,7 @@ from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from abb_ros.io import msgdefs, ros_messages
 from abb_ros.io.bag_writer import DEFAULT_CHUNK_SIZE, BagError, BagWriteError, BagWriter
 from abb_ros.nodes.entry_point import run_node
+from abb_ros.nodes.taps import Taps
 
 DEFAULT_TOPICS = ['joint_states', 'deck/pose', 'deck/twist', 'deck/imu', 'stability/margin',
                   '/diagnostics', 'spindle/speed_cmd']
@@ -111,9 +112,7 @@ class Recorder(Node):
         self.exit_code = None
         self.failure = ''
         self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
-        self._taps = Node(f'_{self.get_name()}_taps', namespace=self.get_namespace(),
-                          context=self.context, start_parameter_services=False,
-                          enable_rosout=False)
+        self._taps = Taps(self)
         self.get_logger().info(f'recording {len(self._wanted)} topics to {self.bag.path}')
         self._discover()
         self.create_timer(float(period), self._discover)
@@ -144,9 +143,8 @@ class Recorder(Node):
                            type_hash=digest if digest.startswith('RIHS01_') else None)
         self.losses[name] = LossCounter()
         self._publisher_counts[name] = len(offered)
-        # Taken by drain(), never by an executor: the callback is not called.
-        self._recorded[name] = self._taps.create_subscription(
-            cls, name, _never_called, request_qos(profiles, self._depth), raw=True)
+        self._recorded[name] = self._taps.subscribe(cls, name,
+                                                    request_qos(profiles, self._depth))
         self.get_logger().info(f'recording {name} [{type_name}]')
 
     def drain(self) -> None:
@@ -155,12 +153,11 @@ class Recorder(Node):
             if sub is None:
                 continue
             losses = self.losses[topic]
-            checked = self._publisher_counts.get(topic, 1) == 1
+            checked = self._publisher_counts.get(topic, 1) <= 1   # 0: publisher gone
             if not checked:
                 self.unchecked.add(topic)
             while self.exit_code is None:
-                with sub.handle:
-                    taken = sub.handle.take_message(sub.msg_type, True)
+                taken = Taps.take(sub)
                 if taken is None:
                     break
                 data, info = taken
@@ -218,12 +215,8 @@ class Recorder(Node):
 
 
     def destroy_node(self):
-        self._taps.destroy_node()
+        self._taps.destroy()
         return super().destroy_node()
-
-
-def _never_called(data) -> None:
-    raise AssertionError('the recorder takes its messages in drain()')
 
 
 def main(args=None) -> int:
