@@ -231,9 +231,13 @@ def report(args, work, sub_out, cpu, rss, codes, wall) -> None:
         received = sub['received'] if topic == 'joint_states' else ''
         print(f'{topic:<22}{sim.get("published " + topic, ""):>12}{received!s:>10}'
               f'{counts.get(name, 0):>10}{lost.get(name, "n/a")!s:>10}')
-    print('  * published: at the simulator\'s last diagnostics before the stop (<= 1 s early)')
-    print(f'subscriber: joint_states received {sub["received"]}, missed (stamp gaps) '
-          f'{sub["missed"]}, largest gap {sub["max_gap_ms"]:.1f} ms')
+    print('  * published by the simulator, at its last diagnostics before the stop (<= 1 s '
+          'early); /diagnostics and stability/margin are also published by the other nodes')
+    dropped = round(float(sim.get('slipped_time', 0.0)) * 1e9 / PUBLISH_PERIOD_NS)
+    print(f'subscriber: joint_states received {sub["received"]}, missing stamps '
+          f'{sub["missed"]} (of which {dropped} periods dropped by the simulator\'s slips, '
+          f'never published: about {sub["missed"] - dropped} lost in delivery), largest gap '
+          f'{sub["max_gap_ms"]:.1f} ms')
     print(f'recorder status: level {rec.get("level")} "{rec.get("message")}"')
     print(f'analysis status: level {ana.get("level")} "{ana.get("message", "")[:100]}"')
     if args.record_in_process:
