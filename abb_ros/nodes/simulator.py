@@ -443,6 +443,8 @@ class SimulatorNode(Node):
             elif lag > period:
                 message += f'; stamps up to {lag * 1e3:.1f} ms late (publish period ' \
                            f'{period * 1e3:g} ms)'
+                if lag * 1e9 > self._max_lag_ns:
+                    level = DiagnosticStatus.ERROR   # one late period, nothing to drop
         if self.recording_error:
             level = max(level, DiagnosticStatus.WARN)
             message += f'; recording stopped: {self.recording_error}'
