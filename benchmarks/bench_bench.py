@@ -170,7 +170,6 @@ def main() -> int:
                                      '--out', str(sub_out)], work, 'subscriber')
         procs['recorder'] = start(node('recorder', f'output:={work / "bag"}'), work, 'recorder')
         procs['analysis'] = start(node('analysis'), work, 'analysis')
-        t_sim = time.monotonic()
         procs['simulator'] = start(node('simulator', *sim_params), work, 'simulator')
         first = wait_for(work / 'subscriber.json.ready', procs, 300.0)
         print(f'first joint_states at the subscriber {first:.2f} s after the simulator started')
@@ -203,7 +202,6 @@ def main() -> int:
         if hog is not None:
             hog.kill()
             hog.wait()
-    _ = t_sim
     report(args, work, sub_out, cpu, rss, codes, wall)
     return 0
 

@@ -78,6 +78,7 @@ class Plant:
     def close(self):
         self._stop.set()
         self._thread.join(timeout=10)
+        self.sim_executor.shutdown()   # releases the nodes' handles: their endpoints go away
         for sim in self.sims:
             sim.destroy_node()
         self.node.destroy_node()

@@ -71,8 +71,9 @@ def test_a_stall_beyond_max_stamp_lag_is_dropped_counted_as_error_and_stamps_rej
     levels = statuses(p)
     p.wait(lambda: len(got) > 100, 'joint_states')
     stall_once(p.sim, 0.6)
-    v = values_after(p, lambda v: int(v.get('slips', 0)) >= 1, 'a slip reported')
-    assert float(v['slipped_time']) >= 0.4
+    # (A loaded machine may add slips of its own: the stall's shows in the time dropped.)
+    v = values_after(p, lambda v: float(v.get('slipped_time', 0)) >= 0.4, 'the stall dropped')
+    assert int(v['slips']) >= 1
     p.wait(lambda: any(level == DiagnosticStatus.ERROR and 'slip' in message
                        for level, message in levels), 'an ERROR status naming the slip')
     n = len(got)
