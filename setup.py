@@ -31,6 +31,7 @@ setup(
             'recorder = abb_ros.nodes.recorder:main',
             'abb-sim = abb_ros.cli:main',
             'spin_controller = abb_ros.nodes.spin_controller:main',
+            'warmup = abb_ros.model.warmup:main',
         ],
         'pytest11': ['abb_ros = abb_ros.testing.pytest_plugin'],
     },

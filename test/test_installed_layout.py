@@ -21,7 +21,7 @@ import pytest
 
 REPO = Path(__file__).resolve().parents[1]
 PACKAGE = 'abb_ros'
-EXECUTABLES = ('simulator', 'analysis', 'recorder', 'spin_controller')
+EXECUTABLES = ('simulator', 'analysis', 'recorder', 'spin_controller', 'warmup')
 # Table 1 drive of config/cdrom_table1.yaml has n = 2 balls.
 TABLE1_JOINTS = ['spindle', 'ball_1', 'ball_2']
 
@@ -130,6 +130,22 @@ def test_ament_index_resolves_the_installed_package_as_ros2_run_does(install, so
     assert set(EXECUTABLES) <= set(found['executables'])
     # The installed copy shadows the editable checkout, so the executables run installed code.
     assert Path(found['module']).resolve().is_relative_to(prefix.resolve()), found['module']
+
+
+WARMUP_TIMEOUT_S = 900.0   # a cold compile of every kernel on a loaded machine
+
+
+def test_installed_warmup_compiles_the_kernels_into_the_install_tree(install, sourced_env):
+    """The colcon route's set-up step (`ros2 run abb_ros warmup`): numba's cache of the
+    installed sources lands beside them, in the install tree."""
+    prefix = install / PACKAGE
+    result = subprocess.run([str(prefix / 'lib' / PACKAGE / 'warmup')], env=sourced_env,
+                            stdin=subprocess.DEVNULL, capture_output=True, text=True,
+                            timeout=WARMUP_TIMEOUT_S)
+    assert result.returncode == 0, result.stdout + result.stderr
+    cache = Path(result.stdout.rsplit('cache: ', 1)[1].strip())
+    assert cache.resolve().is_relative_to(prefix.resolve()), cache
+    assert list(cache.glob('*.nbi')) and list(cache.glob('*.nbc')), cache
 
 
 @pytest.mark.ros

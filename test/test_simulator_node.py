@@ -78,6 +78,7 @@ class Plant:
     def close(self):
         self._stop.set()
         self._thread.join(timeout=10)
+        self.sim_executor.shutdown()   # releases the nodes' handles: their endpoints go away
         for sim in self.sims:
             sim.destroy_node()
         self.node.destroy_node()
@@ -105,6 +106,16 @@ class Plant:
         end = time.monotonic() + seconds
         while time.monotonic() < end:
             self.test_executor.spin_once(timeout_sec=0.02)
+
+    def drain(self, got, quiet=0.3):
+        """Spin until nothing was added to ``got`` for ``quiet`` s: the publishers keep 1000
+        messages for reliable subscribers, so a loaded test process can be behind."""
+        self.wait(lambda: self._quiet_for(got, quiet), f'a quiet {quiet} s')
+
+    def _quiet_for(self, got, quiet):
+        n = len(got)
+        self.spin_for(quiet)
+        return len(got) == n
 
     def collect(self, kind, topic):
         got = []
@@ -379,9 +390,7 @@ def test_state_leaving_the_envelope_stops_with_error_and_reset_recovers(plant_fa
     plant.wait(lambda: plant.status() and plant.status().level == DiagnosticStatus.ERROR,
                'ERROR on /diagnostics')
     assert 'envelope' in plant.status().message or 'non-finite' in plant.status().message
-    # Samples published before the fault may still be in flight on another topic than
-    # /diagnostics (DDS orders messages per topic only): let them land, then count.
-    plant.spin_for(0.2)
+    plant.drain(states)
     frozen = len(states)
     plant.spin_for(0.3)  # a bounded look: nothing more may come while faulted
     assert len(states) == frozen
@@ -415,7 +424,7 @@ def test_pause_and_step_advance_exactly_one_publish_period_in_lockstep(plant_fac
     assert not plant.step().success  # running: ~/step is refused
     plant.wait(lambda: len(states) > 100, 'free running after resume')
     plant.pause(True)
-    plant.spin_for(0.2)
+    plant.drain(states)
     n_paused = len(states)
     plant.spin_for(0.3)
     assert len(states) == n_paused
@@ -438,7 +447,7 @@ def test_reset_restores_the_initial_state_and_clock_never_goes_backwards(plant_f
     plant.wait(lambda: abs(states[-1].velocity[0] - 400.0) < 1.0, 'speed 400 rad/s')
     plant.pause(True)
     assert plant.call(Trigger, '/abb_simulator/reset', Trigger.Request()).success
-    plant.spin_for(0.2)
+    plant.drain(states)
     n = len(states)
     assert plant.step().success
     plant.wait(lambda: len(states) == n + 1, 'first period after reset')

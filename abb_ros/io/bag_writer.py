@@ -327,6 +327,15 @@ class BagWriter:
             self.add_metadata(INCOMPLETE_KEY, {'reason': reason})
             self._write_metadata_yaml()
 
+    def topic_counts(self) -> dict[str, int]:
+        """Topic name -> messages written so far."""
+        return {t.name: t.count for t in self._topics.values()}
+
+    def set_custom_data(self, key: str, text: str) -> None:
+        """A ``custom_data`` entry of metadata.yaml (and of the summary's rosbag2 record)."""
+        self._custom[key] = text
+        self._write_metadata_yaml()
+
     def close(self) -> None:
         """Finish the MCAP (summary, rosbag2 metadata record) and write ``metadata.yaml``."""
         if self.closed:

@@ -286,6 +286,12 @@ SIMULATOR_SPECS = (
               low_open=True, high=_INF, applies=_AT_STEP, nodes=_SIM, commands=_RUN),
     ParamSpec('seed', 0, '', 'seed of the IMU noise generator', INTEGER, 0, 2**31 - 1,
               applies='on ~/reset', nodes=_SIM, commands=_RUN),
+    ParamSpec('max_stamp_lag', 0.1, 's', 'largest lag of a stamp behind its schedule (the wall '
+              'clock at real_time_factor 1); a later plant drops the excess (counted in slips) '
+              'and reports ERROR', low=0.001, high=3600.0, applies=_AT_STEP, nodes=_SIM),
+    ParamSpec('record.path', '', '', 'bag directory the node records what it publishes to '
+              '(must not exist); empty: no recording at start (~/start_recording uses it, or '
+              'abb_bag_<date>-<time>)', STRING, applies='at start-up', nodes=_SIM),
     ParamSpec('imu.rate_hz', int(TYPICAL_IMU.rate), 'Hz', 'IMU output rate; must divide '
               'integration_rate_hz', INTEGER, 1, 10**6, applies=_AT_STEP, nodes=_SIM,
               commands=_RUN),

@@ -40,7 +40,7 @@ class Sample:
         parts = [] if self.y is None else [self.y]
         if self.imu is not None:
             parts += [self.imu.accel, self.imu.gyro]
-        return all(np.all(np.isfinite(p)) for p in parts)
+        return all(np.isfinite(p).all() for p in parts)
 
 
 class PlantSampler:

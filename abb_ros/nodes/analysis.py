@@ -13,10 +13,16 @@ balanced. A thin rclpy adapter over :mod:`abb_ros.model.speed_bands`:
 * a worker thread computes the |lambda|max-vs-speed table over 0..max_spindle_speed whenever
   the parameters change (about 0.3 s for 300 speeds), and refines the current point exactly
   when it is idle; the executor only interpolates, so it never waits on a computation.
-* each ``joint_states`` (velocity[0] = omega) updates the verdict, published at most at
-  ``publish_rate_hz`` and at least every ``heartbeat_s``: ``stability/margin`` (Float64,
-  1 - max of the in- and out-of-plane |lambda|max; -inf while no balanced equilibrium exists)
-  and ``/diagnostics`` (status ``<node>: stability``). The level rule is in speed_bands.
+* the latest ``joint_states`` (the velocity of joint ``spindle`` = omega) updates the
+  verdict at ``publish_rate_hz``: it is taken from a depth-1 best-effort subscription
+  (:mod:`abb_ros.nodes.taps`) by the publishing timer and read from its CDR bytes
+  (:mod:`abb_ros.io.joint_speed`), so the 1 kHz topic costs no Python callback per message.
+  The verdict is published at most at ``publish_rate_hz`` and at least every ``heartbeat_s``:
+  ``stability/margin`` (Float64, 1 - max of the in- and out-of-plane |lambda|max; -inf while
+  no balanced equilibrium exists) and ``/diagnostics`` (status ``<node>: stability``). The
+  level rule is in speed_bands. Until the first verdict the status is STALE and says why
+  (table being computed, kernels compiled on a first start, no joint_states yet);
+  ``stability/margin`` is published from the first verdict on.
 """
 
 from __future__ import annotations
@@ -29,16 +35,18 @@ from rcl_interfaces.msg import ParameterEvent, SetParametersResult
 from rclpy.node import Node
 from rclpy.parameter import Parameter, parameter_value_to_python
 from rclpy.parameter_client import AsyncParameterClient
-from rclpy.qos import qos_profile_parameter_events
+from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_parameter_events
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
 from abb_ros.io import ros_messages
+from abb_ros.io.joint_speed import JointSpeedReader
 from abb_ros.model import speed_bands
 from abb_ros.model.param_spec import DRIVE_PREFIX, specs_for
 from abb_ros.model.params import DriveParams, ParamError
 from abb_ros.nodes import ros_params
 from abb_ros.nodes.entry_point import run_node
+from abb_ros.nodes.taps import Taps
 from abb_ros.model.table_worker import REFINE_TOL_RAD_S, TableWorker
 
 NODE_NAME = 'abb_analysis'
@@ -85,7 +93,8 @@ class AnalysisNode(Node):
                                 self.get_namespace())
         self.parameters_from = 'own parameters (simulator not seen yet)'
         self.sync_error = ''
-        self.speed = None          # (omega [rad/s], header stamp) of the last joint_states
+        self.speed = None          # (omega [rad/s], header stamp [ns]) of the last joint_states
+        self._read_speed = JointSpeedReader()
         self.n_seen = None
         self._dirty = False
         self._last_pub = 0.0
@@ -96,7 +105,10 @@ class AnalysisNode(Node):
         self._margin_pub = self.create_publisher(Float64, 'stability/margin', QOS_DEPTH)
         self._diag_pub = self.create_publisher(ros_messages.TOPIC_TYPES['/diagnostics'],
                                                '/diagnostics', QOS_DEPTH)
-        self.create_subscription(JointState, 'joint_states', self._on_joint_states, QOS_DEPTH)
+        self._taps = Taps(self)
+        self._joint_states = self._taps.subscribe(
+            JointState, 'joint_states', QoSProfile(depth=1,
+                                                   reliability=ReliabilityPolicy.BEST_EFFORT))
         self.create_subscription(ParameterEvent, '/parameter_events', self._on_parameter_event,
                                  qos_profile_parameter_events)
         self._param_client = AsyncParameterClient(self, self.sim_fqn)
@@ -180,30 +192,31 @@ class AnalysisNode(Node):
         self._adopt(values, 'GetParameters')
 
     # ---- inputs and publishing -------------------------------------------------------------
-    def _on_joint_states(self, msg: JointState) -> None:
-        names = list(msg.name)
-        if 'spindle' in names and len(msg.velocity) > names.index('spindle'):
-            omega = float(msg.velocity[names.index('spindle')])
-        elif msg.velocity:
-            omega = float(msg.velocity[0])
-        else:
-            omega = math.nan
+    def _on_joint_states(self, data: bytes) -> None:
+        try:
+            js = self._read_speed(data)
+        except ValueError as err:
+            self.get_logger().warning(f'malformed joint_states: {err}',
+                                      throttle_duration_sec=WARN_THROTTLE_S)
+            return
+        omega = js.omega
         if not math.isfinite(omega):
             self.get_logger().warning(f'joint_states without a finite spindle speed: {omega!r}',
                                       throttle_duration_sec=WARN_THROTTLE_S)
-        n = sum(1 for name in names if name.startswith('ball_'))
-        if names and n != self.n_seen:
-            self.n_seen = n
+        if js.named and js.n != self.n_seen:
+            self.n_seen = js.n
             self._request_table()
-        self.speed = (omega, msg.header.stamp)
+        self.speed = (omega, js.stamp_ns)
         self._dirty = True
         if math.isfinite(omega) and omega > 0:
             self.worker.want(omega)
-        if time.monotonic() - self._last_pub >= 1.0 / self.get_parameter(
-                'publish_rate_hz').value:
-            self.publish_status()
 
     def _on_timer(self) -> None:
+        latest = None
+        while (taken := Taps.take(self._joint_states)) is not None:
+            latest = taken
+        if latest is not None:
+            self._on_joint_states(latest[0])
         if self._dirty or time.monotonic() - self._last_pub >= \
                 self.get_parameter('heartbeat_s').value:
             self.publish_status()
@@ -218,9 +231,11 @@ class AnalysisNode(Node):
                                           {'omega': omega})
         if table is None or table.params != self._effective_drive() \
                 or table.omega_max != self.omega_max or worker.busy:
-            return speed_bands.Assessment(speed_bands.STALE, 'computing the stability table '
-                                          'for the current parameters', math.nan,
-                                          {'omega': omega})
+            why = 'computing the stability table for the current parameters'
+            if table is None:
+                why = f'no verdict yet: {why} (a first start also compiles the kernels, ' \
+                      'unless python -m abb_ros.model.warmup has)'
+            return speed_bands.Assessment(speed_bands.STALE, why, math.nan, {'omega': omega})
         if omega is None:
             a = speed_bands.assess(table, 0.0)
             return speed_bands.Assessment(speed_bands.STALE, 'no joint_states yet (spindle '
@@ -242,9 +257,7 @@ class AnalysisNode(Node):
         values = dict(a.values, parameters_from=self.parameters_from)
         if self.drive.beyond_paper:      # issue 12: terms the paper's linear analysis ignores
             values['ignored_by_linear_analysis'] = ', '.join(self.drive.beyond_paper)
-        stamp = self.speed[1] if self.speed else None
-        stamp_ns = (stamp.sec * 1_000_000_000 + stamp.nanosec) if stamp is not None \
-            else self.get_clock().now().nanoseconds
+        stamp_ns = self.speed[1] if self.speed else self.get_clock().now().nanoseconds
         if not math.isnan(a.margin):
             self._margin_pub.publish(Float64(data=a.margin))
         self._diag_pub.publish(ros_messages.diagnostics(
@@ -256,6 +269,7 @@ class AnalysisNode(Node):
 
     def destroy_node(self):
         self.worker.stop()
+        self._taps.destroy()
         return super().destroy_node()
 
 

@@ -1,33 +1,82 @@
-"""The Jazzy main() of every abb_ros node: init, construct, spin, clean shutdown."""
+"""The Jazzy main() of every abb_ros node: init, construct, spin, clean shutdown.
+
+Stopping: SIGINT and SIGTERM only set a flag that the spin loop checks between callbacks
+(rclpy's own signal handlers are not installed). A signal therefore never raises inside a
+callback, where the EventsExecutor would report ``[FATAL] Exception in 'timers' callback``
+with a traceback, and the context is shut down only after the node has been destroyed (its
+``close()`` first, e.g. the recorder finishing its bag): exit code 0 and no traceback,
+whatever was running when the signal came.
+"""
 
 from __future__ import annotations
 
+import os
+import signal
 import sys
 
 import rclpy
-from rclpy.executors import ExternalShutdownException
+from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
+from rclpy.signals import SignalHandlerOptions
 
 from abb_ros.model.params import ParamError
+from abb_ros.nodes import stop as stop_request
+
+SPIN_TIMEOUT_S = 0.1
+"""Longest wait in one spin_once: how late a stop request is seen at worst."""
 
 
-def run_node(name: str, factory, args=None, spin=rclpy.spin) -> int:
-    """Run the node made by ``factory()`` until Ctrl-C or shutdown; return the exit code.
+def make_executor(context):
+    """rclpy's EventsExecutor (a C++ event loop: about a third of the per-callback overhead
+    of SingleThreadedExecutor, which at 1 kHz decides whether a node keeps real time);
+    ABB_ROS_EXECUTOR=single selects the classic one."""
+    if os.environ.get('ABB_ROS_EXECUTOR', 'events') == 'single':
+        return SingleThreadedExecutor(context=context)
+    from rclpy.experimental import EventsExecutor
+    return EventsExecutor(context=context)
 
-    Invalid start-up parameters (ParamError) print the reason and give exit code 2. SIGINT
-    during construction or spinning ends cleanly, without a traceback.
-    """
-    rclpy.init(args=args)
-    node = None
+
+def spin(node, stop=None) -> None:
+    """Spin ``node`` until ``stop`` is set, the context shuts down, or the node sets
+    ``exit_code``. Timed spin_once calls: the EventsExecutor's own blocking spin does not
+    return on a signal (Jazzy)."""
+    executor = make_executor(node.context)
+    executor.add_node(node)
     try:
-        node = factory()
-        spin(node)
-    except ParamError as err:
+        while not stop and node.context.ok() and getattr(node, 'exit_code', None) is None:
+            executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
+    finally:
+        executor.remove_node(node)
+
+
+def run_node(name: str, factory, args=None, usage_errors=(ParamError,)) -> int:
+    """Run the node made by ``factory()`` until SIGINT/SIGTERM or shutdown; return the exit
+    code: 0, the node's ``exit_code`` if it set one (a runtime failure), or 2 with one line
+    on stderr when construction raises one of ``usage_errors`` (invalid parameters)."""
+    stop = stop_request.REQUEST
+    previous = stop_request.install()
+    node = None
+    code = 0
+    try:
+        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+        if not stop:   # a signal during the imports: do not start at all
+            node = factory()
+            spin(node, stop)
+        code = getattr(node, 'exit_code', None) or 0
+    except usage_errors as err:
         print(f'{name}: invalid parameter: {err}', file=sys.stderr)
-        return 2
+        code = 2
     except (KeyboardInterrupt, ExternalShutdownException):
         pass
     finally:
+        # Signals during the tear-down only set the flag again.
         if node is not None:
+            close = getattr(node, 'close', None)
+            if close is not None:
+                close()
             node.destroy_node()
         rclpy.try_shutdown()
-    return 0
+        if previous:
+            for signum, handler in previous.items():
+                signal.signal(signum, handler)
+            stop.signum = None
+    return code

@@ -2,7 +2,7 @@
 
 A thin rclpy adapter: :class:`abb_ros.model.integrate.Simulation` integrates, a
 :class:`abb_ros.model.sampling.PlantSampler` decides when the state and the IMU are due,
-:mod:`abb_ros.io.ros_messages` builds the messages (the same functions as the headless
+:mod:`abb_ros.io.cdr` encodes the messages (the same encoder as the headless
 ``abb-sim run``). Topics, parameters and services: docs/ros_api.md.
 
 Time: stamps are ``epoch + steps * dt`` in integer nanoseconds. With real_time_factor 1 at
@@ -12,39 +12,54 @@ time (use_sim_time consumers follow). A steady-clock timer paces integration: ea
 integrates every publish period that is due by then (catching up when late, counted as
 overruns); with real_time_factor 0 each tick integrates as many periods as fit in
 ``BATCH_WALL_S`` and the executor serves topics and services in between.
+
+Under load (docs/time_under_load.md): the lag of each tick's first stamp behind its schedule
+(the wall clock with wall-time stamps) is measured and reported in /diagnostics
+(``stamp_lag``: WARN above one publish period). When it exceeds ``max_stamp_lag`` the plant
+does not catch up: the missed periods are dropped (``slips``, ``slipped_time``, level ERROR);
+wall-time stamps then jump forward to the wall clock as after a pause, simulated time (and
+``/clock``) goes on from where it was.
+
+Messages are published as CDR bytes from :mod:`abb_ros.io.cdr` (the headless run's encoder:
+no rclpy message is built). ``record.path`` or ``~/start_recording`` / ``~/stop_recording``
+write exactly those bytes to a bag in process (:class:`abb_ros.io.bag_writer.BagWriter`,
+log time = stamp, as the headless run writes them).
 """
 
 from __future__ import annotations
 
 import math
-import os
 import sys
 import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy._rclpy_pybind11 import RCLError
 from rclpy.clock import Clock, ClockType
-from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 
-from abb_ros.io import ros_messages
+from abb_ros.io import cdr, ros_messages
+from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
+from abb_ros.model.params import ParamError
 from abb_ros.model.integrate import Simulation, StateError, initial_state
 from abb_ros.model.sampling import PlantSampler
 from abb_ros.model.sensors import ImuModel
 from abb_ros.nodes import ros_params
-from abb_ros.nodes.entry_point import run_node
+from abb_ros.nodes.entry_point import make_executor, run_node, spin
+from abb_ros.nodes.recorder import default_output
 
 NODE_NAME = 'abb_simulator'
 QOS_DEPTH = 10
+PUBLISH_DEPTH = 1000
+"""History of each published topic: a reliable subscriber (a recorder) that falls behind by up
+to this many messages (1 s at 1 kHz) still gets every one."""
 DIAGNOSTICS_PERIOD_S = 1.0
 BATCH_WALL_S = 0.005
 """As fast as possible: wall time spent integrating per timer tick before yielding."""
-MAX_CATCH_UP = 100
-"""Publish periods integrated in one late tick at most; beyond that the pacing re-anchors
-(the lost wall time is dropped, counted in ``slips``)."""
 WARN_THROTTLE_S = 1.0
+
+__all__ = ['SimulatorNode', 'main', 'make_executor', 'spin']
 
 
 class SimulatorNode(Node):
@@ -71,25 +86,42 @@ class SimulatorNode(Node):
         self.paused = s.start_paused
         self.counters = dict(overruns=0, slips=0, commands_accepted=0, commands_refused=0,
                              commands_saturated=0)
+        self.slipped_ns = 0           # wall time dropped by slips [ns]
+        self.lag_ns = 0               # largest stamp lag in the diagnostics window [ns]
+        self.lag_max_ns = 0           # ... since start [ns]
+        self._window_slips = 0
+        self._run_wall_ns = 0         # wall time and steps while running, for the
+        self._run_steps = 0           # real_time_factor since start
+        self._max_lag_ns = _max_stamp_lag_ns(self)
+        self.published = dict.fromkeys(ros_messages.TOPIC_TYPES, 0)
+        self.bag = None
+        self.recording_error = ''
         self.speed_cmd = s.initial_speed
         self.current_cmd = 0.0
         if s.spindle_mode == 'torque':
             self.sim.set_command(0.0)
         self._params_changed = False
 
-        self._pubs = {topic: self.create_publisher(kind, topic, QOS_DEPTH)
+        self._pubs = {topic: self.create_publisher(kind, topic, PUBLISH_DEPTH)
                       for topic, kind in ros_messages.TOPIC_TYPES.items()}
-        self._reuse = {topic: kind() for topic, kind in ros_messages.TOPIC_TYPES.items()}
         self.create_subscription(Float64, 'spindle/speed_cmd', self._on_speed_cmd, QOS_DEPTH)
         self.create_subscription(Float64, 'spindle/current_cmd', self._on_current_cmd,
                                  QOS_DEPTH)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(SetBool, '~/pause', self._on_pause)
         self.create_service(Trigger, '~/step', self._on_step)
+        self.create_service(Trigger, '~/start_recording', self._on_start_recording)
+        self.create_service(Trigger, '~/stop_recording', self._on_stop_recording)
         self.add_on_set_parameters_callback(lambda ps: ros_params.validate_change(self, ps))
         self.add_post_set_parameters_callback(self._on_parameters_set)
 
-        self._diag_window = (self._steady.now().nanoseconds, self.sim.steps)
+        path = self.get_parameter('record.path').value
+        if path:
+            error = self.start_recording(path)
+            if error:
+                raise ParamError('record.path', path, 'a directory that does not exist yet, '
+                                 'in a writable place', error)
+        self._diag_window = (self._steady.now().nanoseconds, self.sim.steps, True)
         self._diag_timer = self.create_timer(DIAGNOSTICS_PERIOD_S, self.publish_diagnostics,
                                              clock=self._steady)
         self._timer = None
@@ -147,18 +179,44 @@ class SimulatorNode(Node):
             return
         wall0, steps0 = self._anchor
         every = self.sampler.publish_every
+        rtf = self.settings.real_time_factor
         elapsed = self._steady.now().nanoseconds - wall0
-        due = steps0 + int(elapsed * self.settings.real_time_factor) // self._dt_ns
+        due = steps0 + int(elapsed * rtf) // self._dt_ns
         periods = due // every - self.sim.steps // every
+        if periods <= 0:
+            return
         if periods > 1:
             self.counters['overruns'] += periods - 1
-        if periods > MAX_CATCH_UP:
-            self.counters['slips'] += 1
-            periods = MAX_CATCH_UP
-            self._anchor_pacing((self.sim.steps // every + periods) * every)
-        for _ in range(max(periods, 0)):
+        first = (self.sim.steps // every + 1) * every      # step of this tick's first stamp
+        lag_ns = self._lag_ns(first, due)
+        if lag_ns > self._max_lag_ns and periods > 1:
+            self._slip(periods - 1)
+            periods = 1
+            lag_ns = self._lag_ns(first, first)
+        self.lag_ns = max(self.lag_ns, lag_ns)
+        self.lag_max_ns = max(self.lag_max_ns, lag_ns)
+        for _ in range(periods):
             if not self._integrate_period():
                 return
+
+    def _lag_ns(self, step: int, due: int) -> int:
+        """How late the stamp of ``step`` is published now [ns of wall time]: behind the wall
+        clock with wall-time stamps, else behind the pacing schedule (``due``)."""
+        if not self.owns_time:
+            return time.time_ns() - self.stamp_ns(step)
+        return int((due - step) * self._dt_ns / self.settings.real_time_factor)
+
+    def _slip(self, periods: int) -> None:
+        """Drop ``periods`` publish periods the plant could not keep up with: the pacing
+        restarts from now; wall-time stamps jump forward by them (as after a pause)."""
+        every = self.sampler.publish_every
+        self.counters['slips'] += 1
+        self._window_slips += 1
+        dropped_ns = periods * every * self._dt_ns
+        self.slipped_ns += int(dropped_ns / self.settings.real_time_factor)
+        if not self.owns_time:
+            self._epoch_ns += dropped_ns
+        self._anchor_pacing((self.sim.steps // every + 1) * every)
 
     def _tick_fast(self) -> None:
         self._apply_parameters()
@@ -186,15 +244,84 @@ class SimulatorNode(Node):
     def _publish(self, sample) -> None:
         if sample is None:
             return
-        for topic, msg in ros_messages.sample_messages(
-                sample, self._dt_ns, self.imu.config, self._epoch_ns, self.owns_time,
-                self._reuse):
-            try:
-                self._pubs[topic].publish(msg)
-            except RCLError:
-                if self.context.ok():
-                    raise
-                return  # shutting down (SIGINT): the context went away under the callback
+        stamp_ns, encoded = cdr.sample_cdr(sample, self._dt_ns, self.imu.config,
+                                           self._epoch_ns, self.owns_time)
+        for topic, data in encoded:
+            self._send(topic, data, stamp_ns)
+
+    def _send(self, topic: str, data: bytes, stamp_ns: int) -> None:
+        """Publish the CDR bytes of one message (and record them when recording)."""
+        try:
+            self._pubs[topic].publish(data)
+        except RCLError:
+            if self.context.ok():
+                raise
+            return  # the context was shut down by its owner (tests): nothing to publish to
+        self.published[topic] += 1
+        if self.bag is not None:
+            self._record(topic, data, stamp_ns)
+
+    # ---- in-process recording ---------------------------------------------------------------
+    def start_recording(self, path: str) -> str:
+        """Record every message published from now on to a new bag at ``path``; returns ''
+        or why not."""
+        if self.bag is not None:
+            return f'already recording to {self.bag.path}'
+        try:
+            bag = BagWriter(path)
+            bag.set_drive_params(self.drive)
+        except (BagError, OSError) as exc:
+            return str(exc)
+        self.bag, self.recording_error = bag, ''
+        self.get_logger().info(f'recording what this node publishes to {bag.path}')
+        return ''
+
+    def stop_recording(self) -> str:
+        """Finish the bag (summary, metadata.yaml); returns a one-line account."""
+        bag, self.bag = self.bag, None
+        if bag is None:
+            return 'not recording'
+        try:
+            bag.close()
+        except BagWriteError as exc:
+            self.recording_error = exc.strerror
+        text = f'{bag.message_count} messages on {len(bag.topics)} topics in {bag.path}'
+        if self.recording_error:
+            text += f' ({self.recording_error})'
+        return text
+
+    def _record(self, topic: str, data: bytes, stamp_ns: int) -> None:
+        name = self._pubs[topic].topic_name
+        try:
+            if name not in self.bag.topics:
+                self.bag.add_topic(name, _type_name(ros_messages.TOPIC_TYPES[topic]),
+                                   qos=self._pubs[topic].qos_profile)
+            self.bag.write(name, data, stamp_ns)
+        except BagWriteError as exc:
+            self.recording_error = exc.strerror
+            self.get_logger().error(f'recording stopped: {exc.strerror}')
+            self.stop_recording()
+
+    def _on_start_recording(self, request, response):
+        path = self.get_parameter('record.path').value or default_output()
+        error = self.start_recording(path)
+        response.success = not error
+        response.message = error or f'recording to {self.bag.path}'
+        return response
+
+    def _on_stop_recording(self, request, response):
+        response.success = self.bag is not None
+        response.message = self.stop_recording()
+        return response
+
+    def close(self) -> None:
+        """Finish a bag being written (entry_point calls this before destroy_node)."""
+        if self.bag is not None:
+            self.get_logger().info(self.stop_recording())
+
+    def destroy_node(self):
+        self.close()
+        return super().destroy_node()
 
     def _set_fault(self, cause: str) -> None:
         self.fault = cause
@@ -252,6 +379,7 @@ class SimulatorNode(Node):
         old = self.settings
         drive, s = ros_params.settings_from(ros_params.current_values(self))
         self.settings = s
+        self._max_lag_ns = _max_stamp_lag_ns(self)
         self.pending_drive = drive
         if drive.n == self.drive.n:
             self.drive = drive
@@ -313,57 +441,76 @@ class SimulatorNode(Node):
 
     # ---- diagnostics ---------------------------------------------------------------------
     def publish_diagnostics(self) -> None:
+        """The simulation status: real_time_factor achieved over the window (and since
+        start, paused time excluded), the stamp lag (window and since start) and slips."""
         wall_ns = self._steady.now().nanoseconds
-        wall0, steps0 = self._diag_window
-        self._diag_window = (wall_ns, self.sim.steps)
+        wall0, steps0, running = self._diag_window
+        self._diag_window = (wall_ns, self.sim.steps, not (self.paused or self.fault))
         wall = (wall_ns - wall0) * 1e-9
         achieved = (self.sim.steps - steps0) * self._dt_ns * 1e-9 / wall if wall > 0 else 0.0
+        if running:
+            self._run_wall_ns += wall_ns - wall0
+            self._run_steps += self.sim.steps - steps0
+        since_start = (self._run_steps * self._dt_ns / self._run_wall_ns
+                       if self._run_wall_ns > 0 else 0.0)
+        lag, slips = self.lag_ns * 1e-9, self._window_slips
+        self.lag_ns, self._window_slips = 0, 0
+        period = self.sampler.publish_every * self._dt_ns * 1e-9
+        target = self.settings.real_time_factor
         if self.fault:
             level, message = DiagnosticStatus.ERROR, self.fault
         elif self.paused:
             level, message = DiagnosticStatus.OK, 'paused'
         else:
-            target = self.settings.real_time_factor
             behind = target > 0 and achieved < 0.9 * target
-            level = DiagnosticStatus.WARN if behind else DiagnosticStatus.OK
+            level = DiagnosticStatus.WARN if behind or lag > period else DiagnosticStatus.OK
             message = (f'running at real_time_factor {achieved:.3f}'
                        + (f' (target {target:g})' if behind else ''))
-        values = dict(real_time_factor=achieved,
-                      target_real_time_factor=self.settings.real_time_factor,
-                      **self.counters, steps=self.sim.steps, sim_time=self.sim.t,
+            if slips:
+                level = DiagnosticStatus.ERROR
+                message += (f'; cannot keep up: {slips} slip(s), stamps more than '
+                            f'max_stamp_lag late were dropped '
+                            f'({self.slipped_ns * 1e-9:.3f} s in all)')
+            elif lag > period:
+                message += f'; stamps up to {lag * 1e3:.1f} ms late (publish period ' \
+                           f'{period * 1e3:g} ms)'
+                if lag * 1e9 > self._max_lag_ns:
+                    level = DiagnosticStatus.ERROR   # one late period, nothing to drop
+        if self.recording_error:
+            level = max(level, DiagnosticStatus.WARN)
+            message += f'; recording stopped: {self.recording_error}'
+        values = dict(real_time_factor=achieved, real_time_factor_since_start=since_start,
+                      target_real_time_factor=target, stamp_lag=lag,
+                      stamp_lag_max=self.lag_max_ns * 1e-9,
+                      max_stamp_lag=self.get_parameter('max_stamp_lag').value,
+                      **self.counters, slipped_time=self.slipped_ns * 1e-9,
+                      steps=self.sim.steps, sim_time=self.sim.t,
                       rbar=self.sim.rbar, omega=self.sim.omega,
                       wbar=self.drive.wbar(self.sim.omega), speed_cmd=self.speed_cmd,
                       spindle_mode=self.settings.spindle_mode,
                       n=self.drive.n, paused=self.paused, fault=self.fault,
-                      contact_refined_steps=self.sim.refined_steps)
+                      contact_refined_steps=self.sim.refined_steps,
+                      recording=str(self.bag.path) if self.bag is not None else '',
+                      recorded=self.bag.message_count if self.bag is not None else 0,
+                      **{f'published {t}': count for t, count in self.published.items()})
         if self.settings.spindle_mode == 'torque':
             values.update(current_cmd=self.current_cmd, motor_current=self.sim.motor_current,
                           motor_torque=self.sim.motor_torque)
-        self._pubs['/diagnostics'].publish(ros_messages.diagnostics(
-            self.stamp_ns(), f'{self.get_fully_qualified_name()}: simulation', level,
-            message, values))
+        stamp_ns = self.stamp_ns()
+        content = ros_messages.diagnostics_content(
+            f'{self.get_fully_qualified_name()}: simulation', level, message, values)
+        sec, nanosec = divmod(stamp_ns, 1_000_000_000)
+        self._send('/diagnostics', cdr.diagnostic_array(sec, nanosec, content), stamp_ns)
 
 
-def spin(node: Node) -> None:
-    """rclpy.spin with :func:`make_executor`. The loop of timed spin_once calls is what lets
-    SIGINT through: the EventsExecutor's own blocking spin does not return on it (Jazzy)."""
-    executor = make_executor(node.context)
-    executor.add_node(node)
-    try:
-        while node.context.ok():
-            executor.spin_once(timeout_sec=0.1)
-    finally:
-        executor.remove_node(node)
+def _max_stamp_lag_ns(node) -> float:
+    """The ``max_stamp_lag`` parameter [ns]."""
+    return node.get_parameter('max_stamp_lag').value * 1e9
 
 
-def make_executor(context):
-    """rclpy's EventsExecutor (a C++ event loop: about a third of the per-callback overhead
-    of SingleThreadedExecutor, which at 1 kHz decides whether the node keeps real time);
-    ABB_ROS_EXECUTOR=single selects the classic one."""
-    if os.environ.get('ABB_ROS_EXECUTOR', 'events') == 'single':
-        return SingleThreadedExecutor(context=context)
-    from rclpy.experimental import EventsExecutor
-    return EventsExecutor(context=context)
+def _type_name(cls) -> str:
+    """ROS type name of a generated message class: sensor_msgs/msg/JointState."""
+    return f'{cls.__module__.split(".")[0]}/msg/{cls.__name__}'
 
 
 def _warm_up(sim: Simulation) -> None:
@@ -375,7 +522,7 @@ def _warm_up(sim: Simulation) -> None:
 
 
 def main(args=None):
-    return run_node('abb_simulator', SimulatorNode, args, spin=spin)
+    return run_node('abb_simulator', SimulatorNode, args)
 
 
 if __name__ == '__main__':

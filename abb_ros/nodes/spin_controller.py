@@ -31,7 +31,7 @@ from abb_ros.model.params import DriveParams, ParamError
 from abb_ros.model.run_up import RunUp, hold_speed
 from abb_ros.nodes import ros_params
 from abb_ros.nodes.entry_point import run_node
-from abb_ros.nodes.simulator import spin
+from abb_ros.nodes.entry_point import spin
 
 NODE_NAME = 'abb_spin_controller'
 QOS_DEPTH = 10

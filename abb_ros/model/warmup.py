@@ -1,0 +1,59 @@
+"""Compile every numba kernel the nodes and the CLI use, once, into numba's on-disk cache.
+
+``python -m abb_ros.model.warmup`` (run by scripts/ensure-venv; colcon users run it once after
+``colcon build``, see docs/time_under_load.md). numba (``cache=True``) keeps the machine code
+in ``__pycache__`` next to the sources (``*.nbi``/``*.nbc``); where that directory is not
+writable (a read-only install) numba uses its user-wide cache, ``$NUMBA_CACHE_DIR`` if set,
+else ``~/.cache/numba`` (``$XDG_CACHE_HOME/numba``). Without this step the first start of the
+simulator (integration kernels) and of the analysis node (Floquet kernels) compiles them.
+"""
+
+from __future__ import annotations
+
+import sys
+import time
+
+from abb_ros.model import speed_bands
+from abb_ros.model.integrate import DEFAULT_DT, Simulation, SpindleMotor
+from abb_ros.model.params import DriveParams
+
+WARMUP_TABLE_POINTS = 4
+"""Speeds of the warm-up table: the kernels' types do not depend on the count."""
+
+
+def warm_up() -> dict[str, float]:
+    """Run each kernel once on the Table 1 drive (small sizes); {part: seconds}."""
+    params = DriveParams()
+    omega = 2.7 * params.omega0
+    took = {}
+    start = time.perf_counter()
+    sim = Simulation(params, omega, DEFAULT_DT, spindle=SpindleMotor(2000.0, 0.05))
+    sim.advance(1)
+    sim.accelerations()
+    sim.trajectory(2, 1)
+    took['integration'] = time.perf_counter() - start
+    start = time.perf_counter()
+    table = speed_bands.speed_table(params, 1500.0, WARMUP_TABLE_POINTS)
+    speed_bands.refine(table, omega)
+    took['floquet'] = time.perf_counter() - start
+    return took
+
+
+def cache_location() -> str:
+    """The directory numba caches this package's integration kernels in."""
+    from abb_ros.model import kernels
+    cache = getattr(kernels.spindle_accel, '_cache', None)
+    if cache is None or not hasattr(cache, '_cache_path'):
+        return 'none (numba disabled: ABB_ROS_NO_JIT)'
+    return cache._cache_path
+
+
+def main() -> int:
+    took = warm_up()
+    parts = ', '.join(f'{k} {v:.1f} s' for k, v in took.items())
+    print(f'abb_ros kernels compiled or loaded ({parts}); cache: {cache_location()}')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

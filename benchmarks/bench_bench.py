@@ -1,0 +1,258 @@
+"""The whole HIL bench under load (prints figures; asserts nothing).
+
+Separate processes, as a user runs them: the simulator (n = 10, 10 kHz steps, 1 kHz publish,
+real_time_factor 1), the analysis node, the recorder of every topic, and one external
+subscriber of ``joint_states`` (a typed rclpy subscription, depth 10, as a user's controller
+would have; this script in ``--role subscriber``), optionally a CPU hog pinned to one core
+(``--hog``) and the simulator's in-process recording (``--record-in-process``). After
+``--duration`` seconds (from the first joint_states received) every process is stopped with
+SIGINT, simulator first, and this prints: the real-time factor achieved (simulator
+diagnostics, since start and over the last window), the largest stamp lag (simulator's own
+measure, and receive time - stamp at the subscriber), messages published / received /
+recorded / lost per topic, CPU per process (/proc/<pid>/stat utime + stime over the measured
+window, in % of one core), RSS growth per minute (least squares over samples every 5 s), and
+each process's exit code and whether its output holds 'Traceback' or 'FATAL'.
+
+    .venv/bin/python benchmarks/bench_bench.py [--duration 60] [--hog] [--record-in-process]
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+import os
+import random
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+os.environ.setdefault('ROS_DOMAIN_ID', str(random.randint(1, 101)))
+os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+
+import numpy as np  # noqa: E402
+import yaml  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from bench_simulator_node import cpu_seconds  # noqa: E402
+
+N_BALLS = 10
+PUBLISH_PERIOD_NS = 1_000_000
+RSS_SAMPLE_S = 5.0
+SETTLE_S = 2.0
+STATUS_SIM = 'abb_simulator: simulation'
+STATUS_ANALYSIS = 'abb_analysis: stability'
+STATUS_RECORDER = 'abb_recorder: recording'
+
+
+def rss_bytes(pid: int) -> int:
+    with open(f'/proc/{pid}/statm') as f:
+        return int(f.read().split()[1]) * os.sysconf('SC_PAGE_SIZE')
+
+
+# ---- the external subscriber (its own process) ---------------------------------------------
+
+def run_subscriber(out: Path) -> int:
+    """Count joint_states (gaps in the 1 ms stamps = missed) and their lag behind the wall
+    clock; keep the last status of each node; write JSON to ``out`` on SIGINT."""
+    from diagnostic_msgs.msg import DiagnosticArray
+    from rclpy.node import Node
+    from sensor_msgs.msg import JointState
+
+    from abb_ros.nodes.entry_point import run_node
+
+    class Subscriber(Node):
+        def __init__(self):
+            super().__init__('bench_subscriber')
+            self.stats = dict(received=0, missed=0, max_gap_ms=0.0, max_lag_ms=-math.inf,
+                              first_stamp=None, last_stamp=None, statuses={})
+            self.create_subscription(JointState, 'joint_states', self.on_joint_states, 10)
+            self.create_subscription(DiagnosticArray, '/diagnostics', self.on_diag, 100)
+
+        def on_joint_states(self, msg):
+            s = self.stats
+            stamp = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
+            lag_ms = (time.time_ns() - stamp) * 1e-6
+            if s['first_stamp'] is None:
+                s['first_stamp'] = stamp
+                (out.parent / (out.name + '.ready')).write_text('1')
+            else:
+                gap = stamp - s['last_stamp']
+                s['missed'] += max(0, gap // PUBLISH_PERIOD_NS - 1)
+                s['max_gap_ms'] = max(s['max_gap_ms'], gap * 1e-6)
+            s['max_lag_ms'] = max(s['max_lag_ms'], lag_ms)
+            s['last_stamp'] = stamp
+            s['received'] += 1
+
+        def on_diag(self, msg):
+            for status in msg.status:
+                name = status.name.lstrip('/')
+                self.stats['statuses'][name] = dict(
+                    level=int(status.level[0]), message=status.message,
+                    values={kv.key: kv.value for kv in status.values})
+
+        def close(self):
+            out.write_text(json.dumps(self.stats))
+
+    return run_node('bench_subscriber', Subscriber)
+
+
+# ---- the bench ------------------------------------------------------------------------------
+
+def start(args, log_dir: Path, name: str, affinity=None) -> subprocess.Popen:
+    log = open(log_dir / f'{name}.log', 'w')
+    return subprocess.Popen(
+        args, cwd=ROOT, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL,
+        preexec_fn=(lambda: os.sched_setaffinity(0, affinity)) if affinity else None)
+
+
+def node(module: str, *params: str) -> list[str]:
+    cmd = [sys.executable, '-m', f'abb_ros.nodes.{module}', '--ros-args']
+    for p in params:
+        cmd += ['-p', p]
+    return cmd
+
+
+def wait_for(path: Path, procs: dict, timeout: float) -> float:
+    start_t = time.monotonic()
+    while not path.exists():
+        for name, p in procs.items():
+            if p.poll() is not None:
+                raise SystemExit(f'{name} exited with {p.returncode} before the bench started')
+        if time.monotonic() - start_t > timeout:
+            raise SystemExit(f'no joint_states at the subscriber after {timeout} s')
+        time.sleep(0.05)
+    return time.monotonic() - start_t
+
+
+def rss_slope_mb_per_min(samples) -> float:
+    t = np.array([s[0] for s in samples])
+    r = np.array([s[1] for s in samples]) / 2**20
+    if len(t) < 2 or t[-1] - t[0] <= 0:
+        return math.nan
+    return float(np.polyfit(t / 60.0, r, 1)[0])
+
+
+def bag_counts(bag: Path) -> tuple[dict, dict]:
+    meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    counts = {t['topic_metadata']['name']: t['message_count']
+              for t in meta['topics_with_message_count']}
+    return counts, meta.get('custom_data') or {}
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    ap.add_argument('--duration', type=float, default=60.0, help='measured seconds [60]')
+    ap.add_argument('--hog', action='store_true', help='a busy loop pinned to CPU 0')
+    ap.add_argument('--record-in-process', action='store_true',
+                    help="also record in the simulator (parameter record.path)")
+    ap.add_argument('--role', choices=['bench', 'subscriber'], default='bench')
+    ap.add_argument('--out', type=Path, help=argparse.SUPPRESS)
+    args = ap.parse_args()
+    if args.role == 'subscriber':
+        return run_subscriber(args.out)
+
+    work = Path(tempfile.mkdtemp(prefix='abb_bench_'))
+    sub_out = work / 'subscriber.json'
+    sim_params = [f'drive.n:={N_BALLS}', 'integration_rate_hz:=10000', 'publish_rate_hz:=1000']
+    if args.record_in_process:
+        sim_params.append(f'record.path:={work / "inproc_bag"}')
+    procs = {}
+    hog = None
+    try:
+        if args.hog:
+            hog = start([sys.executable, '-c', 'while True: pass'], work, 'hog', {0})
+        procs['subscriber'] = start([sys.executable, __file__, '--role', 'subscriber',
+                                     '--out', str(sub_out)], work, 'subscriber')
+        procs['recorder'] = start(node('recorder', f'output:={work / "bag"}'), work, 'recorder')
+        procs['analysis'] = start(node('analysis'), work, 'analysis')
+        procs['simulator'] = start(node('simulator', *sim_params), work, 'simulator')
+        first = wait_for(work / 'subscriber.json.ready', procs, 300.0)
+        print(f'first joint_states at the subscriber {first:.2f} s after the simulator started')
+        time.sleep(SETTLE_S)
+        t0 = time.monotonic()
+        cpu0 = {name: cpu_seconds(p.pid) for name, p in procs.items()}
+        rss = {name: [] for name in procs}
+        while time.monotonic() - t0 < args.duration:
+            now = time.monotonic() - t0
+            for name, p in procs.items():
+                rss[name].append((now, rss_bytes(p.pid)))
+            time.sleep(min(RSS_SAMPLE_S, max(0.0, args.duration - now)))
+        wall = time.monotonic() - t0
+        cpu = {name: (cpu_seconds(p.pid) - cpu0[name]) / wall for name, p in procs.items()}
+        for name, p in procs.items():
+            rss[name].append((wall, rss_bytes(p.pid)))
+    finally:
+        codes = {}
+        for name in ('simulator', 'analysis', 'recorder', 'subscriber'):
+            p = procs.get(name)
+            if p is None:
+                continue
+            time.sleep(0.5 if name == 'analysis' else 0.0)
+            p.send_signal(signal.SIGINT)
+            try:
+                codes[name] = p.wait(timeout=60)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                codes[name] = f'killed (no exit 60 s after SIGINT: {p.wait()})'
+        if hog is not None:
+            hog.kill()
+            hog.wait()
+    report(args, work, sub_out, cpu, rss, codes, wall)
+    return 0
+
+
+def report(args, work, sub_out, cpu, rss, codes, wall) -> None:
+    sub = json.loads(sub_out.read_text())
+    statuses = sub['statuses']
+    sim = statuses.get(STATUS_SIM, {}).get('values', {})
+    rec = statuses.get(STATUS_RECORDER, {})
+    ana = statuses.get(STATUS_ANALYSIS, {})
+    counts, custom = bag_counts(work / 'bag')
+    lost = json.loads(custom.get('abb_ros.lost_messages', '{}'))
+    print(f'bench: n = {N_BALLS}, 10 kHz steps, 1 kHz publish, real_time_factor 1, '
+          f'{wall:.1f} s measured, hog on CPU 0: {"yes" if args.hog else "no"}, '
+          f'{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f} at the end')
+    print(f'real_time_factor achieved: since start {sim.get("real_time_factor_since_start")}, '
+          f'last window {sim.get("real_time_factor")}; slips {sim.get("slips")} '
+          f'({sim.get("slipped_time")} s dropped), overruns {sim.get("overruns")}')
+    print(f'max stamp lag: simulator (publish time - stamp) {sim.get("stamp_lag_max")} s; '
+          f'subscriber (receive time - stamp) {sub["max_lag_ms"]:.3f} ms')
+    print(f'{"topic":<22}{"published*":>12}{"received":>10}{"recorded":>10}{"lost(seq)":>10}')
+    for topic in ('joint_states', 'deck/pose', 'deck/twist', 'deck/imu', '/diagnostics',
+                  'stability/margin'):
+        name = topic if topic.startswith('/') else '/' + topic
+        received = sub['received'] if topic == 'joint_states' else ''
+        print(f'{topic:<22}{sim.get("published " + topic, ""):>12}{received!s:>10}'
+              f'{counts.get(name, 0):>10}{lost.get(name, "n/a")!s:>10}')
+    print('  * published by the simulator, at its last diagnostics before the stop (<= 1 s '
+          'early); /diagnostics and stability/margin are also published by the other nodes')
+    dropped = round(float(sim.get('slipped_time', 0.0)) * 1e9 / PUBLISH_PERIOD_NS)
+    print(f'subscriber: joint_states received {sub["received"]}, missing stamps '
+          f'{sub["missed"]} (of which {dropped} periods dropped by the simulator\'s slips, '
+          f'never published: about {sub["missed"] - dropped} lost in delivery), largest gap '
+          f'{sub["max_gap_ms"]:.1f} ms')
+    print(f'recorder status: level {rec.get("level")} "{rec.get("message")}"')
+    print(f'analysis status: level {ana.get("level")} "{ana.get("message", "")[:100]}"')
+    if args.record_in_process:
+        inproc, _ = bag_counts(work / 'inproc_bag')
+        print(f'in-process recording: {inproc}')
+    total = sum(cpu.values())
+    for name in cpu:
+        print(f'CPU {name:<11}{100 * cpu[name]:6.1f} % of one core   RSS '
+              f'{rss[name][-1][1] / 2**20:7.1f} MB, growth '
+              f'{rss_slope_mb_per_min(rss[name]):+.2f} MB/min')
+    print(f'CPU total   {100 * total:6.1f} % of one core (target < 100 %)')
+    for name, code in codes.items():
+        text = (work / f'{name}.log').read_text(errors='replace')
+        bad = [w for w in ('Traceback', 'FATAL') if w in text]
+        print(f'{name}: exit {code}' + (f', output has {" and ".join(bad)}' if bad else ''))
+    print(f'logs and bags in {work}')
+
+
+if __name__ == '__main__':
+    sys.exit(main())

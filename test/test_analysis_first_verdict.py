@@ -1,0 +1,64 @@
+"""Until its first verdict the analysis node says why it has none (STALE), then answers.
+
+The analysis node runs as a subprocess with a large table (slow first verdict); the test
+publishes joint_states at a fixed speed. Every status before the first stability/margin must
+be STALE and name the reason; the first verdict must come, with a margin.
+"""
+
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from diagnostic_msgs.msg import DiagnosticStatus
+from sensor_msgs.msg import JointState
+
+from test_analysis_node import OMEGA0, Probe
+
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
+
+ROOT = Path(__file__).resolve().parents[1]
+TABLE_POINTS = 3000   # ten times the default: the first table takes seconds
+
+
+def test_statuses_before_the_first_verdict_are_stale_and_say_why(tmp_path):
+    log = open(tmp_path / 'analysis.log', 'w+')
+    proc = subprocess.Popen(
+        [sys.executable, '-m', 'abb_ros.nodes.analysis', '--ros-args', '-p',
+         f'table_points:={TABLE_POINTS}'],
+        cwd=ROOT, stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+    probe = Probe()
+    margin_at = []
+    try:
+        pub = probe.node.create_publisher(JointState, 'joint_states', 10)
+        msg = JointState(name=['spindle', 'ball_1', 'ball_2'], position=[0.0, 1.0, -1.0],
+                         velocity=[2.7 * OMEGA0, 0.0, 0.0])
+        deadline = time.monotonic() + 120
+        while not probe.margins:
+            assert time.monotonic() < deadline, 'no verdict within 120 s'
+            assert proc.poll() is None, 'the analysis node exited'
+            pub.publish(msg)
+            if probe.margins:
+                break
+            time.sleep(0.02)
+        margin_at.append(time.monotonic())
+        probe.wait_for(lambda: any(s[2] != DiagnosticStatus.STALE for s in probe.statuses),
+                       10.0, 'a verdict status')
+    finally:
+        probe.close()
+        proc.send_signal(signal.SIGINT)
+        code = proc.wait(timeout=30)
+        log.seek(0)
+        output = log.read()
+        log.close()
+    assert code == 0, output
+    before = [s for s in probe.statuses if s[0] < margin_at[0] - 0.05]
+    assert before, 'no status before the first verdict'
+    assert all(s[2] == DiagnosticStatus.STALE for s in before), [s[2:4] for s in before]
+    assert any('no verdict yet' in s[3] and 'stability table' in s[3] for s in before), \
+        [s[3] for s in before]
+    first_verdict = next(s for s in probe.statuses if s[2] != DiagnosticStatus.STALE)
+    assert first_verdict[2] in (DiagnosticStatus.OK, DiagnosticStatus.WARN,
+                                DiagnosticStatus.ERROR)

@@ -1,0 +1,121 @@
+"""In-process recording: the simulator writes exactly what it publishes, nothing lost.
+
+1. ``record.path`` at real_time_factor 0 (the node owns time, as the headless run): the bag
+   holds every message from step 0 on, byte-identical and in the same order as the headless
+   ``run_scenario`` bag of the same scenario (test_live_vs_headless's parameters).
+2. ``~/start_recording`` / ``~/stop_recording`` at real_time_factor 1 (in process, over DDS;
+   ``max_stamp_lag`` 5 s so that a loaded machine makes the node catch up rather than drop
+   periods): the bag is finished whole, its joint_states stamps are contiguous, each message
+   equals the bytes a subscriber received with the same stamp, and every message the
+   subscriber received within the recording's span is in the bag.
+"""
+
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+import yaml
+from rclpy.parameter import Parameter
+from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
+from sensor_msgs.msg import JointState
+from std_srvs.srv import Trigger
+
+import test_simulator_node
+from abb_ros.app.headless import STATE_TOPIC_TYPES, run_scenario
+from abb_ros.io.bag_reader import is_finished, iter_raw
+from abb_ros.io.bag_writer import BagWriter
+from abb_ros.io.scenario import load_scenario
+from abb_ros.model.sensors import TYPICAL_IMU
+from test_live_vs_headless import SEED, node_parameters, stamp_of
+
+pytestmark = pytest.mark.ros
+
+ROOT = Path(__file__).resolve().parents[1]
+PERIOD_NS = 1_000_000
+RUN_S = 4.0
+RAW_QOS = QoSProfile(history=HistoryPolicy.KEEP_ALL, reliability=ReliabilityPolicy.RELIABLE)
+plant_factory = test_simulator_node.plant_factory   # the fixture, shared
+
+
+def by_topic(bag: Path) -> dict[str, list[bytes]]:
+    out = {}
+    for topic, _, data, _ in iter_raw(bag):
+        out.setdefault(topic, []).append(data)
+    return out
+
+
+def metadata_counts(bag: Path) -> dict[str, int]:
+    meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    return {t['topic_metadata']['name']: t['message_count']
+            for t in meta['topics_with_message_count']}
+
+
+@pytest.mark.slow
+def test_recording_in_the_node_equals_the_headless_bag_message_for_message(tmp_path):
+    scenario = load_scenario('p3')
+    live_bag = tmp_path / 'live'
+    proc = subprocess.Popen(
+        [sys.executable, '-m', 'abb_ros.nodes.simulator', '--ros-args',
+         *node_parameters(scenario), '-p', f'record.path:={live_bag}'],
+        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    deadline = time.monotonic() + 60
+    while not (live_bag / 'metadata.yaml').exists():
+        assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()[0]
+        time.sleep(0.05)
+    time.sleep(RUN_S)
+    proc.send_signal(signal.SIGINT)
+    out, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 0, out
+    assert is_finished(live_bag)
+    live = by_topic(live_bag)
+    assert {t: len(m) for t, m in live.items()} == metadata_counts(live_bag)
+
+    last = stamp_of(live['/joint_states'][-1])
+    scenario.duration = last * 1e-9
+    with BagWriter(tmp_path / 'headless') as bag:
+        run_scenario(scenario, imu_config=TYPICAL_IMU, seed=SEED, bag=bag)
+    headless = by_topic(tmp_path / 'headless')
+    assert last > 0.5e9, 'the node simulated less than 0.5 s'
+    for topic in STATE_TOPIC_TYPES:
+        name = topic if topic.startswith('/') else '/' + topic
+        recorded = [d for d in live[name] if stamp_of(d) <= last]
+        assert stamp_of(recorded[0]) == 0, f'{name}: the recording does not start at step 0'
+        assert len(recorded) == len(headless[name]), (name, len(recorded),
+                                                      len(headless[name]))
+        differing = sum(a != b for a, b in zip(recorded, headless[name]))
+        assert differing == 0, f'{name}: {differing} of {len(recorded)} messages differ'
+    assert '/diagnostics' in live   # the node's own status is recorded too
+
+
+def test_recording_started_and_stopped_by_service_holds_what_a_subscriber_received(
+        plant_factory, tmp_path):
+    bag = tmp_path / 'bag'
+    p = plant_factory(**{'record.path': '', 'max_stamp_lag': 5.0})
+    p.sim.set_parameters([Parameter('record.path', value=str(bag))])
+    received = {}
+    p.node.create_subscription(JointState, 'joint_states',
+                               lambda d: received.__setitem__(stamp_of(d), d), RAW_QOS,
+                               raw=True)
+    p.wait(lambda: len(received) > 10, 'joint_states')
+    reply = p.call(Trigger, '/abb_simulator/start_recording', Trigger.Request())
+    assert reply.success, reply.message
+    again = p.call(Trigger, '/abb_simulator/start_recording', Trigger.Request())
+    assert not again.success and 'already recording' in again.message
+    p.spin_for(1.5)
+    reply = p.call(Trigger, '/abb_simulator/stop_recording', Trigger.Request())
+    assert reply.success and str(bag) in reply.message, reply.message
+    p.spin_for(0.5)   # the subscriber's queue drains
+    assert is_finished(bag)
+    recorded = by_topic(bag)['/joint_states']
+    stamps = [stamp_of(d) for d in recorded]
+    assert len(stamps) > 300
+    assert all(b - a == PERIOD_NS for a, b in zip(stamps, stamps[1:])), 'a gap in the bag'
+    common = [d for d in recorded if stamp_of(d) in received]
+    assert len(common) >= 0.9 * len(recorded)
+    assert all(received[stamp_of(d)] == d for d in common)
+    in_span = [s for s in received if stamps[0] <= s <= stamps[-1]]
+    assert set(in_span) <= set(stamps), 'the subscriber got a message the bag lacks'
+    assert not p.call(Trigger, '/abb_simulator/stop_recording', Trigger.Request()).success
