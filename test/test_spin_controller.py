@@ -1,7 +1,8 @@
 """The example controller spin_controller against the plant in lockstep over DDS: from rest to
 the paper's P3 (metal washers) it balances the balls, with a lower peak rbar on the way than a
-constant-acceleration ramp of the same duration; it holds only balanced speeds; a mode other
-than speed is refused at start-up."""
+constant-acceleration ramp of the same duration; so it does in torque mode (a current command
+from its speed loop, within the current limit); it holds only balanced speeds; an unknown mode
+is refused at start-up."""
 
 import subprocess
 import sys
@@ -89,14 +90,41 @@ def test_a_target_inside_an_unbalanced_band_is_held_at_the_nearest_balanced_spee
     assert time_in_bands(run.t, run.omega, bands) < 0.3
 
 
-def test_a_mode_other_than_speed_exits_with_code_2_and_one_line_naming_it():
+def test_a_mode_other_than_speed_or_torque_exits_with_code_2_and_one_line_naming_it():
     result = subprocess.run(
         [sys.executable, '-m', 'abb_ros.nodes.spin_controller', '--ros-args', '-p',
-         'mode:=torque'], cwd=ROOT, capture_output=True, text=True, timeout=120)
+         'mode:=current'], cwd=ROOT, capture_output=True, text=True, timeout=120)
     assert result.returncode == 2
     lines = result.stderr.strip().splitlines()
-    assert len(lines) == 1 and "'mode'" in lines[0] and "'torque'" in lines[0], lines
-    assert 'speed' in lines[0]
+    assert len(lines) == 1 and "'mode'" in lines[0] and "'current'" in lines[0], lines
+    assert 'speed' in lines[0] and 'torque' in lines[0]
+
+
+@pytest.mark.slow
+def test_torque_mode_run_up_from_rest_to_p3_balances_the_balls_within_the_current_limit(
+        lockstep_plant):
+    # The simulator's default motor (docs/torque_mode.md): K_t 0.01 N m/A, 1 A, 12 V.
+    target = P3.omega
+    plant = lockstep_plant({**FROM_REST, 'spindle.mode': 'torque'}, analysis=True)
+    controller = controller_in(plant, mode='torque', target_speed=target)
+    assert controller.loop.motor == plant.sim.settings.motor
+    plant.run_for(RUN_S)
+    run = plant.trace()
+    assert run.omega[-1] == pytest.approx(target, rel=1e-4)
+    assert_balls_at_phi_star(run.phi[-1], P3.params, 1.0)
+    assert run.rbar[-1] < 1e-5, run.rbar[-1]
+    limit = plant.sim.settings.motor.I_max
+    assert np.all(np.abs(run.current_cmd) <= limit)
+    plant.spin_until(lambda: controller.margin > 0.0, 'a positive stability/margin')
+    duration = reach_time(run, target)
+    bands = speed_bands.speed_table(P3.params, 1500.0).bands
+    print(f'\ntorque mode: run-up 0 -> {target:.1f} rad/s in {duration:.3f} s: peak rbar '
+          f'{peak(run.t, run.rbar, t_to=duration):.4g}; time in unbalanced bands '
+          f'{time_in_bands(run.t, run.omega, bands):.3f} s; at the {limit:g} A limit '
+          f'{np.sum(np.abs(run.current_cmd) >= limit) * plant.period_s:.3f} s; overshoot '
+          f'{np.max(run.omega) - target:.3g} rad/s; rbar < 1e-5 from '
+          f't = {settling_time(run.t, run.rbar, 0.0, 1e-5):.3f} s; final rbar '
+          f'{run.rbar[-1]:.3g}, speed error {run.omega[-1] - target:.3g} rad/s')
 
 
 @pytest.mark.slow

@@ -183,6 +183,8 @@ _ALL_CLI = COMMANDS
 _BOTH = ('simulator', 'analysis', 'spin_controller')
 """The nodes that take the drive's parameters (and max_spindle_speed)."""
 _SIM = ('simulator',)
+_MOTOR = ('simulator', 'spin_controller')
+"""The nodes that take the motor's parameters (motor.*)."""
 _RUN = ('run',)
 
 
@@ -258,7 +260,7 @@ spindle motor of an optical drive."""
 
 def _motor(field, unit, description, low_open=True):
     return ParamSpec('motor.' + field, MOTOR_DEFAULTS[field], unit, description, low=0.0,
-                     low_open=low_open, high=_INF, applies=_AT_STEP, nodes=_SIM)
+                     low_open=low_open, high=_INF, applies=_AT_STEP, nodes=_MOTOR)
 
 
 SIMULATOR_SPECS = (
@@ -366,8 +368,13 @@ CONTROLLER_SPECS = (
     ParamSpec('ki', 0.0, '1/s', 'integral gain on the speed error while holding, for a drive '
               'whose speed loop leaves a steady error', low=0.0, high=1000.0, applies='at once',
               nodes=_CTL),
-    ParamSpec('mode', 'speed', '', 'command mode: speed (spindle/speed_cmd)', STRING,
-              choices=('speed',), read_only=True, applies='at start-up', nodes=_CTL),
+    ParamSpec('mode', 'speed', '', 'command mode: speed (spindle/speed_cmd; kp, ki) or '
+              'torque (spindle/current_cmd from the speed loop; loop_bandwidth, motor.*)',
+              STRING, choices=('speed', 'torque'), read_only=True, applies='at start-up',
+              nodes=_CTL),
+    ParamSpec('loop_bandwidth', 60.0, 'rad/s', 'torque mode: crossover of the speed loop '
+              '(kp = (J_z + I_r) wc / K_t, ki = kp wc / 4)', low=0.0, low_open=True,
+              high=1e4, applies='at once', nodes=_CTL),
     ParamSpec('guard_wbar', 0.1, '', 'distance kept from an unbalanced band, in wbar',
               low=0.0, high=1.0, read_only=True, applies='at start-up', nodes=_CTL),
     ParamSpec('table_points', 300, '', 'speeds in the band table over 0..max_spindle_speed',
@@ -478,7 +485,8 @@ def markdown() -> str:
         lines += ['## ' + titles[key], ''] + _table(specs) + ['']
     lines.append('The analysis node and the example controller also declare `drive.*` and '
                  '`max_spindle_speed` (above); the analysis node copies them from the '
-                 'simulator it follows.')
+                 'simulator it follows; the example controller also declares `motor.*` '
+                 '(simulator, above), which must be the simulator\'s in torque mode.')
     return '\n'.join(lines) + '\n'
 
 

@@ -1,10 +1,14 @@
 """``ros2 run abb_ros spin_controller``: bring the drive from rest to a target speed and hold it.
 
-An example controller (node abb_spin_controller) for the plant, in speed mode: on each
-``joint_states`` (velocity[0] = omega, header stamp = time) it advances the speed reference of
-:class:`abb_ros.model.run_up.RunUp` and publishes exactly one ``spindle/speed_cmd``
-(std_msgs/Float64, rad/s): the reference plus a PI correction of the measured speed error
-(gains ``kp``, ``ki``; the integral runs only while holding). The reference ramps at
+An example controller (node abb_spin_controller) for the plant. On each ``joint_states``
+(velocity[0] = omega, header stamp = time) it advances the speed reference of
+:class:`abb_ros.model.run_up.RunUp` and publishes exactly one command: in ``mode`` speed a
+``spindle/speed_cmd`` (std_msgs/Float64, rad/s), the reference plus a PI correction of the
+measured speed error (gains ``kp``, ``ki``; the integral runs only while holding); in ``mode``
+torque (the simulator's ``spindle.mode`` torque) a ``spindle/current_cmd`` (std_msgs/Float64,
+A) from the speed loop :class:`abb_ros.model.speed_loop.SpeedLoop` (feedforward of the
+reference's acceleration and of the friction, PI at ``loop_bandwidth``, anti-windup at the
+current limit) with the node's ``motor.*``, which must be the simulator's. The reference ramps at
 ``acceleration`` where the balanced equilibrium is stable and jumps over the unbalanced bands
 (from :func:`abb_ros.model.speed_bands.speed_table` of the node's own ``drive.*``, computed at
 start-up: give it the simulator's parameter file) so that the drive crosses them at its own
@@ -26,9 +30,11 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
 from abb_ros.model import speed_bands
+from abb_ros.model.integrate import TorqueMotor
 from abb_ros.model.param_spec import specs_for
 from abb_ros.model.params import DriveParams, ParamError
 from abb_ros.model.run_up import RunUp, hold_speed
+from abb_ros.model.speed_loop import SpeedLoop, rotor_inertia
 from abb_ros.nodes import ros_params
 from abb_ros.nodes.entry_point import run_node
 from abb_ros.nodes.entry_point import spin
@@ -36,11 +42,12 @@ from abb_ros.nodes.entry_point import spin
 NODE_NAME = 'abb_spin_controller'
 QOS_DEPTH = 10
 WARN_THROTTLE_S = 5.0
-MODES = ('speed',)
-"""Command modes implemented; torque mode needs the simulator's torque input first."""
+COMMAND_TOPICS = {'speed': 'spindle/speed_cmd', 'torque': 'spindle/current_cmd'}
+"""The command topic of each mode."""
+MOTOR_PREFIX = 'motor.'
 
 PARAMS = specs_for('spin_controller')
-"""{ROS name: spec}: drive.*, max_spindle_speed and the controller's own
+"""{ROS name: spec}: drive.*, motor.*, max_spindle_speed and the controller's own
 (abb_ros/model/param_spec.py)."""
 
 
@@ -51,9 +58,10 @@ class SpinController(Node):
         super().__init__(NODE_NAME, **kwargs)
         self.drive, self.omega_max = self._declare()
         mode = self.get_parameter('mode').value
-        if mode not in MODES:
-            raise ParamError('mode', mode, ' or '.join(MODES), 'torque mode needs the '
-                             'simulator\'s torque input, which does not exist yet')
+        self.loop = None            # SpeedLoop in torque mode
+        if mode == 'torque':
+            self.loop = SpeedLoop(self._motor(), rotor_inertia(self.drive),
+                                  self.get_parameter('loop_bandwidth').value)
         self.guard = self.get_parameter('guard_wbar').value * self.drive.omega0
         table = speed_bands.speed_table(self.drive, self.omega_max,
                                         self.get_parameter('table_points').value)
@@ -69,7 +77,7 @@ class SpinController(Node):
         self._plan()
         self.add_on_set_parameters_callback(self._validate)
         self.add_post_set_parameters_callback(lambda _: self._plan())
-        self._pub = self.create_publisher(Float64, 'spindle/speed_cmd', QOS_DEPTH)
+        self._pub = self.create_publisher(Float64, COMMAND_TOPICS[mode], QOS_DEPTH)
         self.create_subscription(JointState, 'joint_states', self._on_joint_states, QOS_DEPTH)
         self.create_subscription(Float64, 'stability/margin', self._on_margin, QOS_DEPTH)
         self.get_logger().info(
@@ -79,8 +87,8 @@ class SpinController(Node):
 
     # ---- parameters ----------------------------------------------------------------------
     def _declare(self) -> tuple[DriveParams, float]:
-        shared = {k: s for k, s in PARAMS.items()
-                  if k.startswith(ros_params.DRIVE_PREFIX) or k == 'max_spindle_speed'}
+        shared = {k: s for k, s in PARAMS.items() if k == 'max_spindle_speed'
+                  or k.startswith((ros_params.DRIVE_PREFIX, MOTOR_PREFIX))}
         ros_params.declare(self, shared)
         drive = DriveParams.from_mapping({f.name: self.get_parameter(
             ros_params.DRIVE_PREFIX + f.name).value for f in fields(DriveParams)})
@@ -88,6 +96,10 @@ class SpinController(Node):
         ros_params.declare(self, own, {'target_speed': ros_params.P3_WBAR * drive.omega0})
         ros_params.coerce_on_set(self, PARAMS)
         return drive, float(self.get_parameter('max_spindle_speed').value)
+
+    def _motor(self) -> TorqueMotor:
+        return TorqueMotor.from_values({k: self.get_parameter(k).value for k in PARAMS
+                                        if k.startswith(MOTOR_PREFIX)})
 
     def _validate(self, parameters) -> SetParametersResult:
         for p in parameters:
@@ -111,6 +123,9 @@ class SpinController(Node):
                 f'unbalanced band); holding {self.hold:.1f} rad/s instead')
         self.kp = self.get_parameter('kp').value
         self.ki = self.get_parameter('ki').value
+        if self.loop is not None:
+            self.loop.motor = self._motor()
+            self.loop.bandwidth = self.get_parameter('loop_bandwidth').value
         if self.run_up is not None:
             self.run_up.hold = self.hold
             self.run_up.accel = self.get_parameter('acceleration').value
@@ -127,6 +142,8 @@ class SpinController(Node):
             self.run_up = RunUp(self.bands, self.hold, self.get_parameter('acceleration').value,
                                 self.guard, omega_ref=omega)
             self.integral = 0.0
+            if self.loop is not None:
+                self.loop.integral = 0.0
             self.last_stamp_ns = stamp_ns
             self.command = self._law(omega, 0.0)
         else:
@@ -137,7 +154,14 @@ class SpinController(Node):
             self._pub.publish(Float64(data=self.command))
 
     def _law(self, omega: float, dt: float) -> float:
-        """Reference + kp e + ki int(e) (integral while holding), within [0, max speed]."""
+        """Speed mode: reference + kp e + ki int(e) (integral while holding), within
+        [0, max speed]; torque mode: the speed loop's current."""
+        if self.loop is not None:
+            # The reference one period ahead (the period is steady): the current held over
+            # the next period accelerates along the reference to its next value.
+            ref = self.run_up.omega_ref
+            alpha = (self.run_up.step(dt) - ref) / dt if dt > 0.0 else 0.0
+            return self.loop.step(ref, alpha, omega, dt)
         ref = self.run_up.step(dt)
         error = ref - omega
         if self.run_up.holding:

@@ -8,13 +8,14 @@ test join the same Context (``add_node``) or run in other processes; everything 
 
 1. a ``~/step`` service call (over DDS): the plant integrates one period and publishes it;
 2. the executor spins the nodes until the plant has received ``answers`` commands on
-   ``spindle/speed_cmd`` since the step (its accepted + refused counters, read in process)
-   and the harness has the period's ``joint_states``.
+   ``spindle/speed_cmd`` or (torque mode) ``spindle/current_cmd`` since the step (its
+   accepted + refused counters, read in process) and the harness has the period's
+   ``joint_states``.
 
 So every command is applied at a known step boundary, whatever the scheduling: the same
 parameters, seed and controller give byte-identical topics run after run. A controller must
 therefore answer each ``joint_states`` with exactly ``answers`` commands (default 1 when a
-node added with ``add_node`` publishes ``spindle/speed_cmd``, else 0); a controller in another
+node added with ``add_node`` publishes one of them, else 0); a controller in another
 process: pass ``answers=1``. Waits have a deadline; a miss raises :class:`LockstepTimeout`
 ("timed out after ...").
 
@@ -31,6 +32,7 @@ from dataclasses import fields
 
 import numpy as np
 
+from abb_ros.model.param_spec import MOTOR_DEFAULTS
 from abb_ros.model.params import DriveParams
 from abb_ros.model.state import rbar
 
@@ -41,6 +43,7 @@ DEADLINE_S = 30.0
 DEFAULT_RATE_HZ = 200
 """Publish (and control) rate of a lockstep plant unless given: 50 RK4 steps per period."""
 COMMAND_TOPIC = 'spindle/speed_cmd'
+CURRENT_TOPIC = 'spindle/current_cmd'
 MARGIN_TOPIC = 'stability/margin'
 
 
@@ -56,9 +59,10 @@ def drive_parameters(drive: DriveParams) -> dict:
 class Trace:
     """What the harness saw of the plant, one row per publish period: ``t`` [s] (header
     stamps), ``omega`` [rad/s], ``phi`` [rad] shape (K, n), ``rbar`` [] (deck/pose position
-    over R) and ``omega_cmd`` [rad/s] (the command in force after the period's answer)."""
+    over R), ``omega_cmd`` [rad/s] and ``current_cmd`` [A] (the commands in force after the
+    period's answer)."""
 
-    def __init__(self, states, poses, commands, R: float):
+    def __init__(self, states, poses, commands, R: float, currents=()):
         by_stamp = {_stamp_ns(m): m for m in poses}
         rows = [(s, by_stamp.get(_stamp_ns(s))) for s in states]
         self.t = np.array([_stamp_ns(s) * 1e-9 for s, _ in rows])
@@ -68,6 +72,8 @@ class Trace:
             p.pose.position.x, p.pose.position.y, p.pose.position.z, R) for _, p in rows])
         self.omega_cmd = np.array(commands[:len(rows)] + [math.nan] * (len(rows)
                                                                         - len(commands)))
+        self.current_cmd = np.array(list(currents)[:len(rows)] + [math.nan] * (
+            len(rows) - len(currents)))
 
     def __len__(self) -> int:
         return self.t.size
@@ -134,6 +140,8 @@ class LockstepPlant:
         self._poses = self.record('deck/pose', PoseStamped)
         self._commands = []
         self._cmd_seen = self.record(COMMAND_TOPIC)
+        self._current_seen = self.record(CURRENT_TOPIC)
+        self._currents = []
         self._command_pub = None
         self._explicit_answers = None
         self._connected = False
@@ -154,7 +162,7 @@ class LockstepPlant:
         from std_msgs.msg import Float64
         got = []
         kind = kind or ros_messages.TOPIC_TYPES.get(topic) or (
-            Float64 if topic in (COMMAND_TOPIC, MARGIN_TOPIC) else None)
+            Float64 if topic in (COMMAND_TOPIC, CURRENT_TOPIC, MARGIN_TOPIC) else None)
         if kind is None:
             raise ValueError(f'record({topic!r}): give the message type (kind=...)')
         self.node.create_subscription(kind, topic, got.append, self._qos, raw=raw)
@@ -165,8 +173,8 @@ class LockstepPlant:
         """Commands the plant waits for after each period (see the module doc)."""
         if self._explicit_answers is not None:
             return self._explicit_answers
-        cmd = self.node.resolve_topic_name(COMMAND_TOPIC)
-        return int(any(p.topic_name == cmd for n in self._nodes[1:] if n is not self.node
+        cmd = {self.node.resolve_topic_name(t) for t in (COMMAND_TOPIC, CURRENT_TOPIC)}
+        return int(any(p.topic_name in cmd for n in self._nodes[1:] if n is not self.node
                        for p in n.publishers))
 
     @answers.setter
@@ -174,9 +182,10 @@ class LockstepPlant:
         self._explicit_answers = int(value)
 
     def shared_parameters(self) -> list:
-        """The plant's ``drive.*`` and ``max_spindle_speed`` as rclpy Parameters: the
-        ``parameter_overrides`` that give a node under test the plant's drive."""
+        """The plant's ``drive.*``, ``motor.*`` and ``max_spindle_speed`` as rclpy
+        Parameters: the ``parameter_overrides`` that give a node under test the plant's drive."""
         return self.sim.get_parameters([f'drive.{f.name}' for f in fields(DriveParams)]
+                                       + [f'motor.{name}' for name in MOTOR_DEFAULTS]
                                        + ['max_spindle_speed'])
 
     def bands(self) -> tuple:
@@ -210,11 +219,13 @@ class LockstepPlant:
             self.periods += 1
             target = self.periods
             self.spin_until(lambda: self._received() >= before + answers
-                       and len(self._cmd_seen) >= self._received()
+                       and len(self._cmd_seen) + len(self._current_seen) >= self._received()
                        and len(self._states) >= target,
                        f'period {target}: {answers} command(s) and joint_states')
             last = self._cmd_seen[-1].data if self._cmd_seen else self.sim.speed_cmd
             self._commands.append(last)
+            self._currents.append(self._current_seen[-1].data if self._current_seen
+                                  else self.sim.current_cmd)
 
     def run_for(self, seconds: float) -> None:
         """Advance round(seconds / period) periods."""
@@ -234,7 +245,7 @@ class LockstepPlant:
 
     def trace(self) -> Trace:
         """The periods so far (see :class:`Trace`)."""
-        return Trace(self._states, self._poses, self._commands, self.drive.R)
+        return Trace(self._states, self._poses, self._commands, self.drive.R, self._currents)
 
     def spin_until_idle(self, quiet_s: float = 0.05) -> None:
         """Spin until no callback ran for ``quiet_s`` (late subscribers catch up)."""
@@ -269,7 +280,8 @@ class LockstepPlant:
         return c['commands_accepted'] + c['commands_refused']
 
     def _activity(self) -> int:
-        return self._received() + len(self._states) + len(self._poses) + len(self._cmd_seen)
+        return (self._received() + len(self._states) + len(self._poses) + len(self._cmd_seen)
+                + len(self._current_seen))
 
     def spin_until(self, predicate, what: str) -> None:
         """Spin the nodes until ``predicate()``; LockstepTimeout after the deadline."""
