@@ -84,42 +84,17 @@ DEFAULT_PARTITION = 256
 DEFAULT_RBAR_LIMIT = 1.0e-3
 
 
-# ---- safe YAML -------------------------------------------------------------------------------
-
-def _safe_loader():
-    import yaml
-
-    class _NoAliasLoader(yaml.SafeLoader):
-        """yaml.SafeLoader that refuses aliases (no billion-laughs expansion)."""
-
-        def compose_node(self, parent, index):
-            if self.check_event(yaml.AliasEvent):
-                event = self.peek_event()
-                raise yaml.composer.ComposerError(
-                    None, None, 'aliases (*name) are not allowed in a sweep spec',
-                    event.start_mark)
-            return super().compose_node(parent, index)
-
-    return _NoAliasLoader
-
+# ---- YAML ------------------------------------------------------------------------------------
 
 def load_yaml(path) -> object:
-    """The YAML document at ``path``, size-capped and without aliases (ParamError 'spec')."""
-    import yaml
-    path = str(path)
+    """The YAML document at ``path``, read by the package's one loader (abb_ros/io/safe_yaml.py:
+    size-capped at MAX_SPEC_BYTES, no aliases, nesting capped); ParamError 'spec' otherwise."""
+    from abb_ros.io.safe_yaml import YamlFileError, load_file
     try:
-        size = os.path.getsize(path)
-    except OSError as exc:
-        raise ParamError('spec', path, 'a readable YAML file', exc.strerror or str(exc)) from None
-    if size > MAX_SPEC_BYTES:
-        raise ParamError('spec', path, f'a YAML file of at most {MAX_SPEC_BYTES} bytes',
-                         f'{size} bytes')
-    try:
-        with open(path, encoding='utf-8') as f:
-            return yaml.load(f, Loader=_safe_loader())  # noqa: S506 - SafeLoader subclass
-    except (yaml.YAMLError, UnicodeDecodeError) as exc:
-        msg = ' '.join(str(exc).split())
-        raise ParamError('spec', path, 'a valid YAML file', f'malformed: {msg}') from None
+        return load_file(path, max_bytes=MAX_SPEC_BYTES)
+    except YamlFileError as exc:
+        raise ParamError('spec', str(path), f'a readable YAML file of at most {MAX_SPEC_BYTES} '
+                         'bytes, without aliases (*name)', exc.why) from None
 
 
 # ---- checks ------------------------------------------------------------------------------
