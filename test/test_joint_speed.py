@@ -47,10 +47,11 @@ def test_the_cached_layout_follows_a_change_of_names_frame_or_position_count():
 
 
 def test_the_simulators_own_encoding_reads_back_exactly():
-    content = (3, [0.1, 0.2, 0.3, 0.4], [376.99111843077515, -1.5, 2.5, 0.25])
-    data = cdr.joint_state(7, 5_000, content)
-    js = JointSpeedReader()(data)
-    assert (js.omega, js.n, js.stamp_ns) == (376.99111843077515, 3, 7_000_005_000)
+    for effort in ([], [0.002, 0.0, 0.0, 0.0]):     # speed mode; torque mode (effort[0])
+        content = (3, [0.1, 0.2, 0.3, 0.4], [376.99111843077515, -1.5, 2.5, 0.25], effort)
+        data = cdr.joint_state(7, 5_000, content)
+        js = JointSpeedReader()(data)
+        assert (js.omega, js.n, js.stamp_ns) == (376.99111843077515, 3, 7_000_005_000)
 
 
 @pytest.mark.parametrize('cut', [3, 10, 20, 40])

@@ -42,7 +42,7 @@ def bookkeeping(params, motor, current, y0, duration):
     S = motor.pack(current)
     bufs = dynamics.solver_buffers(n)
     Tf, Vf, Ff = energy_functions(n)
-    pp = L._pack(params)
+    pp = L._pack(params)[:len(L.PARAM_NAMES)]   # the paper's energies (no beyond terms)
     qdd = np.empty(N)
 
     def fun(t, z):

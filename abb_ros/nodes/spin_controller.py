@@ -37,7 +37,6 @@ from abb_ros.model.run_up import RunUp, hold_speed
 from abb_ros.model.speed_loop import SpeedLoop, rotor_inertia
 from abb_ros.nodes import ros_params
 from abb_ros.nodes.entry_point import run_node
-from abb_ros.nodes.entry_point import spin
 
 NODE_NAME = 'abb_spin_controller'
 QOS_DEPTH = 10
@@ -182,7 +181,7 @@ class SpinController(Node):
 def main(args=None):
     # The simulator's spin: the EventsExecutor keeps up with 1 kHz joint_states, and its timed
     # loop lets SIGINT through.
-    return run_node(NODE_NAME, SpinController, args, spin=spin)
+    return run_node(NODE_NAME, SpinController, args)
 
 
 if __name__ == '__main__':
