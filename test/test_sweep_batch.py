@@ -9,6 +9,7 @@ from abb_ros.model import batch, kernels
 from abb_ros.model.integrate import ConstantSpeed, SpindleMotor, initial_state
 from abb_ros.model.params import DriveParams, apply_settings
 from abb_ros.sweep.compute import compute_partition
+from abb_ros.model.state import wrap_degrees
 from abb_ros.sweep.spec import draw_samples, parse_spec
 
 P3, OMEGA = apply_settings(DriveParams(), {'mbar': 0.03, 'c': 0.66, 'wbar': 2.7})
@@ -139,4 +140,4 @@ def test_a_run_up_scenario_commands_the_motor_at_the_first_step_at_or_after_its_
         assert res['omega_final'][i] == sim.omega > omega_start + 2000.0 * 0.019
         assert res['final_rbar'][i] == pytest.approx(sim.rbar, rel=1e-14)
         assert np.array_equal(res['phi_final_deg'][i],
-                              ((np.degrees(sim.phi) + 180.0) % 360.0) - 180.0)
+                              wrap_degrees(sim.phi))

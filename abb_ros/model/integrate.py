@@ -24,7 +24,7 @@ from abb_ros.model import kernels
 from abb_ros.model.dynamics import solver_buffers
 from abb_ros.model.param_spec import MOTOR_DEFAULTS
 from abb_ros.model.params import DriveParams, ParamError
-from abb_ros.model.state import StateLayout
+from abb_ros.model.state import StateLayout, wrap_angle
 
 __all__ = ['DEFAULT_DT', 'ConstantSpeed', 'Ramp', 'SpindleMotor', 'StateError', 'Simulation',
            'initial_state', 'reference_solution', 'Trajectory', 'simulate', 'TorqueMotor']
@@ -171,7 +171,7 @@ def _check_no_overlap(params: DriveParams, phi) -> None:
     if params.contact_E <= 0 or params.n < 2:
         return
     d = np.subtract.outer(phi, phi)
-    d = np.abs(d - 2 * math.pi * np.floor(d / (2 * math.pi) + 0.5))
+    d = np.abs(wrap_angle(d))
     d[np.diag_indices(params.n)] = math.inf
     if d.min() < params.contact_separation * (1 - 1e-12):
         raise ParamError('phi0', f'{math.degrees(d.min()):.4f} deg between the closest balls',

@@ -27,6 +27,7 @@ from scipy.optimize import brentq
 
 from abb_ros.model.linear import in_plane_harmonics
 from abb_ros.model.params import DriveParams
+from abb_ros.model.state import wrap_angle
 
 __all__ = ['in_plane_matrices_static', 'mean_tangential_force', 'locked_ball_angle']
 
@@ -69,5 +70,5 @@ def locked_ball_angle(params: DriveParams, omega: float) -> float:
         if q[i] > 0 >= q[i + 1]:   # Q falls through zero: stable
             root = brentq(lambda x: mean_tangential_force(params, omega, x), grid[i], grid[i + 1],
                           xtol=1e-12)
-            return float((root + np.pi) % (2 * np.pi) - np.pi)
+            return float(wrap_angle(root))
     raise ValueError('no stable locked-ball angle found')

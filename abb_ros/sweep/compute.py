@@ -27,6 +27,7 @@ import numpy as np
 
 from abb_ros.model import kernels
 from abb_ros.model.params import DIMENSIONLESS_NAMES, apply_settings
+from abb_ros.model.state import StateLayout, wrap_degrees
 
 __all__ = ['compute_partition', 'STATUS_NAMES', 'partition_params', 'warm_up']
 
@@ -136,13 +137,13 @@ def _runs(spec, params, groups) -> dict:
             br.advance(step - br.steps)
             br.set_omega_cmd(omega)
         br.advance(nsteps - br.steps)
-        N = 7 + n
+        layout = StateLayout.of(n)
         res['final_rbar'][idx] = br.rbar
         res['peak_rbar'][idx] = br.metrics[:, PEAK_RBAR]
         res['settle_time'][idx] = br.settle_time
         res['time_above_limit'][idx] = br.metrics[:, TIME_ABOVE]
-        res['omega_final'][idx] = br.Y[:, N]
-        phi = ((np.degrees(br.Y[:, 7:N]) + 180.0) % 360.0) - 180.0
+        res['omega_final'][idx] = layout.omega(br.Y)
+        phi = wrap_degrees(layout.phi(br.Y))
         for j, i in enumerate(idx):
             phi_final[i] = phi[j]
         status[idx] = br.status
