@@ -3,7 +3,7 @@ and the time responses of Figs. 9-16 (PNG in docs/figures/time).
 
 Run from the repository root, on a shared machine with a lower priority::
 
-    nice -n 10 .venv/bin/python scripts/make_figures.py [--only maps|time] [--res 160x120]
+    nice -n 10 .venv/bin/python scripts/make_figures.py [--only GROUP] [--res 160x120] [--sweep-data DIR]
         [--replot] [FIGURE ...]
 
 Everything goes through what a user runs: the maps through ``abb-sim map`` (the command line is
@@ -21,6 +21,7 @@ import contextlib
 import io
 import json
 import shutil
+import subprocess
 import sys
 import tempfile
 import time
@@ -30,7 +31,8 @@ import numpy as np
 
 from abb_ros.cli import main as abb_sim
 
-FIGURES_DIR = Path(__file__).resolve().parent.parent / 'docs' / 'figures'
+ROOT = Path(__file__).resolve().parent.parent
+FIGURES_DIR = ROOT / 'docs' / 'figures'
 TIME_DIR = FIGURES_DIR / 'time'
 
 MAPS = {
@@ -167,8 +169,14 @@ def main() -> int:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('figures', nargs='*', metavar='FIGURE',
                     help=f'any of {", ".join([*MAPS, *TIME_FIGURES])} (default: all)')
-    ap.add_argument('--only', choices=('maps', 'time'), help='only the maps or only the '
-                                                             'time responses')
+    ap.add_argument('--only', choices=('maps', 'time', 'torque', 'beyond', 'sweep'),
+                    help='only one group: the maps, the time responses, the torque-mode figure '
+                         '(scripts/make_torque_figure.py), the beyond-the-paper studies '
+                         '(scripts/beyond_the_paper.py, ~30 min) or the sweep report')
+    ap.add_argument('--sweep-data', metavar='DIR',
+                    help='an `abb-sim sweep config/sweeps/tolerance_p3.yaml` result to redraw '
+                         'docs/figures/sweep from (the sweep itself takes ~6 min on 2 idle '
+                         'cores; without this option the sweep figures are left as they are)')
     ap.add_argument('--res', default='160x120', help='map grid NxM (default 160x120)')
     ap.add_argument('--replot', action='store_true',
                     help='redraw the maps from their NPZ files, without recomputing')
@@ -181,9 +189,9 @@ def main() -> int:
         print(f'make_figures.py: error: unknown FIGURE {unknown[0]!r}; valid: '
               f'{", ".join([*MAPS, *TIME_FIGURES])}', file=sys.stderr)
         return 2
-    maps = [f for f in (args.figures or MAPS) if f in MAPS and args.only != 'time']
+    maps = [f for f in (args.figures or MAPS) if f in MAPS and args.only in (None, 'maps')]
     times = [f for f in (args.figures or TIME_FIGURES)
-             if f in TIME_FIGURES and args.only != 'maps']
+             if f in TIME_FIGURES and args.only in (None, 'time')]
     t0 = time.perf_counter()
     make_maps(maps, args.res, args.replot)
     if args.bags:
@@ -192,9 +200,27 @@ def main() -> int:
     else:
         with tempfile.TemporaryDirectory(prefix='abb_figures_') as workdir:
             make_time_responses(times, Path(workdir))
-    print(f'{len(maps) + len(times)} figures in {time.perf_counter() - t0:.0f} s',
-          file=sys.stderr)
+    if not args.figures:
+        for group, commands in _other_figures(args).items():
+            if args.only in (None, group):
+                for command in commands:
+                    print('$ ' + ' '.join(command[1:]), file=sys.stderr)
+                    subprocess.run(command, cwd=ROOT, check=True)
+    print(f'{len(maps) + len(times)} figures and the other groups in '
+          f'{time.perf_counter() - t0:.0f} s', file=sys.stderr)
     return 0
+
+
+def _other_figures(args) -> dict:
+    """The figure groups made by their own scripts, as commands (run from the repo root)."""
+    py = sys.executable
+    groups = {'torque': [[py, 'scripts/make_torque_figure.py']],
+              'beyond': [[py, 'scripts/beyond_the_paper.py', study]
+                         for study in ('p1', 'collision', 'rolling', 'spinup')]}
+    if args.sweep_data:
+        groups['sweep'] = [[py, '-m', 'abb_ros.cli', 'sweep-report', args.sweep_data, '--out',
+                            'docs/figures/sweep']]
+    return groups
 
 
 if __name__ == '__main__':
