@@ -3,8 +3,8 @@ and the time responses of Figs. 9-16 (PNG in docs/figures/time).
 
 Run from the repository root, on a shared machine with a lower priority::
 
-    nice -n 10 .venv/bin/python scripts/make_figures.py [--only GROUP] [--res 160x120] [--sweep-data DIR]
-        [--replot] [FIGURE ...]
+    nice -n 10 .venv/bin/python scripts/make_figures.py [--only GROUP] [--res 160x120]
+        [--sweep-data DIR] [--replot] [FIGURE ...]
 
 Everything goes through what a user runs: the maps through ``abb-sim map`` (the command line is
 printed before each map), the time responses through ``abb-sim run --scenario NAME --out BAG``
