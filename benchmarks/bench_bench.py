@@ -36,9 +36,9 @@ os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 import numpy as np  # noqa: E402
 import yaml  # noqa: E402
 
+from abb_ros.testing.procstat import cpu_seconds, rss_bytes  # noqa: E402
+
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(Path(__file__).resolve().parent))
-from bench_simulator_node import cpu_seconds  # noqa: E402
 
 N_BALLS = 10
 PUBLISH_PERIOD_NS = 1_000_000
@@ -47,11 +47,6 @@ SETTLE_S = 2.0
 STATUS_SIM = 'abb_simulator: simulation'
 STATUS_ANALYSIS = 'abb_analysis: stability'
 STATUS_RECORDER = 'abb_recorder: recording'
-
-
-def rss_bytes(pid: int) -> int:
-    with open(f'/proc/{pid}/statm') as f:
-        return int(f.read().split()[1]) * os.sysconf('SC_PAGE_SIZE')
 
 
 # ---- the external subscriber (its own process) ---------------------------------------------

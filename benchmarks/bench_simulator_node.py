@@ -37,19 +37,13 @@ from abb_ros.model.integrate import DEFAULT_DT, Simulation, SpindleMotor
 from abb_ros.model.params import DriveParams
 from abb_ros.model.sampling import PlantSampler
 from abb_ros.model.sensors import TYPICAL_IMU, ImuModel
+from abb_ros.testing.procstat import cpu_seconds
 
 ROOT = Path(__file__).resolve().parents[1]
 
 N_BALLS = 10
 RATE_HZ = int(round(1.0 / DEFAULT_DT))
 STEPS_PER_MS = RATE_HZ // 1000
-CLK_TCK = os.sysconf('SC_CLK_TCK')
-
-
-def cpu_seconds(pid: int) -> float:
-    with open(f'/proc/{pid}/stat') as f:
-        fields = f.read().rsplit(')', 1)[1].split()
-    return (int(fields[11]) + int(fields[12])) / CLK_TCK  # utime, stime
 
 
 def start_node(ns: str, *params: str) -> subprocess.Popen:
