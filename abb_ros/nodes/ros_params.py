@@ -20,6 +20,7 @@ from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescr
 from abb_ros.model.params import PARAM_SPECS, DriveParams, ParamError
 from abb_ros.model.integrate import DEFAULT_DT
 from abb_ros.model.sensors import TYPICAL_IMU, ImuConfig
+from abb_ros.nodes.bench_settings import BenchSettings, bench_settings
 
 __all__ = ['DRIVE_PREFIX', 'NODE_PARAMS', 'SimSettings', 'declare_all', 'settings_from',
            'current_values', 'validate_change', 'P3_WBAR']
@@ -74,6 +75,32 @@ NODE_PARAMS: dict[str, _P] = {
     'imu.gyro_bias': _P(TYPICAL_IMU.gyro_bias, 'gyro turn-on bias std [rad/s]', 0.0, _INF),
     'imu.gyro_bias_random_walk': _P(TYPICAL_IMU.gyro_bias_random_walk,
                                     'gyro bias random walk [rad/s^2/sqrt(Hz)]', 0.0, _INF),
+    # ---- bench: FG speed sensor, faults, disturbances, markers (nodes/bench_settings.py)
+    'speed_sensor.pulses_per_rev': _P(6, 'FG pulses per spindle revolution (3 per pole '
+                                      'pair of a BLDC motor) []', 1, 1000),
+    'speed_sensor.timer_hz': _P(1.0e6, 'FG edge capture timer clock [Hz] (quantisation)',
+                                0.0, _INF),
+    'speed_sensor.edge_jitter': _P(1.0e-6, 'FG edge time jitter, standard deviation [s]',
+                                   0.0, _INF),
+    'speed_sensor.timeout': _P(0.1, 'no FG edge for this long reads 0 rad/s [s]', 0.0, _INF),
+    'fault.imu_dropout': _P(False, 'IMU dropout: no deck/imu messages while true'),
+    'fault.imu_stuck': _P(False, 'IMU stuck: deck/imu repeats its last reading while true'),
+    'fault.imu_accel_bias_step': _P([0.0, 0.0, 0.0], 'bias step added to deck/imu specific '
+                                    'force, deck axes [m/s^2] (3 finite values)'),
+    'fault.imu_gyro_bias_step': _P([0.0, 0.0, 0.0], 'bias step added to deck/imu angular '
+                                   'rate, deck axes [rad/s] (3 finite values)'),
+    'fault.speed_dropout': _P(False, 'speed sensor dropout: no spindle/speed while true'),
+    'fault.speed_noise': _P(0.0, 'white noise added to spindle/speed, std [rad/s]', 0.0, _INF),
+    'disturbance.shock_velocity': _P([0.0] * 6, 'deck twist step of ~/apply_shock, deck axes '
+                                     '[m/s, m/s, m/s, rad/s, rad/s, rad/s] (6 finite values)'),
+    'disturbance.disc_eps': _P(0.25e-3, 'eccentricity eps of the disc put in by ~/swap_disc '
+                               '[m] (becomes drive.eps)', 0.0, 1.0),
+    'disturbance.disc_angle_deg': _P(0.0, 'imbalance angle of the disc put in by ~/swap_disc, '
+                                     'relative to the current one [deg]', -360.0, 360.0),
+    'visualization.rate_hz': _P(20.0, 'visualization/markers rate, simulated time [Hz]; 0 '
+                                '= off', 0.0, 1000.0),
+    'visualization.exaggeration': _P(100.0, 'deck displacement and tilt scale factor in '
+                                     'visualization/markers []', 0.0, 1.0e6),
 }
 """The node's own parameters: default, description with units, closed range, read-only."""
 
@@ -92,6 +119,7 @@ class SimSettings:
     spindle_tau: float
     seed: int
     imu: ImuConfig
+    bench: BenchSettings = BenchSettings()
 
     @property
     def dt_ns(self) -> int:
@@ -189,7 +217,8 @@ def settings_from(values: Mapping[str, Any]) -> tuple[DriveParams, SimSettings]:
         max_spindle_speed=float(values['max_spindle_speed']),
         initial_speed=float(values['spindle.initial_speed']),
         spindle_max_accel=float(values['spindle.max_accel']),
-        spindle_tau=float(values['spindle.tau']), seed=int(values['seed']), imu=imu)
+        spindle_tau=float(values['spindle.tau']), seed=int(values['seed']), imu=imu,
+        bench=bench_settings(values))
     return drive, settings
 
 

@@ -34,6 +34,7 @@ from abb_ros.model.integrate import Simulation, SpindleMotor, StateError, initia
 from abb_ros.model.sampling import PlantSampler
 from abb_ros.model.sensors import ImuModel
 from abb_ros.nodes import ros_params
+from abb_ros.nodes.bench import BenchIO
 from abb_ros.nodes.entry_point import run_node
 
 NODE_NAME = 'abb_simulator'
@@ -76,6 +77,7 @@ class SimulatorNode(Node):
         self._pubs = {topic: self.create_publisher(kind, topic, QOS_DEPTH)
                       for topic, kind in ros_messages.TOPIC_TYPES.items()}
         self._reuse = {topic: kind() for topic, kind in ros_messages.TOPIC_TYPES.items()}
+        self.bench = BenchIO(self, QOS_DEPTH)   # FG, faults, disturbances, markers
         self.create_subscription(Float64, 'spindle/speed_cmd', self._on_speed_cmd, QOS_DEPTH)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(SetBool, '~/pause', self._on_pause)
@@ -189,6 +191,7 @@ class SimulatorNode(Node):
                 if self.context.ok():
                     raise
                 return  # shutting down (SIGINT): the context went away under the callback
+        self.bench.on_sample(sample)
 
     def _set_fault(self, cause: str) -> None:
         self.fault = cause
@@ -232,6 +235,7 @@ class SimulatorNode(Node):
         self.sim.set_spindle(SpindleMotor(s.spindle_max_accel, s.spindle_tau))
         self.imu.reconfigure(s.imu)
         self.sampler.set_rates(s.publish_every, s.imu_every)
+        self.bench.apply(s.bench)
         if (s.real_time_factor, s.publish_rate_hz) != (old.real_time_factor,
                                                        old.publish_rate_hz):
             self._restart_pacing()
@@ -247,6 +251,7 @@ class SimulatorNode(Node):
         self.speed_cmd = s.initial_speed
         self.imu.seed = s.seed
         self.imu.reset()
+        self.bench.reset(s.seed)
         cleared = self.fault
         self.fault = ''
         # Nothing is published now: this step's stamp went out already (with the old state);
@@ -306,6 +311,7 @@ class SimulatorNode(Node):
         self._pubs['/diagnostics'].publish(ros_messages.diagnostics(
             self.stamp_ns(), f'{self.get_fully_qualified_name()}: simulation', level,
             message, values))
+        self.bench.publish_diagnostics()
 
 
 def spin(node: Node) -> None:
