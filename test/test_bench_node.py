@@ -22,12 +22,21 @@ from abb_ros.io.markers import ROTOR_HEIGHT, marker_poses
 from abb_ros.model.disturbances import apply_shock
 from abb_ros.model.equilibrium import balanced_equilibrium
 from abb_ros.model.integrate import Simulation
-from test_simulator_node import METAL_P, NOISE_OFF, plant_factory, stamp_ns  # noqa: F401
+from test_simulator_node import METAL_P, NOISE_OFF, Plant, stamp_ns
 
 pytestmark = pytest.mark.ros
 
 LOCKSTEP = dict(start_paused=True, real_time_factor=0.0, publish_rate_hz=1000)
 A, B = '/a', '/b'
+
+
+@pytest.fixture
+def plants():
+    """Plant(**kwargs) factory; every plant is closed after the test."""
+    made = []
+    yield lambda **kwargs: made.append(Plant(**kwargs)) or made[-1]
+    for plant in made:
+        plant.close()
 
 
 def step_both(plant, count, collected):
@@ -39,12 +48,18 @@ def step_both(plant, count, collected):
             plant.wait(lambda: len(collected[ns]) >= expected, f'{ns} joint_states')
 
 
+def wait_counts(plant, *expected):
+    """Wait until each (messages, count) pair holds that many messages."""
+    plant.wait(lambda: all(len(got) >= n for got, n in expected),
+               'message counts ' + str([n for _, n in expected]))
+
+
 def bench_status(plant, ns):
     return plant.diag.get(f'{ns}/abb_simulator: faults and disturbances')
 
 
-def test_spindle_speed_arrives_with_every_state_sample_and_reads_the_speed(plant_factory):
-    plant = plant_factory(**LOCKSTEP, **{'speed_sensor.pulses_per_rev': 12})
+def test_spindle_speed_arrives_with_every_state_sample_and_reads_the_speed(plants):
+    plant = plants(**LOCKSTEP, **{'speed_sensor.pulses_per_rev': 12})
     states = plant.collect(JointState, 'joint_states')
     speeds = plant.collect(Float64, 'spindle/speed')
     for k in range(1, 101):
@@ -61,8 +76,8 @@ def test_spindle_speed_arrives_with_every_state_sample_and_reads_the_speed(plant
     assert np.abs(fg[read] - omega[read]).mean() < 3.0
 
 
-def test_a_shock_steps_the_published_deck_twist(plant_factory):
-    plant = plant_factory(**dict(LOCKSTEP, publish_rate_hz=10000))   # a period of one step
+def test_a_shock_steps_the_published_deck_twist(plants):
+    plant = plants(**dict(LOCKSTEP, publish_rate_hz=10000))   # a period of one step
     node = plant.sim
     twists = plant.collect(TwistStamped, 'deck/twist')
     for k in range(1, 11):
@@ -77,8 +92,14 @@ def test_a_shock_steps_the_published_deck_twist(plant_factory):
                   for y in (apply_shock(y0, 2, step), y0))
     reply = plant.call(Trigger, '/abb_simulator/apply_shock', Trigger.Request())
     assert reply.success and 'shock' in reply.message
+    # at the instant of the shock the twist jumps by exactly the step
+    jump = (np.array(ros_messages.deck_twist_content(node.sim.y, 2))
+            - np.array(ros_messages.deck_twist_content(y0, 2)))
+    np.testing.assert_allclose(jump, step, rtol=0, atol=1e-14)
+    seen = len(twists)
     assert plant.step().success
-    plant.wait(lambda: len(twists) >= 11, 'the period after the shock')
+    plant.wait(lambda: len(twists) > seen, 'the period after the shock')
+    assert stamp_ns(twists[-1]) == node.stamp_ns()
     every = node.sampler.publish_every
     twin.advance(every)
     calm.advance(every)
@@ -87,9 +108,10 @@ def test_a_shock_steps_the_published_deck_twist(plant_factory):
                           t.angular.x, t.angular.y, t.angular.z])
     expected = np.array(ros_messages.deck_twist_content(twin.y, 2))
     np.testing.assert_allclose(published, expected, rtol=1e-12, atol=1e-15)
+    # one period (0.1 ms) later the difference to the undisturbed plant is still the step,
+    # give or take a tenth of a radian of the stiffest (tilt) modes' phase
     jump = published - np.array(ros_messages.deck_twist_content(calm.y, 2))
-    # one period (0.1 ms) of dynamics after the step: within 2 % of it
-    np.testing.assert_allclose(jump, step, rtol=0.02)
+    np.testing.assert_allclose(jump, step, rtol=0.1)
     plant.wait(lambda: bench_status(plant, '') is not None and 'shocks' in {
         kv.key for kv in bench_status(plant, '').values}, 'faults and disturbances status')
     values = {kv.key: kv.value for kv in bench_status(plant, '').values}
@@ -97,10 +119,10 @@ def test_a_shock_steps_the_published_deck_twist(plant_factory):
 
 
 @pytest.mark.slow
-def test_after_a_disc_swap_the_balls_re_settle_at_the_new_phi_star(plant_factory):
+def test_after_a_disc_swap_the_balls_re_settle_at_the_new_phi_star(plants):
     """P3 with metal washers; the disc becomes eps = 0.15 mm with its imbalance 30 deg on."""
     params = {f'drive.{k}': v for k, v in (('c', METAL_P.c), ('m', METAL_P.m))}
-    plant = plant_factory(**LOCKSTEP, **params, **{'disturbance.disc_eps': 0.15e-3,
+    plant = plants(**LOCKSTEP, **params, **{'disturbance.disc_eps': 0.15e-3,
                                                    'disturbance.disc_angle_deg': 30.0})
     states = plant.collect(JointState, 'joint_states')
     for k in range(1, 4):
@@ -128,23 +150,25 @@ def test_after_a_disc_swap_the_balls_re_settle_at_the_new_phi_star(plant_factory
     np.testing.assert_allclose(np.sort(settled), np.sort(phi_star), atol=1.0)
 
 
-def test_imu_and_speed_faults_show_in_the_published_data_and_in_diagnostics(plant_factory):
-    plant = plant_factory(namespaces=(A, B), **LOCKSTEP, seed=11)
+def test_imu_and_speed_faults_show_in_the_published_data_and_in_diagnostics(plants):
+    plant = plants(namespaces=(A, B), **LOCKSTEP, seed=11)
     states = {ns: plant.collect(JointState, f'{ns}/joint_states') for ns in (A, B)}
     imu = {ns: plant.collect(Imu, f'{ns}/deck/imu') for ns in (A, B)}
     speed = {ns: plant.collect(Float64, f'{ns}/spindle/speed') for ns in (A, B)}
     step_both(plant, 20, states)
-    assert len(imu[A]) == len(imu[B]) == 20
+    wait_counts(plant, (imu[A], 20), (imu[B], 20))
 
     # dropout: no deck/imu, joint_states go on; listed in /diagnostics while active
     plant.set_params(A, **{'fault.imu_dropout': True})
     step_both(plant, 20, states)
-    assert len(imu[A]) == 20 and len(imu[B]) == 40 and len(states[A]) == 40
+    wait_counts(plant, (imu[B], 40))
+    assert len(imu[A]) == 20 and len(states[A]) == 40
     plant.wait(lambda: bench_status(plant, A) is not None
                and bench_status(plant, A).level == DiagnosticStatus.WARN, 'WARN status')
     assert 'imu_dropout' in bench_status(plant, A).message
     plant.set_params(A, **{'fault.imu_dropout': False})
     step_both(plant, 5, states)
+    wait_counts(plant, (imu[A], 25), (imu[B], 45))
     assert [m.linear_acceleration.x for m in imu[A][-5:]] == \
         [m.linear_acceleration.x for m in imu[B][-5:]]
     plant.wait(lambda: bench_status(plant, A).level == DiagnosticStatus.OK, 'OK again')
@@ -152,6 +176,7 @@ def test_imu_and_speed_faults_show_in_the_published_data_and_in_diagnostics(plan
     # stuck: the last reading repeated
     plant.set_params(A, **{'fault.imu_stuck': True})
     step_both(plant, 10, states)
+    wait_counts(plant, (imu[A], 35), (imu[B], 55))
     last_good = imu[A][-11]
     for m in imu[A][-10:]:
         assert (m.linear_acceleration.x, m.angular_velocity.z) == \
@@ -164,6 +189,7 @@ def test_imu_and_speed_faults_show_in_the_published_data_and_in_diagnostics(plan
     plant.set_params(A, **{'fault.imu_accel_bias_step': accel_step,
                            'fault.imu_gyro_bias_step': gyro_step})
     step_both(plant, 10, states)
+    wait_counts(plant, (imu[A], 45), (imu[B], 65))
     for a, b in zip(imu[A][-10:], imu[B][-10:]):
         va, vb = a.linear_acceleration, b.linear_acceleration
         np.testing.assert_allclose([va.x - vb.x, va.y - vb.y, va.z - vb.z], accel_step,
@@ -174,12 +200,14 @@ def test_imu_and_speed_faults_show_in_the_published_data_and_in_diagnostics(plan
     plant.wait(lambda: 'imu_accel_bias_step' in bench_status(plant, A).message, 'bias listed')
 
     # speed dropout: no spindle/speed; noise: the readings scatter by its std
-    n_speed = len(speed[A])
+    wait_counts(plant, (speed[A], 65), (speed[B], 65))
     plant.set_params(A, **{'fault.speed_dropout': True})
     step_both(plant, 10, states)
-    assert len(speed[A]) == n_speed and len(speed[B]) == n_speed + 10
+    wait_counts(plant, (speed[B], 75))
+    assert len(speed[A]) == 65
     plant.set_params(A, **{'fault.speed_dropout': False, 'fault.speed_noise': 20.0})
     step_both(plant, 200, states)
+    wait_counts(plant, (speed[A], 265), (speed[B], 275))
     diff = np.array([a.data - b.data for a, b in zip(speed[A][-200:], speed[B][-200:])])
     assert np.std(diff) == pytest.approx(20.0, rel=0.2)
     plant.wait(lambda: 'speed_noise' in bench_status(plant, A).message, 'noise listed')
@@ -198,9 +226,9 @@ def _euler_from_quaternion(o):
 
 
 def test_markers_show_deck_rotor_and_balls_at_their_rate_with_the_deck_exaggerated(
-        plant_factory):
+        plants):
     k = 100.0
-    plant = plant_factory(**LOCKSTEP, **NOISE_OFF, **{'visualization.rate_hz': 100.0,
+    plant = plants(**LOCKSTEP, **NOISE_OFF, **{'visualization.rate_hz': 100.0,
                                                       'visualization.exaggeration': k})
     states = plant.collect(JointState, 'joint_states')
     poses = plant.collect(PoseStamped, 'deck/pose')
@@ -239,8 +267,8 @@ def test_markers_show_deck_rotor_and_balls_at_their_rate_with_the_deck_exaggerat
             pytest.approx(ROTOR_HEIGHT / 2, rel=1e-9)
 
 
-def test_markers_off_at_rate_zero(plant_factory):
-    plant = plant_factory(**LOCKSTEP, **{'visualization.rate_hz': 0.0})
+def test_markers_off_at_rate_zero(plants):
+    plant = plants(**LOCKSTEP, **{'visualization.rate_hz': 0.0})
     states = plant.collect(JointState, 'joint_states')
     markers = plant.collect(MarkerArray, 'visualization/markers')
     for i in range(1, 31):

@@ -80,6 +80,7 @@ class BenchIO:
 
     # ---- disturbances --------------------------------------------------------------------
     def _on_shock(self, request, response):
+        self.node._apply_parameters()   # the parameters just set, not those of the last tick
         sim = self.node.sim
         step = self.bench.shock_velocity
         try:
@@ -95,6 +96,7 @@ class BenchIO:
         return response
 
     def _on_swap(self, request, response):
+        self.node._apply_parameters()
         node, sim, b = self.node, self.node.sim, self.bench
         result = node.set_parameters([Parameter('drive.eps', value=b.disc_eps)])[0]
         if not result.successful:
