@@ -65,20 +65,22 @@ def _hermite_crossing(level, h, th0, w0, th1, w1) -> float:
     """Time s in [0, h] at which the cubic Hermite interpolant of (th0, w0) at 0 and
     (th1, w1) at h equals ``level`` (which lies between th0 and th1)."""
     d = th1 - th0
-    s = h * (level - th0) / d if d != 0.0 else 0.0   # linear guess
+    u = (level - th0) / d if d != 0.0 else 0.0   # linear guess, u = s / h
+    hw0, hw1 = h * w0, h * w1
     for _ in range(_NEWTON_ITERATIONS):
-        u = s / h
-        h00 = 2 * u**3 - 3 * u**2 + 1
-        h10 = u**3 - 2 * u**2 + u
-        h01 = -2 * u**3 + 3 * u**2
-        h11 = u**3 - u**2
-        value = h00 * th0 + h10 * h * w0 + h01 * th1 + h11 * h * w1
-        slope = ((6 * u**2 - 6 * u) * th0 + (3 * u**2 - 4 * u + 1) * h * w0
-                 + (-6 * u**2 + 6 * u) * th1 + (3 * u**2 - 2 * u) * h * w1) / h
+        u2 = u * u
+        u3 = u2 * u
+        value = ((2 * u3 - 3 * u2 + 1) * th0 + (u3 - 2 * u2 + u) * hw0
+                 + (3 * u2 - 2 * u3) * th1 + (u3 - u2) * hw1)
+        slope = ((6 * u2 - 6 * u) * (th0 - th1) + (3 * u2 - 4 * u + 1) * hw0
+                 + (3 * u2 - 2 * u) * hw1)          # d value / du
         if slope == 0.0:
             break
-        s = min(max(s - (value - level) / slope, 0.0), h)
-    return s
+        correction = (value - level) / slope
+        u = min(max(u - correction, 0.0), 1.0)
+        if abs(correction) < 1e-13:
+            break
+    return u * h
 
 
 class SpeedSensor:
