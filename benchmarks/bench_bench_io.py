@@ -5,9 +5,11 @@ nothing).
    SpeedFaults.apply and ImuFaults.apply (inactive and active), marker_array (n = 2, 10).
 2. The simulator node in its own process, real time (real_time_factor 1, 10 kHz / 1 kHz,
    n = 2), no subscriber: CPU of the node process (/proc/<pid>/stat utime + stime) over a
-   window, with visualization.rate_hz 0 (markers off), 20 (default) and 100.
+   window, with visualization.rate_hz 0 (markers off), 20 (default) and 100; with
+   ``--baseline-root DIR``, also the node of another checkout (e.g. ``git archive`` of the
+   commit before the bench I/O), whose python -m abb_ros.nodes.simulator is then run from DIR.
 
-    .venv/bin/python benchmarks/bench_bench_io.py [--duration 20]
+    .venv/bin/python benchmarks/bench_bench_io.py [--duration 20] [--baseline-root DIR]
 """
 
 import argparse
@@ -62,14 +64,16 @@ def in_process():
     for n in (2, 10):
         p = DriveParams(n=n)
         y = initial_state(p, omega)
-        print(f'  marker_array, n = {n:2d}                       '
-              f'{per_call_us(lambda i: marker_array(i, y, p, 100.0), 2000):6.1f} us')
+        reuse = marker_array(0, y, p, 100.0)
+        print(f'  marker_array, n = {n:2d}, new / filled in place   '
+              f'{per_call_us(lambda i: marker_array(i, y, p, 100.0), 2000):6.1f} us / '
+              f'{per_call_us(lambda i: marker_array(i, y, p, 100.0, reuse), 2000):6.1f} us')
 
 
-def node_cpu(rate_hz: float, duration: float) -> float:
+def node_cpu(rate_hz: float, duration: float, root: Path = ROOT) -> float:
     args = [sys.executable, '-m', 'abb_ros.nodes.simulator', '--ros-args', '-r',
             f'__ns:=/bench_io_{os.getpid()}', '-p', f'visualization.rate_hz:={rate_hz}']
-    proc = subprocess.Popen(args, cwd=ROOT, stdout=subprocess.DEVNULL,
+    proc = subprocess.Popen(args, cwd=root, stdout=subprocess.DEVNULL,
                             stderr=subprocess.DEVNULL)
     try:
         time.sleep(WARM_UP_S)
@@ -86,17 +90,23 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--duration', type=float, default=20.0)
     parser.add_argument('--repeat', type=int, default=2)
+    parser.add_argument('--baseline-root', type=Path)
     args = parser.parse_args()
     print('[in process, per call]')
     in_process()
     print(f'[node, real time, n = 2, {args.duration:g} s windows, load average '
           f'{os.getloadavg()[0]:.1f}]')
     results = {}
+    settings = [(rate, ROOT) for rate in (0.0, 20.0, 100.0)]
+    if args.baseline_root:
+        settings.insert(0, ('baseline', args.baseline_root))
     for _ in range(args.repeat):        # interleaved: load changes hit every setting alike
-        for rate in (0.0, 20.0, 100.0):
-            results.setdefault(rate, []).append(node_cpu(rate, args.duration))
+        for rate, root in settings:
+            results.setdefault(rate, []).append(
+                node_cpu(0.0 if rate == 'baseline' else rate, args.duration, root))
     for rate, cpu in results.items():
-        label = 'markers off' if rate == 0 else f'markers at {rate:g} Hz'
+        label = ('baseline checkout' if rate == 'baseline' else
+                 'markers off' if rate == 0 else f'markers at {rate:g} Hz')
         print(f'  CPU of the node, {label:17s} '
               + ', '.join(f'{c:5.1f} %' for c in cpu) + ' of one core')
     base = min(results[0.0])

@@ -93,3 +93,13 @@ def test_the_foxglove_layout_tree_names_every_panel_once():
         return leaves(node['first']) + leaves(node['second'])
 
     assert sorted(leaves(layout['layout'])) == sorted(layout['configById'])
+
+
+def test_a_marker_array_filled_in_place_equals_a_new_one():
+    p, y = _state(n=2)
+    reused = marker_array(0, _state(n=2)[1] * 0.5, p, 10.0)
+    filled = marker_array(2_000_000, y, p, 100.0, out=reused)
+    assert filled is reused
+    assert filled == marker_array(2_000_000, y, p, 100.0)
+    p10, y10 = _state(n=10)
+    assert len(marker_array(0, y10, p10, 100.0, out=reused).markers) == 12
