@@ -2,7 +2,8 @@
 nothing).
 
 1. In this process, per call: SpeedSensor.update at 1 kHz samples of a drive at P3 speed,
-   SpeedFaults.apply and ImuFaults.apply (inactive and active), marker_array (n = 2, 10).
+   SpeedFaults.apply and ImuFaults.apply (inactive and active), marker_array (n = 2, 10),
+   and rclpy's publish of a Float64 and of the n = 2 MarkerArray (no subscriber).
 2. The simulator node in its own process, real time (real_time_factor 1, 10 kHz / 1 kHz,
    n = 2), no subscriber: CPU of the node process (/proc/<pid>/stat utime + stime) over a
    window, with visualization.rate_hz 0 (markers off), 20 (default) and 100; with
@@ -65,9 +66,33 @@ def in_process():
         p = DriveParams(n=n)
         y = initial_state(p, omega)
         reuse = marker_array(0, y, p, 100.0)
+        if n == 2:
+            two = reuse
         print(f'  marker_array, n = {n:2d}, new / filled in place   '
               f'{per_call_us(lambda i: marker_array(i, y, p, 100.0), 2000):6.1f} us / '
               f'{per_call_us(lambda i: marker_array(i, y, p, 100.0, reuse), 2000):6.1f} us')
+    return two
+
+
+def publish_costs(markers):
+    import rclpy
+    from rclpy.node import Node
+    from std_msgs.msg import Float64
+    from visualization_msgs.msg import MarkerArray
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx)
+    node = Node(f'bench_io_{os.getpid()}', context=ctx)
+    try:
+        speed = node.create_publisher(Float64, 'bench_io/speed', 10)
+        msg = Float64(data=1.0)
+        print(f'  publish Float64 (spindle/speed)             '
+              f'{per_call_us(lambda i: speed.publish(msg), 20000):6.2f} us')
+        pub = node.create_publisher(MarkerArray, 'bench_io/markers', 10)
+        print(f'  publish MarkerArray, n = 2                  '
+              f'{per_call_us(lambda i: pub.publish(markers), 2000):6.1f} us')
+    finally:
+        node.destroy_node()
+        rclpy.shutdown(context=ctx)
 
 
 def node_cpu(rate_hz: float, duration: float, root: Path = ROOT) -> float:
@@ -93,7 +118,7 @@ def main():
     parser.add_argument('--baseline-root', type=Path)
     args = parser.parse_args()
     print('[in process, per call]')
-    in_process()
+    publish_costs(in_process())
     print(f'[node, real time, n = 2, {args.duration:g} s windows, load average '
           f'{os.getloadavg()[0]:.1f}]')
     results = {}
