@@ -26,7 +26,7 @@ from abb_ros.io import msgdefs
 from abb_ros.io.bag_writer import DEFAULT_CHUNK_SIZE, BagError, BagWriteError, BagWriter
 
 DEFAULT_TOPICS = ['joint_states', 'deck/pose', 'deck/twist', 'deck/imu', 'stability/margin',
-                  '/diagnostics', 'spindle/speed_cmd']
+                  '/diagnostics', 'spindle/speed_cmd', 'spindle/speed', 'visualization/markers']
 DEFAULT_QUEUE_DEPTH = 1000  # 1 s of messages at 1 kHz before the middleware drops any
 
 
