@@ -150,6 +150,7 @@ def test_after_a_disc_swap_the_balls_re_settle_at_the_new_phi_star(plants):
     np.testing.assert_allclose(np.sort(settled), np.sort(phi_star), atol=1.0)
 
 
+@pytest.mark.slow
 def test_imu_and_speed_faults_show_in_the_published_data_and_in_diagnostics(plants):
     plant = plants(namespaces=(A, B), **LOCKSTEP, seed=11)
     states = {ns: plant.collect(JointState, f'{ns}/joint_states') for ns in (A, B)}
