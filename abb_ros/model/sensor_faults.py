@@ -43,6 +43,10 @@ class ImuFaults:
     gyro_bias_step: tuple[float, float, float] = (0.0, 0.0, 0.0)
 
     def __post_init__(self):
+        self.reset()
+
+    def reset(self) -> None:
+        """Forget the last reading given out (what a stuck IMU would repeat)."""
         self._last: ImuReading | None = None
 
     def active(self) -> dict[str, object]:

@@ -74,7 +74,7 @@ class BenchIO:
         self.speed.seed = self.speed_faults.seed = seed
         self.speed.reset()
         self.speed_faults.reset()
-        self.imu_faults.__post_init__()
+        self.imu_faults.reset()
 
     def active_faults(self) -> dict[str, object]:
         return {**self.imu_faults.active(), **self.speed_faults.active()}
