@@ -36,7 +36,8 @@ def _random_sample(rng):
     imu = None
     if y is None or rng.random() < 0.5:
         imu = ImuReading(_awkward_floats(rng, 3), _awkward_floats(rng, 3))
-    return Sample(int(rng.integers(0, 2**36)), n, y, imu)
+    speed = float(_awkward_floats(rng, 1)[0]) if y is not None and rng.random() < 0.5 else None
+    return Sample(int(rng.integers(0, 2**36)), n, y, imu, speed)
 
 
 def _random_imu_config(rng):
@@ -61,7 +62,8 @@ def test_every_topic_of_a_sample_encodes_to_the_bytes_of_its_serialised_rclpy_me
         for (topic, data), (_, msg) in zip(encoded, messages):
             assert data == cdr_bytes(msg), (topic, sample)
             seen.add(topic)
-    assert seen == {'joint_states', 'deck/pose', 'deck/twist', 'deck/imu', '/clock'}
+    assert seen == {'joint_states', 'deck/pose', 'deck/twist', 'deck/imu', '/clock',
+                    'spindle/speed'}
 
 
 def test_messages_filled_in_place_encode_like_new_ones():
@@ -71,7 +73,8 @@ def test_messages_filled_in_place_encode_like_new_ones():
     reuse = {topic: kind() for topic, kind in ros_messages.TOPIC_TYPES.items()}
     for n in (10, 2, 0, 5):
         sample = Sample(int(rng.integers(0, 2**40)), n, rng.standard_normal(2 * n_coords(n)),
-                        ImuReading(rng.standard_normal(3), rng.standard_normal(3)))
+                        ImuReading(rng.standard_normal(3), rng.standard_normal(3)),
+                        float(rng.standard_normal()))
         _, encoded = cdr.sample_cdr(sample, 100_000, TYPICAL_IMU, 0, True)
         filled = ros_messages.sample_messages(sample, 100_000, TYPICAL_IMU, 0, True, reuse)
         assert [d for _, d in encoded] == [cdr_bytes(m) for _, m in filled]

@@ -102,6 +102,12 @@ def test_colcon_installs_the_bench_launch_file_where_ros2_launch_looks(install):
     assert installed.read_bytes() == (REPO / 'launch' / 'bench.launch.py').read_bytes()
 
 
+def test_colcon_installs_the_foxglove_layout_beside_the_parameter_files(install):
+    share = install / PACKAGE / 'share' / PACKAGE
+    assert (share / 'config' / 'foxglove_layout.json').read_bytes() == \
+        (REPO / 'config' / 'foxglove_layout.json').read_bytes()
+
+
 # Run in the sourced environment, as `ros2 run` would: ros2pkg's get_executable_paths() lists
 # the executable files under <get_package_prefix(pkg)>/lib/<pkg>.
 _RESOLVE = """

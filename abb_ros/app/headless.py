@@ -21,6 +21,7 @@ from abb_ros.io.scenario import Scenario
 from abb_ros.model.integrate import DEFAULT_DT, Simulation, initial_state
 from abb_ros.model.sampling import PlantSampler
 from abb_ros.model.sensors import TYPICAL_IMU, ImuConfig, ImuModel
+from abb_ros.model.speed_sensor import SpeedSensor, SpeedSensorConfig
 
 __all__ = ['RunResult', 'run_scenario', 'check_duration', 'STATE_TOPIC_TYPES']
 
@@ -68,8 +69,11 @@ def _steps_per(period: float, dt: float, what: str) -> int:
 
 def run_scenario(scenario: Scenario, dt: float = DEFAULT_DT, publish_dt: float = PUBLISH_DT,
                  imu_config: ImuConfig | None = None, seed: int = 0, bag=None,
-                 progress=None) -> RunResult:
+                 progress=None, speed_config: SpeedSensorConfig | None = None) -> RunResult:
     """Integrate ``scenario`` for its duration.
+
+    The FG speed sensor (``spindle/speed``) has ``speed_config`` (default the node's) and the
+    same ``seed`` as the IMU, so a node with the same settings publishes the same readings.
 
     bag : abb_ros.io.bag_writer.BagWriter, optional
         Receives every message (with ``/clock``, as the node does when it owns time).
@@ -85,7 +89,8 @@ def run_scenario(scenario: Scenario, dt: float = DEFAULT_DT, publish_dt: float =
     sim = Simulation(p, scenario.omega, dt, spindle=scenario.spindle, y0=y0)
     publish_every = _steps_per(publish_dt, dt, 'publish_dt')
     imu_every = _steps_per(1.0 / imu_config.rate, dt, 'imu rate')
-    sampler = PlantSampler(sim, ImuModel(imu_config, seed), publish_every, imu_every)
+    sampler = PlantSampler(sim, ImuModel(imu_config, seed), publish_every, imu_every,
+                           speed=SpeedSensor(speed_config, seed))
     dt_ns = int(round(dt * 1e9))
     if bag is not None:
         for topic, type_name in STATE_TOPIC_TYPES.items():

@@ -22,7 +22,7 @@ import struct
 from abb_ros.io.ros_messages import TOPIC_FRAMES, joint_names, sample_contents
 
 __all__ = ['ENCAPSULATION', 'Layout', 'joint_state', 'pose_stamped', 'twist_stamped', 'imu',
-           'clock', 'diagnostic_array', 'ENCODERS', 'sample_cdr']
+           'clock', 'float64', 'diagnostic_array', 'ENCODERS', 'sample_cdr']
 
 ENCAPSULATION = b'\x00\x01\x00\x00'
 """CDR_LE: representation identifier 0x0001 (big-endian on the wire), options 0."""
@@ -172,6 +172,15 @@ def clock(sec: int, nanosec: int, content=None) -> bytes:
     return st.pack(c0, sec, nanosec)
 
 
+_FLOAT64 = Layout().var('d').compile()
+
+
+def float64(sec: int, nanosec: int, content: float) -> bytes:
+    """std_msgs/Float64 (no header: the stamp is not encoded)."""
+    st, (c0,) = _FLOAT64
+    return st.pack(c0, content)
+
+
 def diagnostic_array(sec: int, nanosec: int, content) -> bytes:
     """diagnostic_msgs/DiagnosticArray with the one status of
     ros_messages.diagnostics_content (not cached: its texts change every time)."""
@@ -186,7 +195,7 @@ def diagnostic_array(sec: int, nanosec: int, content) -> bytes:
 
 ENCODERS = {'joint_states': joint_state, 'deck/pose': pose_stamped,
             'deck/twist': twist_stamped, 'deck/imu': imu, '/clock': clock,
-            '/diagnostics': diagnostic_array}
+            '/diagnostics': diagnostic_array, 'spindle/speed': float64}
 """Topic -> encoder(sec, nanosec, content) of ros_messages' content for that topic."""
 
 

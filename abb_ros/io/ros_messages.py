@@ -18,6 +18,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
+from std_msgs.msg import Float64
 
 from abb_ros.io import topics
 from abb_ros.io.topics import FRAME_BASE, FRAME_DECK
@@ -29,7 +30,7 @@ __all__ = ['FRAME_BASE', 'FRAME_DECK', 'TOPIC_TYPES', 'STATE_TOPICS', 'time_msg'
            'joint_names', 'joint_state', 'deck_pose', 'deck_twist', 'deck_imu', 'clock',
            'diagnostics', 'sample_messages', 'TOPIC_FRAMES', 'joint_state_content',
            'deck_pose_content', 'deck_twist_content', 'deck_imu_content', 'diagnostics_content',
-           'sample_contents']
+           'sample_contents', 'SPEED_TOPIC']
 
 HARDWARE_ID = 'abb_ros'
 
@@ -37,6 +38,9 @@ TOPIC_TYPES = {t.name: topics.message_class(t.type) for t in topics.published_by
 """Every topic the simulator publishes -> message class (:data:`abb_ros.io.topics.TOPICS`)."""
 
 STATE_TOPICS = tuple(t.name for t in topics.TOPICS if t.rate == topics.STATE)
+
+SPEED_TOPIC = 'spindle/speed'
+"""The FG's measured speed [rad/s] (std_msgs/Float64, no stamp), with the state topics."""
 """Topics published at ``publish_rate_hz`` from the state; ``deck/imu`` has its own rate."""
 
 
@@ -96,8 +100,9 @@ def sample_contents(sample: Sample, dt_ns: int, imu_config: ImuConfig, epoch_ns:
                     with_clock: bool = False) -> tuple[int, list[tuple[str, object]]]:
     """(stamp [ns], [(topic, content)]) of one :class:`Sample`, in publishing order:
     ``/clock`` first (when the simulator owns time; content None), then the state topics,
-    then ``deck/imu``. ``joint_states`` content is (n, position, velocity, effort), effort
-    [] in speed mode, else [motor torque, 0 (balls)...] [N m]."""
+    then ``spindle/speed`` (when the sample has a speed reading), then ``deck/imu``.
+    ``joint_states`` content is (n, position, velocity, effort), effort [] in speed mode,
+    else [motor torque, 0 (balls)...] [N m]."""
     out = [('/clock', None)] if with_clock else []
     y = sample.y
     if y is not None:
@@ -105,6 +110,8 @@ def sample_contents(sample: Sample, dt_ns: int, imu_config: ImuConfig, epoch_ns:
         out += [('joint_states', (sample.n,) + joint_state_content(y, sample.n) + (effort,)),
                 ('deck/pose', deck_pose_content(y)),
                 ('deck/twist', deck_twist_content(y, sample.n))]
+    if sample.speed is not None:
+        out.append((SPEED_TOPIC, sample.speed))
     if sample.imu is not None:
         out.append(('deck/imu', deck_imu_content(sample.imu, imu_config)))
     return sample.stamp_ns(dt_ns, epoch_ns), out
@@ -160,8 +167,14 @@ def _fill_clock(msg: Clock, stamp: Time, content=None) -> Clock:
     return msg
 
 
+def _fill_float64(msg: Float64, stamp: Time, content: float) -> Float64:
+    msg.data = content
+    return msg
+
+
 _FILL = {'joint_states': _fill_joint_state, 'deck/pose': _fill_pose,
-         'deck/twist': _fill_twist, 'deck/imu': _fill_imu, '/clock': _fill_clock}
+         'deck/twist': _fill_twist, 'deck/imu': _fill_imu, '/clock': _fill_clock,
+         SPEED_TOPIC: _fill_float64}
 
 
 def joint_state(stamp, y: np.ndarray, n: int, out: JointState | None = None) -> JointState:

@@ -11,7 +11,8 @@ from __future__ import annotations
 import importlib
 from dataclasses import dataclass
 
-__all__ = ['FRAME_BASE', 'FRAME_DECK', 'STATE', 'IMU', 'CLOCK', 'EVENT', 'COMMAND', 'SAMPLED',
+__all__ = ['FRAME_BASE', 'FRAME_DECK', 'STATE', 'IMU', 'CLOCK', 'EVENT', 'SPEED', 'COMMAND',
+           'SAMPLED',
            'Topic', 'TOPICS', 'by_name', 'published_by', 'sampled_topics', 'recorded_topics',
            'message_class']
 
@@ -29,10 +30,12 @@ CLOCK = 'clock'
 """Rate role: published with every sample when the simulator owns time."""
 EVENT = 'event'
 """Rate role: published when something changes (verdicts, faults) or at a low fixed rate."""
+SPEED = 'speed'
+"""Rate role: with the state samples, when the speed sensor has a reading."""
 COMMAND = 'command'
 """Rate role: an input, published by the user and subscribed by the simulator."""
 
-SAMPLED = (CLOCK, STATE, IMU)
+SAMPLED = (CLOCK, STATE, IMU, SPEED)
 """Roles of the topics a simulation sample produces (what a headless bag holds)."""
 
 
@@ -53,11 +56,15 @@ TOPICS = (
     Topic('deck/pose', 'geometry_msgs/msg/PoseStamped', FRAME_BASE, STATE, ('simulator',)),
     Topic('deck/twist', 'geometry_msgs/msg/TwistStamped', FRAME_DECK, STATE, ('simulator',)),
     Topic('deck/imu', 'sensor_msgs/msg/Imu', FRAME_DECK, IMU, ('simulator',)),
+    Topic('spindle/speed', 'std_msgs/msg/Float64', None, SPEED, ('simulator',)),
     Topic('/clock', 'rosgraph_msgs/msg/Clock', None, CLOCK, ('simulator',), recorded=False),
+    Topic('visualization/markers', 'visualization_msgs/msg/MarkerArray', FRAME_BASE, EVENT,
+          ('simulator',)),
     Topic('stability/margin', 'std_msgs/msg/Float64', None, EVENT, ('analysis',)),
     Topic('/diagnostics', 'diagnostic_msgs/msg/DiagnosticArray', None, EVENT,
           ('simulator', 'analysis')),
     Topic('spindle/speed_cmd', 'std_msgs/msg/Float64', None, COMMAND, ()),
+    Topic('spindle/current_cmd', 'std_msgs/msg/Float64', None, COMMAND, ()),
 )
 """Every topic. The simulator creates its publishers, a headless bag its topics (the order is
 part of the bag's bytes) and the recorder lists its defaults in this order."""

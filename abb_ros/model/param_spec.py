@@ -288,6 +288,44 @@ SIMULATOR_SPECS = (
               low_open=True, high=_INF, applies=_AT_STEP, nodes=_SIM, commands=_RUN),
     ParamSpec('seed', 0, '', 'seed of the IMU noise generator', INTEGER, 0, 2**31 - 1,
               applies='on ~/reset', nodes=_SIM, commands=_RUN),
+    # ---- bench: FG speed sensor, faults, disturbances, markers (nodes/bench_settings.py)
+    ParamSpec('speed_sensor.pulses_per_rev', 6, '', 'FG pulses per spindle revolution (3 per '
+              'pole pair of a BLDC motor)', INTEGER, 1, 1000, applies='on ~/reset', nodes=_SIM),
+    ParamSpec('speed_sensor.timer_hz', 1.0e6, 'Hz', 'FG edge capture timer clock '
+              '(quantisation)', low=0.0, low_open=True, high=_INF, applies='on ~/reset',
+              nodes=_SIM),
+    ParamSpec('speed_sensor.edge_jitter', 1.0e-6, 's', 'FG edge time jitter, standard '
+              'deviation', low=0.0, high=_INF, applies='on ~/reset', nodes=_SIM),
+    ParamSpec('speed_sensor.timeout', 0.1, 's', 'no FG edge for this long reads 0 rad/s',
+              low=0.0, low_open=True, high=_INF, applies='on ~/reset', nodes=_SIM),
+    ParamSpec('fault.imu_dropout', False, '', 'IMU dropout: no deck/imu messages while true',
+              BOOL, applies=_AT_STEP, nodes=_SIM),
+    ParamSpec('fault.imu_stuck', False, '', 'IMU stuck: deck/imu repeats its last reading '
+              'while true', BOOL, applies=_AT_STEP, nodes=_SIM),
+    ParamSpec('fault.imu_accel_bias_step', [0.0, 0.0, 0.0], 'm/s^2', 'bias step added to '
+              'deck/imu specific force, deck axes', DOUBLE_ARRAY, length=3, applies=_AT_STEP,
+              nodes=_SIM),
+    ParamSpec('fault.imu_gyro_bias_step', [0.0, 0.0, 0.0], 'rad/s', 'bias step added to '
+              'deck/imu angular rate, deck axes', DOUBLE_ARRAY, length=3, applies=_AT_STEP,
+              nodes=_SIM),
+    ParamSpec('fault.speed_dropout', False, '', 'speed sensor dropout: no spindle/speed while '
+              'true', BOOL, applies=_AT_STEP, nodes=_SIM),
+    ParamSpec('fault.speed_noise', 0.0, 'rad/s', 'white noise added to spindle/speed, std',
+              low=0.0, high=_INF, applies=_AT_STEP, nodes=_SIM),
+    ParamSpec('disturbance.shock_velocity', [0.0] * 6, 'm/s, rad/s', 'deck twist step of '
+              '~/apply_shock, deck axes [vx, vy, vz, wx, wy, wz]', DOUBLE_ARRAY, length=6,
+              applies='on ~/apply_shock', nodes=_SIM),
+    ParamSpec('disturbance.disc_eps', 0.25e-3, 'm', 'eccentricity eps of the disc put in by '
+              '~/swap_disc (becomes drive.eps)', low=0.0, high=1.0, applies='on ~/swap_disc',
+              nodes=_SIM),
+    ParamSpec('disturbance.disc_angle_deg', 0.0, 'deg', 'imbalance angle of the disc put in '
+              'by ~/swap_disc, relative to the current one', low=-360.0, high=360.0,
+              applies='on ~/swap_disc', nodes=_SIM),
+    ParamSpec('visualization.rate_hz', 20.0, 'Hz', 'visualization/markers rate, simulated '
+              'time; 0 = off', low=0.0, high=1000.0, applies=_AT_STEP, nodes=_SIM),
+    ParamSpec('visualization.exaggeration', 100.0, '', 'deck displacement and tilt scale '
+              'factor in visualization/markers', low=0.0, high=1.0e6, applies=_AT_STEP,
+              nodes=_SIM),
     ParamSpec('max_stamp_lag', 0.1, 's', 'largest lag of a stamp behind its schedule (the wall '
               'clock at real_time_factor 1); a later plant drops the excess (counted in slips) '
               'and reports ERROR', low=0.001, high=3600.0, applies=_AT_STEP, nodes=_SIM),
@@ -339,7 +377,8 @@ ANALYSIS_SPECS = (
 _REC = ('recorder',)
 RECORDER_SPECS = (
     ParamSpec('topics', ['joint_states', 'deck/pose', 'deck/twist', 'deck/imu',
-                         'stability/margin', '/diagnostics', 'spindle/speed_cmd'], '',
+                         'spindle/speed', 'visualization/markers', 'stability/margin',
+                         '/diagnostics', 'spindle/speed_cmd', 'spindle/current_cmd'], '',
               'topics to record (relative names resolve in the node\'s namespace)',
               STRING_ARRAY, applies='at start-up', nodes=_REC),
     ParamSpec('output', '', '', 'bag directory (must not exist); empty: '

@@ -15,7 +15,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from abb_ros.model.sensor_faults import ImuFaults, SpeedFaults
 from abb_ros.model.sensors import ImuModel, ImuReading
+from abb_ros.model.speed_sensor import SpeedSensor
 
 __all__ = ['Sample', 'PlantSampler']
 
@@ -24,13 +26,15 @@ __all__ = ['Sample', 'PlantSampler']
 class Sample:
     """The plant at step ``steps``: ``y`` (state copy, shape (2N,)) when the state is due,
     ``imu`` when the IMU is due (else None); ``n`` the ball count of ``y``; ``effort`` the
-    spindle motor's torque [N m] in torque mode (None in speed modes)."""
+    spindle motor's torque [N m] in torque mode (None in speed modes); ``speed`` the FG
+    reading [rad/s] with the state (None without a speed sensor or during its dropout)."""
 
     steps: int
     n: int
     y: np.ndarray | None
     imu: ImuReading | None
     effort: float | None = None
+    speed: float | None = None
 
     def stamp_ns(self, dt_ns: int, epoch_ns: int = 0) -> int:
         """The exact time stamp [ns] of this sample: epoch + steps * dt."""
@@ -48,11 +52,20 @@ class PlantSampler:
 
     publish_every, imu_every : int
         Steps between state samples and between IMU samples (>= 1).
+    speed : SpeedSensor, optional
+        The FG, read with every state sample.
+    imu_faults, speed_faults : optional
+        :mod:`abb_ros.model.sensor_faults` applied to the readings.
     """
 
-    def __init__(self, sim, imu: ImuModel, publish_every: int, imu_every: int):
+    def __init__(self, sim, imu: ImuModel, publish_every: int, imu_every: int,
+                 speed: SpeedSensor | None = None, imu_faults: ImuFaults | None = None,
+                 speed_faults: SpeedFaults | None = None):
         self.sim = sim
         self.imu = imu
+        self.speed = speed
+        self.imu_faults = imu_faults
+        self.speed_faults = speed_faults
         self.set_rates(publish_every, imu_every)
 
     def set_rates(self, publish_every: int, imu_every: int) -> None:
@@ -69,14 +82,20 @@ class PlantSampler:
         if not (state_due or imu_due):
             return None
         y = self.sim.y.copy() if state_due else None
-        reading = None
+        reading = speed = None
         if imu_due:
             s = self.sim.layout
             qdd = self.sim.accelerations()
             reading = self.imu.read(self.sim.y[s.q], self.sim.y[s.qd], qdd)
+            if self.imu_faults is not None:
+                reading = self.imu_faults.apply(reading)
+        if state_due and self.speed is not None:
+            speed = self.speed.update(self.sim.t, self.sim.theta, self.sim.omega)
+            if self.speed_faults is not None:
+                speed = self.speed_faults.apply(speed)
         effort = self.sim.motor_torque if state_due else math.nan
         return Sample(steps, self.sim.params.n, y, reading,
-                      None if math.isnan(effort) else effort)
+                      None if math.isnan(effort) else effort, speed)
 
     def next_period(self) -> list[Sample]:
         """Advance to the next state instant (a multiple of publish_every), returning every

@@ -26,6 +26,7 @@ from abb_ros.model.param_spec import (DOUBLE, DOUBLE_ARRAY, DRIVE_PREFIX, INTEGE
 from abb_ros.model.integrate import SpindleMotor, TorqueMotor
 from abb_ros.model.params import DriveParams, ParamError
 from abb_ros.model.sensors import ImuConfig
+from abb_ros.nodes.bench_settings import BenchSettings, bench_settings
 
 __all__ = ['DRIVE_PREFIX', 'SIMULATOR_PARAMS', 'SimSettings', 'declare', 'declare_all',
            'coerce_on_set', 'descriptor', 'settings_from', 'current_values', 'validate_change',
@@ -105,6 +106,7 @@ class SimSettings:
     spindle_tau: float
     seed: int
     imu: ImuConfig
+    bench: BenchSettings = BenchSettings()
     spindle_mode: str = 'speed'
     motor: TorqueMotor = TorqueMotor()
 
@@ -167,7 +169,7 @@ def settings_from(values: Mapping[str, Any]) -> tuple[DriveParams, SimSettings]:
         spindle_max_accel=float(values['spindle.max_accel']),
         spindle_tau=float(values['spindle.tau']), seed=int(values['seed']),
         imu=imu_config(values), spindle_mode=str(values['spindle.mode']),
-        motor=TorqueMotor.from_values(values))
+        motor=TorqueMotor.from_values(values), bench=bench_settings(values))
     return drive, settings
 
 

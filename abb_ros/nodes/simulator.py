@@ -46,6 +46,7 @@ from abb_ros.model.integrate import Simulation, StateError, initial_state
 from abb_ros.model.sampling import PlantSampler
 from abb_ros.model.sensors import ImuModel
 from abb_ros.nodes import ros_params
+from abb_ros.nodes.bench import BenchIO
 from abb_ros.nodes.entry_point import make_executor, run_node, spin
 from abb_ros.nodes.recorder import default_output
 
@@ -104,6 +105,7 @@ class SimulatorNode(Node):
 
         self._pubs = {topic: self.create_publisher(kind, topic, PUBLISH_DEPTH)
                       for topic, kind in ros_messages.TOPIC_TYPES.items()}
+        self.bench = BenchIO(self, QOS_DEPTH)   # FG, faults, disturbances, markers
         self.create_subscription(Float64, 'spindle/speed_cmd', self._on_speed_cmd, QOS_DEPTH)
         self.create_subscription(Float64, 'spindle/current_cmd', self._on_current_cmd,
                                  QOS_DEPTH)
@@ -248,6 +250,7 @@ class SimulatorNode(Node):
                                            self._epoch_ns, self.owns_time)
         for topic, data in encoded:
             self._send(topic, data, stamp_ns)
+        self.bench.on_sample(sample)
 
     def _send(self, topic: str, data: bytes, stamp_ns: int) -> None:
         """Publish the CDR bytes of one message (and record them when recording)."""
@@ -390,6 +393,7 @@ class SimulatorNode(Node):
         self._set_spindle(s)
         self.imu.reconfigure(s.imu)
         self.sampler.set_rates(s.publish_every, s.imu_every)
+        self.bench.apply(s.bench)
         if (s.real_time_factor, s.publish_rate_hz) != (old.real_time_factor,
                                                        old.publish_rate_hz):
             self._restart_pacing()
@@ -406,6 +410,7 @@ class SimulatorNode(Node):
         self._set_spindle(s)
         self.imu.seed = s.seed
         self.imu.reset()
+        self.bench.reset(s.seed)
         cleared = self.fault
         self.fault = ''
         # Nothing is published now: this step's stamp went out already (with the old state);
@@ -501,6 +506,7 @@ class SimulatorNode(Node):
             f'{self.get_fully_qualified_name()}: simulation', level, message, values)
         sec, nanosec = divmod(stamp_ns, 1_000_000_000)
         self._send('/diagnostics', cdr.diagnostic_array(sec, nanosec, content), stamp_ns)
+        self.bench.publish_diagnostics()
 
 
 def _max_stamp_lag_ns(node) -> float:

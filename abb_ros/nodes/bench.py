@@ -1,0 +1,144 @@
+"""The simulator node's bench I/O: FG speed sensor, sensor faults, disturbances, markers.
+
+Wiring only (the logic is in :mod:`abb_ros.model.speed_sensor`,
+:mod:`abb_ros.model.sensor_faults`, :mod:`abb_ros.model.disturbances` and
+:mod:`abb_ros.io.markers`). :class:`BenchIO` attaches to a
+:class:`abb_ros.nodes.simulator.SimulatorNode`: it puts the FG and the fault filters into
+the node's PlantSampler, serves ``~/apply_shock`` and ``~/swap_disc``, publishes
+``visualization/markers`` and the ``faults and disturbances`` status on ``/diagnostics``.
+Semantics: docs/ros_api.md, 'Bench: measured speed, faults, disturbances, markers'.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from diagnostic_msgs.msg import DiagnosticStatus
+from rclpy.parameter import Parameter
+from std_srvs.srv import Trigger
+
+from abb_ros.io import markers, ros_messages
+from abb_ros.model import disturbances
+from abb_ros.model.sensor_faults import ImuFaults, SpeedFaults
+from abb_ros.model.speed_sensor import SpeedSensor
+from abb_ros.nodes.bench_settings import BenchSettings
+
+__all__ = ['BenchIO', 'MARKERS_TOPIC']
+
+MARKERS_TOPIC = 'visualization/markers'
+
+
+class BenchIO:
+    """See the module docstring. ``node`` must have ``sim``, ``sampler``, ``settings``,
+    ``drive``, ``stamp_ns()`` and ``_dt_ns``/``_epoch_ns``."""
+
+    def __init__(self, node, qos_depth: int):
+        self.node = node
+        s = node.settings
+        self.speed = SpeedSensor(s.bench.speed_sensor, s.seed)
+        self.imu_faults = ImuFaults()
+        self.speed_faults = SpeedFaults(seed=s.seed)
+        sampler = node.sampler
+        sampler.speed, sampler.imu_faults = self.speed, self.imu_faults
+        sampler.speed_faults = self.speed_faults
+        self.counters = dict(shocks=0, disc_swaps=0)
+        self._last_event = ''
+        self._marker_slot = None
+        self._markers = None            # the MarkerArray, reused (filled in place)
+        self._markers_pub = node._pubs[MARKERS_TOPIC]   # created from the topic list
+        self._diag_pub = node._pubs['/diagnostics']
+        node.create_service(Trigger, '~/apply_shock', self._on_shock)
+        node.create_service(Trigger, '~/swap_disc', self._on_swap)
+        self._active = {}
+        self.apply(s.bench)
+
+    # ---- parameters ----------------------------------------------------------------------
+    def apply(self, b: BenchSettings) -> None:
+        """New bench parameters (at a step boundary); a change of the active faults is
+        reported on /diagnostics at once."""
+        self.bench = b
+        self.speed.reconfigure(b.speed_sensor)
+        f = self.imu_faults
+        f.dropout, f.stuck = b.imu_dropout, b.imu_stuck
+        f.accel_bias_step, f.gyro_bias_step = b.imu_accel_bias_step, b.imu_gyro_bias_step
+        self.speed_faults.dropout, self.speed_faults.noise = b.speed_dropout, b.speed_noise
+        active = self.active_faults()
+        if active != self._active:
+            self._active = active
+            self.publish_diagnostics()
+
+    def reset(self, seed: int) -> None:
+        """~/reset: FG and speed noise re-seeded, the stuck IMU value forgotten."""
+        self.speed.seed = self.speed_faults.seed = seed
+        self.speed.reset()
+        self.speed_faults.reset()
+        self.imu_faults.reset()
+
+    def active_faults(self) -> dict[str, object]:
+        return {**self.imu_faults.active(), **self.speed_faults.active()}
+
+    # ---- disturbances --------------------------------------------------------------------
+    def _on_shock(self, request, response):
+        self.node._apply_parameters()   # the parameters just set, not those of the last tick
+        sim = self.node.sim
+        step = self.bench.shock_velocity
+        try:
+            y = disturbances.apply_shock(sim.y, sim.params.n, step)
+        except np.linalg.LinAlgError as err:   # singular L (cos(alpha) = 0): change nothing
+            response.success, response.message = False, f'shock not applied: {err}'
+            return response
+        sim.y[:] = y
+        self.counters['shocks'] += 1
+        self._last_event = f'shock {list(step)} at t = {self.node.stamp_ns() * 1e-9:.6f} s'
+        self.publish_diagnostics()
+        response.success, response.message = True, self._last_event
+        return response
+
+    def _on_swap(self, request, response):
+        self.node._apply_parameters()
+        node, sim, b = self.node, self.node.sim, self.bench
+        result = node.set_parameters([Parameter('drive.eps', value=b.disc_eps)])[0]
+        if not result.successful:
+            response.success = False
+            response.message = f'disc not swapped: {result.reason}'
+            return response
+        node._apply_parameters()
+        delta = math.radians(b.disc_angle_deg)
+        sim.y[:] = disturbances.swap_disc(sim.y, sim.params.n, delta)
+        self.speed.shift_angle(delta)
+        self.counters['disc_swaps'] += 1
+        self._last_event = (f'disc swap to eps = {b.disc_eps:g} m, imbalance moved by '
+                            f'{b.disc_angle_deg:g} deg at t = {node.stamp_ns() * 1e-9:.6f} s')
+        self.publish_diagnostics()
+        response.success, response.message = True, self._last_event
+        return response
+
+    # ---- outputs -------------------------------------------------------------------------
+    def on_sample(self, sample) -> None:
+        """Publish the markers when a new slot of 1 / visualization.rate_hz (simulated time)
+        starts with this state sample."""
+        rate = self.bench.visualization_rate_hz
+        if rate <= 0.0 or sample is None or sample.y is None:
+            return
+        stamp_ns = sample.stamp_ns(self.node._dt_ns, self.node._epoch_ns)
+        slot = stamp_ns // round(1e9 / rate)
+        if slot == self._marker_slot:
+            return
+        self._marker_slot = slot
+        self._markers = markers.marker_array(
+            stamp_ns, sample.y, self.node.sim.params, self.bench.visualization_exaggeration,
+            self._markers)
+        self._markers_pub.publish(self._markers)
+
+    def publish_diagnostics(self) -> None:
+        """The 'faults and disturbances' status: WARN listing the active faults, else OK."""
+        active = self.active_faults()
+        level = DiagnosticStatus.WARN if active else DiagnosticStatus.OK
+        message = ('active faults: ' + ', '.join(active)) if active else 'no fault injected'
+        values = dict(active, **self.counters, last_disturbance=self._last_event,
+                      speed_sensor_edges=self.speed.edges)
+        self._diag_pub.publish(ros_messages.diagnostics(
+            self.node.stamp_ns(),
+            f'{self.node.get_fully_qualified_name()}: faults and disturbances', level,
+            message, values))

@@ -1,0 +1,105 @@
+"""visualization/markers geometry (no ROS middleware) and the shipped Foxglove layout."""
+
+import json
+import math
+from pathlib import Path
+
+import numpy as np
+import pytest
+from visualization_msgs.msg import Marker
+
+from abb_ros.io import ros_messages
+from abb_ros.io.markers import (DECK_THICKNESS, ROTOR_HEIGHT, ball_radius, marker_array,
+                                marker_poses)
+from abb_ros.model.integrate import initial_state
+from abb_ros.model.params import DriveParams
+from abb_ros.model.sensors import euler_quaternion, euler_rotation
+from abb_ros.nodes.bench import MARKERS_TOPIC
+
+ROOT = Path(__file__).resolve().parents[1]
+LAYOUT = ROOT / 'config' / 'foxglove_layout.json'
+ANALYSIS_TOPICS = {'stability/margin'}
+
+
+def _state(n=3):
+    p = DriveParams(n=n)
+    y = initial_state(p, 500.0, theta0=0.7)
+    y[1:7] = [2e-4, -1e-4, 5e-5, 1e-3, -2e-3, 3e-3]
+    return p, y
+
+
+def test_the_deck_box_rotor_and_balls_ride_on_the_exaggerated_deck_pose():
+    p, y = _state()
+    k = 100.0
+    poses = marker_poses(y, p, k)
+    assert [kind for kind, _, _ in poses] == [Marker.CUBE, Marker.CYLINDER] + [Marker.SPHERE] * 3
+    R_k = euler_rotation(*(k * y[4:7]))
+    C_k = k * y[1:4]
+    q_k = euler_quaternion(*(k * y[4:7]))
+    deck, rotor = poses[0], poses[1]
+    np.testing.assert_allclose(deck[1][:3], C_k + R_k @ [0, -p.d, -DECK_THICKNESS / 2])
+    np.testing.assert_allclose(rotor[1][:3], C_k + R_k @ [0, 0, ROTOR_HEIGHT / 2])
+    assert deck[2] == (p.a, p.b, DECK_THICKNESS)
+    for _, pose, _ in poses:
+        np.testing.assert_allclose(pose[3:], q_k)
+    for i, (_, pose, scale) in enumerate(poses[2:]):
+        psi = y[0] + y[7 + i]
+        local = [p.R * math.cos(psi), p.R * math.sin(psi), ROTOR_HEIGHT / 2]
+        np.testing.assert_allclose(pose[:3], C_k + R_k @ local)
+        assert scale[0] == pytest.approx(2 * ball_radius(p.m))
+
+
+def test_a_ball_of_table1_mass_is_a_steel_ball_of_about_2_4_mm_radius():
+    assert ball_radius(DriveParams().m) == pytest.approx(2.36e-3, rel=0.01)
+
+
+def test_the_marker_array_holds_one_marker_per_body_in_frame_base():
+    p, y = _state(n=2)
+    msg = marker_array(1_500_000_000, y, p, 100.0)
+    assert [m.id for m in msg.markers] == [0, 1, 2, 3]
+    assert {m.header.frame_id for m in msg.markers} == {ros_messages.FRAME_BASE}
+    assert {(m.header.stamp.sec, m.header.stamp.nanosec) for m in msg.markers} == \
+        {(1, 500_000_000)}
+    assert all(m.color.a > 0 and m.action == Marker.ADD for m in msg.markers)
+
+
+def _layout_topics(layout) -> set[str]:
+    topics = set()
+    for panel_id, config in layout['configById'].items():
+        topics |= set(config.get('topics', {}))
+        for path in config.get('paths', []):
+            topics.add(path['value'].split('.', 1)[0])
+    return topics
+
+
+def test_the_foxglove_layout_is_json_whose_panels_name_topics_the_bench_publishes():
+    layout = json.loads(LAYOUT.read_text())
+    published = {'/' + t.lstrip('/') for t in
+                 [*ros_messages.TOPIC_TYPES, MARKERS_TOPIC, *ANALYSIS_TOPICS]}
+    topics = _layout_topics(layout)
+    assert topics and topics <= published, topics - published
+    assert {'/visualization/markers', '/joint_states', '/spindle/speed', '/deck/pose',
+            '/stability/margin'} <= topics
+    kinds = {panel_id.split('!')[0] for panel_id in layout['configById']}
+    assert kinds == {'3D', 'Plot'}
+
+
+def test_the_foxglove_layout_tree_names_every_panel_once():
+    layout = json.loads(LAYOUT.read_text())
+
+    def leaves(node):
+        if isinstance(node, str):
+            return [node]
+        return leaves(node['first']) + leaves(node['second'])
+
+    assert sorted(leaves(layout['layout'])) == sorted(layout['configById'])
+
+
+def test_a_marker_array_filled_in_place_equals_a_new_one():
+    p, y = _state(n=2)
+    reused = marker_array(0, _state(n=2)[1] * 0.5, p, 10.0)
+    filled = marker_array(2_000_000, y, p, 100.0, out=reused)
+    assert filled is reused
+    assert filled == marker_array(2_000_000, y, p, 100.0)
+    p10, y10 = _state(n=10)
+    assert len(marker_array(0, y10, p10, 100.0, out=reused).markers) == 12
