@@ -37,7 +37,8 @@ def _random_sample(rng):
     if y is None or rng.random() < 0.5:
         imu = ImuReading(_awkward_floats(rng, 3), _awkward_floats(rng, 3))
     speed = float(_awkward_floats(rng, 1)[0]) if y is not None and rng.random() < 0.5 else None
-    return Sample(int(rng.integers(0, 2**36)), n, y, imu, speed)
+    effort = float(_awkward_floats(rng, 1)[0]) if y is not None and rng.random() < 0.5 else None
+    return Sample(int(rng.integers(0, 2**36)), n, y, imu, effort=effort, speed=speed)
 
 
 def _random_imu_config(rng):
