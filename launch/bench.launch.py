@@ -28,8 +28,9 @@ ARGUMENTS = {
     'record_dir': ('', 'bag directory of the recording (default abb_bag_<date>-<time> in '
                    'the working directory)'),
 }
-BENCH_TOPICS = ['joint_states', 'deck/pose', 'deck/twist', 'deck/imu', '/clock', '/diagnostics',
-                'spindle/speed_cmd', 'stability/margin']
+BENCH_TOPICS = ['joint_states', 'deck/pose', 'deck/twist', 'deck/imu', 'spindle/speed', '/clock',
+                'visualization/markers', '/diagnostics', 'spindle/speed_cmd',
+                'spindle/current_cmd', 'stability/margin']
 """Every topic of the bench (relative names: in the namespace); /clock exists with
 real_time_factor other than 1."""
 SHUTDOWN_S = '30'
