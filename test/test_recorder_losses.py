@@ -34,6 +34,7 @@ def test_gaps_in_the_publication_sequence_are_losses_and_a_restart_is_not():
     assert c.lost == 5
 
 
+@pytest.mark.slow
 def test_a_recorder_that_cannot_keep_up_reports_every_lost_message_in_the_bag(tmp_path):
     bag = tmp_path / 'bag'
     proc = start_recorder(bag, 'queue_depth:=1', 'topics:=["spindle/speed_cmd"]')

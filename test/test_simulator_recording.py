@@ -94,6 +94,7 @@ def test_recording_in_the_node_equals_the_headless_bag_message_for_message(tmp_p
     assert '/diagnostics' in live   # the node's own status is recorded too
 
 
+@pytest.mark.slow
 def test_recording_started_and_stopped_by_service_holds_what_a_subscriber_received(
         plant_factory, tmp_path):
     bag = tmp_path / 'bag'

@@ -88,6 +88,7 @@ def test_a_stall_beyond_max_stamp_lag_is_dropped_counted_as_error_and_stamps_rej
     assert float(v['stamp_lag_max']) <= 0.1 + 0.01
 
 
+@pytest.mark.slow
 def test_diagnostics_give_the_real_time_factor_over_the_window_and_since_start(plant_factory):
     p = plant_factory()
     v = values_after(p, lambda v: float(v.get('real_time_factor_since_start', 0)) > 0,
