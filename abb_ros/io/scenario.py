@@ -130,6 +130,11 @@ def _number(where, value, low=-math.inf, low_open=False, high=math.inf, unit='')
     return float(value)
 
 
+finite_number = _number
+"""``finite_number(where, value, low, low_open, high, unit)``: ``value`` as a float when it is a
+finite number in the range, else a one-line ParamError naming ``where`` (also the sweep spec's)."""
+
+
 def _mapping(where, value, keys) -> dict:
     """``value`` as a mapping whose keys are among ``keys`` (text), else a ParamError."""
     valid = 'a mapping with keys ' + ', '.join(sorted(keys))

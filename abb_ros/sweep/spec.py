@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from abb_ros.io.scenario import finite_number as _num
 from abb_ros.model.params import DIMENSIONLESS_NAMES, PARAM_SPECS, ParamError, apply_settings
 
 __all__ = ['MAX_SAMPLES', 'MAX_SPEC_BYTES', 'MAX_SPEEDS', 'SweepSpec', 'load_spec', 'parse_spec',
@@ -110,17 +111,6 @@ def _mapping(where, value, keys, required=()):
         if key not in value:
             raise ParamError(f'{where}.{key}', None, 'required', 'missing')
     return value
-
-
-def _num(where, value, low=-math.inf, low_open=False, high=math.inf):
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-    if ok:
-        ok = (value > low if low_open else value >= low) and value <= high
-    if not ok:
-        lo = f'({low:g}' if low_open else f'[{low:g}'
-        hi = 'inf)' if math.isinf(high) else f'{high:g}]'
-        raise ParamError(where, value, f'a finite number in {lo}, {hi}')
-    return float(value)
 
 
 def _int(where, value, low, high):
