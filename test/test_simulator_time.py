@@ -81,10 +81,12 @@ def test_a_stall_beyond_max_stamp_lag_is_dropped_counted_as_error_and_stamps_rej
     stamps = [stamp_ns(m) for m in got]
     gaps = [b - a for a, b in zip(stamps, stamps[1:])]
     assert min(gaps) == PERIOD_NS and max(gaps) >= 400 * PERIOD_NS   # one forward jump
-    # After the jump the stamps follow the wall clock again: the node's current stamp is
-    # within max_stamp_lag (+ one tick of a loaded machine) of the wall clock.
-    lag_s = (time.time_ns() - p.sim.stamp_ns()) * 1e-9
-    assert lag_s < 0.1 + 0.05, lag_s
+    # After the jump the stamps follow the wall clock again: the node's current stamp comes
+    # back within max_stamp_lag (+ one tick) of the wall clock. (Read between ticks; a loaded
+    # machine can hold a tick back for a moment, so this waits for it rather than sampling once.
+    # Without the re-anchoring the lag would stay near the stall's 0.5 s for ever.)
+    p.wait(lambda: (time.time_ns() - p.sim.stamp_ns()) * 1e-9 < 0.1 + 0.05,
+           'the stamps back within max_stamp_lag of the wall clock')
     assert float(v['stamp_lag_max']) <= 0.1 + 0.01
 
 
