@@ -1,0 +1,152 @@
+"""Start-up of the installed nodes (prints figures; asserts nothing).
+
+Issue 9's fast start: after set-up (kernels compiled and cached), the first ``joint_states``
+arrives within 3 s of starting the simulator and the analysis node's first verdict within 5 s,
+with a STALE status saying why before it. This starts each node's console script (what
+``ros2 run abb_ros <node>`` executes) from the virtual environment, alone, ``--repeat`` times,
+with a listener already running in this process, and prints for every start: the time from
+the spawn to the first ``joint_states`` at the listener (simulator) or to the first
+``stability/margin`` (analysis), the CPU the process had used by then and its exit code
+after SIGINT; then the median and maximum. (That the analysis publishes a STALE status until
+its first verdict is tested in test/test_analysis_first_verdict.py; a listener that has just
+discovered the node may miss it.)
+The analysis is started beside a simulator that is already running (its verdict needs the
+plant's speed), as a user adds it to a running bench. Between starts the listener waits until
+the stopped node's messages are drained; a ``joint_states`` stamped before the spawn is not
+counted. The load average is printed: on a busy machine the figures grow with it.
+
+    .venv/bin/python benchmarks/bench_startup.py [--repeat 5]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import random
+import signal
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+os.environ.setdefault('ROS_DOMAIN_ID', str(random.randint(1, 101)))
+os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+
+import rclpy  # noqa: E402
+from rclpy.executors import SingleThreadedExecutor  # noqa: E402
+from rclpy.node import Node  # noqa: E402
+from rclpy.qos import QoSProfile, ReliabilityPolicy  # noqa: E402
+from sensor_msgs.msg import JointState  # noqa: E402
+from std_msgs.msg import Float64  # noqa: E402
+
+from abb_ros.testing.procstat import cpu_seconds  # noqa: E402
+
+BIN = Path(sys.executable).parent
+TIMEOUT_S = 60.0
+TARGETS_S = {'simulator': 3.0, 'analysis': 5.0}
+
+
+class Listener(Node):
+    """Arrival times (monotonic) of the first message of interest since :meth:`arm`."""
+
+    def __init__(self):
+        super().__init__('bench_startup_listener')
+        best_effort = QoSProfile(depth=10, reliability=ReliabilityPolicy.BEST_EFFORT)
+        self.create_subscription(JointState, 'joint_states', self._on_joint_states,
+                                 best_effort)
+        self.create_subscription(Float64, 'stability/margin', self._on_verdict, best_effort)
+        self.last = {'joint_states': 0.0, 'verdict': 0.0}
+        self.arm()
+
+    def arm(self) -> None:
+        self.first: dict[str, float] = {}
+        self.since_ns = time.time_ns()
+
+    def _on_joint_states(self, msg) -> None:
+        self.last['joint_states'] = time.monotonic()
+        if msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec >= self.since_ns:
+            self.first.setdefault('joint_states', time.monotonic())
+
+    def _on_verdict(self, _msg) -> None:
+        self.last['verdict'] = time.monotonic()
+        self.first.setdefault('verdict', time.monotonic())
+
+
+def spin_until_quiet(executor, listener, key: str, quiet_s: float = 1.0) -> None:
+    """Spin until no ``key`` message arrived for ``quiet_s`` (the last node's are drained)."""
+    while time.monotonic() - listener.last[key] < quiet_s:
+        executor.spin_once(timeout_sec=0.05)
+
+
+def spin_for(executor, seconds: float) -> None:
+    end = time.monotonic() + seconds
+    while time.monotonic() < end:
+        executor.spin_once(timeout_sec=0.05)
+
+
+def start_once(executor, listener, node: str, wanted: str) -> dict:
+    spin_until_quiet(executor, listener, wanted)
+    listener.arm()
+    t0 = time.monotonic()
+    proc = subprocess.Popen([str(BIN / node)], stdout=subprocess.DEVNULL,
+                            stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL)
+    cpu = None
+    while wanted not in listener.first and time.monotonic() - t0 < TIMEOUT_S:
+        if proc.poll() is not None:
+            break
+        executor.spin_once(timeout_sec=0.01)
+    if wanted in listener.first and proc.poll() is None:
+        cpu = cpu_seconds(proc.pid)
+    proc.send_signal(signal.SIGINT)
+    try:
+        code = proc.wait(timeout=20)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        code = proc.wait()
+    first = listener.first
+    seconds = first[wanted] - t0 if wanted in first else float('nan')
+    return dict(seconds=seconds, cpu=cpu, exit=code)
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
+    ap.add_argument('--repeat', type=int, default=5, help='starts per node [5]')
+    args = ap.parse_args()
+    for node in TARGETS_S:
+        if not (BIN / node).exists():
+            print(f'{BIN / node} not found: install the package into this venv first '
+                  '(scripts/ensure-venv)', file=sys.stderr)
+            return 2
+    rclpy.init()
+    listener = Listener()
+    executor = SingleThreadedExecutor()
+    executor.add_node(listener)
+    spin_for(executor, 1.0)
+    print(f'start-up of the console scripts in {BIN}, {os.cpu_count()} CPUs, '
+          f'load average {os.getloadavg()[0]:.2f} at the start')
+    plant = None
+    for node, wanted in (('simulator', 'joint_states'), ('analysis', 'verdict')):
+        if node == 'analysis':
+            plant = subprocess.Popen([str(BIN / 'simulator')], stdout=subprocess.DEVNULL,
+                                     stderr=subprocess.DEVNULL, stdin=subprocess.DEVNULL)
+            spin_for(executor, 5.0)
+        runs = [start_once(executor, listener, node, wanted) for _ in range(args.repeat)]
+        for i, r in enumerate(runs, 1):
+            cpu = 'n/a' if r['cpu'] is None else f"{r['cpu']:.2f} s"
+            print(f'  {node:9s} #{i}: first {wanted} after {r["seconds"]:.2f} s '
+                  f'(CPU used {cpu}), exit {r["exit"]}')
+        times = [r['seconds'] for r in runs]
+        print(f'{node}: first {wanted} median {statistics.median(times):.2f} s, '
+              f'max {max(times):.2f} s (target {TARGETS_S[node]:.0f} s)')
+    print(f'load average {os.getloadavg()[0]:.2f} at the end')
+    plant.send_signal(signal.SIGINT)
+    plant.wait(timeout=20)
+    executor.shutdown()
+    listener.destroy_node()
+    rclpy.shutdown()
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
