@@ -119,22 +119,29 @@ def deck_velocity(q, qd) -> tuple[np.ndarray, np.ndarray]:
 
     ``q``, ``qd``: generalised coordinates and rates, [theta, X, Y, Z, alpha, beta, gamma, ...].
     """
-    a, b, g = float(q[ALPHA]), float(q[ALPHA + 1]), float(q[ALPHA + 2])
-    v = _mul(_t_matrix(a, b, g), (float(qd[DECK]), float(qd[DECK + 1]), float(qd[DECK + 2])))
-    return np.array(v), np.array(_omega(a, b, float(qd[ALPHA]), float(qd[ALPHA + 1]),
-                                        float(qd[ALPHA + 2])))
+    a, b, g = _floats(q, ALPHA, ALPHA + 3)
+    dX, dY, dZ, da, db, dg = _floats(qd, DECK, ALPHA + 3)
+    v = _mul(_t_matrix(a, b, g), (dX, dY, dZ))
+    return np.array(v), np.array(_omega(a, b, da, db, dg))
+
+
+def _floats(v, start: int, stop: int) -> list[float]:
+    """v[start:stop] as Python floats (one conversion, not one per element)."""
+    if isinstance(v, np.ndarray):
+        return v[start:stop].tolist()
+    return [float(x) for x in v[start:stop]]
 
 
 def _specific_force(q, qd, qdd, r, gravity):
     """point_specific_force and Eq. (10) as float tuples."""
-    a, b, g = float(q[ALPHA]), float(q[ALPHA + 1]), float(q[ALPHA + 2])
-    da, db, dg = float(qd[ALPHA]), float(qd[ALPHA + 1]), float(qd[ALPHA + 2])
+    a, b, g = _floats(q, ALPHA, ALPHA + 3)
+    da, db, dg = _floats(qd, ALPHA, ALPHA + 3)
+    ddX, ddY, ddZ, dda, ddb, ddg = _floats(qdd, DECK, ALPHA + 3)
     t = _t_matrix(a, b, g)
     w = _omega(a, b, da, db, dg)
-    wd = _omega_dot(a, b, da, db, dg, float(qdd[ALPHA]), float(qdd[ALPHA + 1]),
-                    float(qdd[ALPHA + 2]))
+    wd = _omega_dot(a, b, da, db, dg, dda, ddb, ddg)
     r = (float(r[0]), float(r[1]), float(r[2]))
-    a_c = _mul(t, (float(qdd[DECK]), float(qdd[DECK + 1]), float(qdd[DECK + 2])))
+    a_c = _mul(t, (ddX, ddY, ddZ))
     e1, e2 = _cross(wd, r), _cross(w, _cross(w, r))
     f = [a_c[i] + e1[i] + e2[i] for i in range(3)]
     if gravity:  # -g = +GRAVITY along Z of base: T (0, 0, g) is g times T's last column
@@ -194,6 +201,10 @@ class ImuReading:
     gyro: np.ndarray
 
 
+NORMALS_AHEAD = 256
+"""IMU samples' worth of normals drawn from the generator per call."""
+
+
 @dataclass
 class ImuModel:
     """IMU readings with seeded noise and bias (see the module docstring)."""
@@ -209,23 +220,39 @@ class ImuModel:
         """Re-seed: the readings repeat from the start."""
         self.rng = np.random.default_rng(self.seed)
         c = self.config
-        self.accel_bias = self.rng.normal(0.0, 1.0, 3) * c.accel_bias
-        self.gyro_bias = self.rng.normal(0.0, 1.0, 3) * c.gyro_bias
+        self.accel_bias = (self.rng.normal(0.0, 1.0, 3) * c.accel_bias).tolist()
+        self.gyro_bias = (self.rng.normal(0.0, 1.0, 3) * c.gyro_bias).tolist()
+        self._normals = []      # drawn ahead, NORMALS_AHEAD samples at a time
 
     def reconfigure(self, config: ImuConfig) -> None:
         """New mounting/noise parameters; the generator and the bias state carry on."""
         self.config = config
 
+    def _next_normals(self) -> list[float]:
+        """The next 12 standard normals of the generator. Drawn NORMALS_AHEAD samples at a
+        time: a Generator's normals come one after another from its bit stream, so a block
+        holds the same numbers as the 12-draws it replaces (a test checks), at a fraction of
+        the per-call cost."""
+        if not self._normals:
+            block = self.rng.standard_normal(12 * NORMALS_AHEAD).tolist()
+            self._normals = [block[i:i + 12] for i in range(len(block) - 12, -1, -12)]
+        return self._normals.pop()
+
     def read(self, q, qd, qdd) -> ImuReading:
-        """The reading at the state (q, q', q''); advances the noise generator."""
+        """The reading at the state (q, q', q''); advances the noise generator.
+
+        Plain floats, the same operations in the same order as the 3-vector form
+        bias += z rw sqrt(dt); reading = ideal + bias + z sqrt(variance)."""
         c = self.config
         accel, gyro = _specific_force(q, qd, qdd, c.position, c.gravity)
         # One draw of 12 normals per sample whatever the settings, so that the sequence of
         # the generator (and so every later reading) does not depend on which terms are on.
-        z = self.rng.standard_normal(12)
+        z = self._next_normals()
         sqrt_dt = math.sqrt(1.0 / c.rate)
-        self.accel_bias = self.accel_bias + z[0:3] * (c.accel_bias_random_walk * sqrt_dt)
-        self.gyro_bias = self.gyro_bias + z[3:6] * (c.gyro_bias_random_walk * sqrt_dt)
-        accel = accel + self.accel_bias + z[6:9] * math.sqrt(c.accel_variance)
-        gyro = gyro + self.gyro_bias + z[9:12] * math.sqrt(c.gyro_variance)
-        return ImuReading(accel, gyro)
+        ka, kg = c.accel_bias_random_walk * sqrt_dt, c.gyro_bias_random_walk * sqrt_dt
+        ab = [self.accel_bias[i] + z[i] * ka for i in range(3)]
+        gb = [self.gyro_bias[i] + z[3 + i] * kg for i in range(3)]
+        sa, sg = math.sqrt(c.accel_variance), math.sqrt(c.gyro_variance)
+        self.accel_bias, self.gyro_bias = ab, gb      # [m/s^2], [rad/s], deck axes
+        return ImuReading(np.array([accel[i] + ab[i] + z[6 + i] * sa for i in range(3)]),
+                          np.array([gyro[i] + gb[i] + z[9 + i] * sg for i in range(3)]))
