@@ -145,6 +145,8 @@ def main() -> int:
     ap.add_argument('--hog', action='store_true', help='a busy loop pinned to CPU 0')
     ap.add_argument('--record-in-process', action='store_true',
                     help="also record in the simulator (parameter record.path)")
+    ap.add_argument('--realtime-priority', type=int, default=0,
+                    help="the simulator's realtime_priority (SCHED_FIFO; 0 = normal) [0]")
     ap.add_argument('--role', choices=['bench', 'subscriber'], default='bench')
     ap.add_argument('--out', type=Path, help=argparse.SUPPRESS)
     args = ap.parse_args()
@@ -154,6 +156,8 @@ def main() -> int:
     work = Path(tempfile.mkdtemp(prefix='abb_bench_'))
     sub_out = work / 'subscriber.json'
     sim_params = [f'drive.n:={N_BALLS}', 'integration_rate_hz:=10000', 'publish_rate_hz:=1000']
+    if args.realtime_priority:
+        sim_params.append(f'realtime_priority:={args.realtime_priority}')
     if args.record_in_process:
         sim_params.append(f'record.path:={work / "inproc_bag"}')
     procs = {}
@@ -211,6 +215,7 @@ def report(args, work, sub_out, cpu, rss, codes, wall) -> None:
     lost = json.loads(custom.get('abb_ros.lost_messages', '{}'))
     print(f'bench: n = {N_BALLS}, 10 kHz steps, 1 kHz publish, real_time_factor 1, '
           f'{wall:.1f} s measured, hog on CPU 0: {"yes" if args.hog else "no"}, '
+          f'simulator scheduling: {sim.get("scheduling")}, '
           f'{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f} at the end')
     print(f'real_time_factor achieved: since start {sim.get("real_time_factor_since_start")}, '
           f'last window {sim.get("real_time_factor")}; slips {sim.get("slips")} '

@@ -22,6 +22,8 @@ ARGUMENTS = {
                     'parameter file loaded by every node (drive.*; default Table 1)'),
     'real_time_factor': ('1.0', 'simulated seconds per wall second (1 = wall clock, 0 = as '
                          'fast as possible)'),
+    'realtime_priority': ('0', "the simulator's SCHED_FIFO priority (0 = normal scheduler; "
+                          'needs CAP_SYS_NICE or an rtprio limit)'),
     'analysis': ('true', 'run the stability analysis node (stability/margin)'),
     'controller': ('false', 'run the example controller spin_controller'),
     'record': ('false', 'record every bench topic to record_dir (recorder node)'),
@@ -44,8 +46,11 @@ def generate_launch_description():
         PushRosNamespace(LaunchConfiguration('namespace')),
         Node(package='abb_ros', executable='simulator', name='abb_simulator',
              output='screen', sigterm_timeout=SHUTDOWN_S,
-             parameters=[params_file, {'real_time_factor': ParameterValue(
-                 LaunchConfiguration('real_time_factor'), value_type=float)}]),
+             parameters=[params_file, {
+                 'real_time_factor': ParameterValue(LaunchConfiguration('real_time_factor'),
+                                                    value_type=float),
+                 'realtime_priority': ParameterValue(LaunchConfiguration('realtime_priority'),
+                                                     value_type=int)}]),
         Node(package='abb_ros', executable='analysis', name='abb_analysis',
              output='screen', sigterm_timeout=SHUTDOWN_S, parameters=[params_file],
              condition=IfCondition(LaunchConfiguration('analysis'))),

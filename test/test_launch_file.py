@@ -9,8 +9,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 LAUNCH = ROOT / 'launch' / 'bench.launch.py'
-ARGUMENTS = {'namespace', 'params_file', 'real_time_factor', 'analysis', 'controller', 'record',
-             'record_dir'}
+ARGUMENTS = {'namespace', 'params_file', 'real_time_factor', 'realtime_priority', 'analysis',
+             'controller', 'record', 'record_dir'}
 
 
 def tree() -> ast.Module:

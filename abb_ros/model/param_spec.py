@@ -329,6 +329,10 @@ SIMULATOR_SPECS = (
     ParamSpec('max_stamp_lag', 0.1, 's', 'largest lag of a stamp behind its schedule (the wall '
               'clock at real_time_factor 1); a later plant drops the excess (counted in slips) '
               'and reports ERROR', low=0.001, high=3600.0, applies=_AT_STEP, nodes=_SIM),
+    ParamSpec('realtime_priority', 0, '', 'SCHED_FIFO priority of the integrating thread '
+              'while paced (real_time_factor > 0); 0 = the normal scheduler. Needs '
+              'CAP_SYS_NICE or an rtprio limit; refused: one warning, normal scheduler',
+              INTEGER, 0, 99, applies=_AT_STEP, nodes=_SIM),
     ParamSpec('record.path', '', '', 'bag directory the node records what it publishes to '
               '(must not exist); empty: no recording at start (~/start_recording uses it, or '
               'abb_bag_<date>-<time>)', STRING, applies='at start-up', nodes=_SIM),

@@ -48,6 +48,7 @@ from abb_ros.model.sensors import ImuModel
 from abb_ros.nodes import ros_params
 from abb_ros.nodes.bench import BenchIO
 from abb_ros.nodes.entry_point import make_executor, run_node, spin
+from abb_ros.nodes.realtime import FifoScheduling
 from abb_ros.nodes.recorder import default_output
 
 NODE_NAME = 'abb_simulator'
@@ -94,6 +95,7 @@ class SimulatorNode(Node):
         self._run_wall_ns = 0         # wall time and steps while running, for the
         self._run_steps = 0           # real_time_factor since start
         self._max_lag_ns = _max_stamp_lag_ns(self)
+        self.scheduling = FifoScheduling()   # of the thread that integrates (its timer's)
         self.published = dict.fromkeys(ros_messages.TOPIC_TYPES, 0)
         self.bag = None
         self.recording_error = ''
@@ -149,9 +151,11 @@ class SimulatorNode(Node):
         if self._timer is not None:
             self.destroy_timer(self._timer)
             self._timer = None
+        rtf = self.settings.real_time_factor
+        # SCHED_FIFO only while paced: a FIFO thread that never sleeps would hold a core
+        self.scheduling.want(self.get_parameter('realtime_priority').value if rtf > 0 else 0)
         if self.paused or self.fault:
             return
-        rtf = self.settings.real_time_factor
         if self._wall_time_base and rtf == 1.0:
             # After a pause the stamps jump forward to the wall clock again (never back).
             now = self.get_clock().now().nanoseconds
@@ -179,6 +183,8 @@ class SimulatorNode(Node):
         self._apply_parameters()
         if self._timer is None:
             return
+        if self.scheduling.pending:
+            self._apply_scheduling()
         wall0, steps0 = self._anchor
         every = self.sampler.publish_every
         rtf = self.settings.real_time_factor
@@ -200,6 +206,14 @@ class SimulatorNode(Node):
         for _ in range(periods):
             if not self._integrate_period():
                 return
+
+    def _apply_scheduling(self) -> None:
+        """Give this (the integrating) thread the wanted policy; a refusal is one warning."""
+        warning = self.scheduling.apply()
+        if warning:
+            self.get_logger().warning(warning)
+        elif self.scheduling.applied:
+            self.get_logger().info(f'integrating under {self.scheduling.state}')
 
     def _lag_ns(self, step: int, due: int) -> int:
         """How late the stamp of ``step`` is published now [ns of wall time]: behind the wall
@@ -224,6 +238,8 @@ class SimulatorNode(Node):
         self._apply_parameters()
         if self._timer is None:
             return
+        if self.scheduling.pending:
+            self._apply_scheduling()
         end = time.perf_counter() + BATCH_WALL_S
         while time.perf_counter() < end:
             if not self._integrate_period():
@@ -397,6 +413,8 @@ class SimulatorNode(Node):
         if (s.real_time_factor, s.publish_rate_hz) != (old.real_time_factor,
                                                        old.publish_rate_hz):
             self._restart_pacing()
+        elif s.real_time_factor > 0:
+            self.scheduling.want(self.get_parameter('realtime_priority').value)
 
     # ---- services ------------------------------------------------------------------------
     def _on_reset(self, request, response):
@@ -488,6 +506,7 @@ class SimulatorNode(Node):
                       target_real_time_factor=target, stamp_lag=lag,
                       stamp_lag_max=self.lag_max_ns * 1e-9,
                       max_stamp_lag=self.get_parameter('max_stamp_lag').value,
+                      scheduling=self.scheduling.state,
                       **self.counters, slipped_time=self.slipped_ns * 1e-9,
                       steps=self.sim.steps, sim_time=self.sim.t,
                       rbar=self.sim.rbar, omega=self.sim.omega,

@@ -1,0 +1,99 @@
+"""realtime_priority: the integrating thread runs under SCHED_FIFO while paced, or says why not.
+
+The simulator runs as its own process (its main thread integrates); the test reads the
+policy the kernel reports for that thread (os.sched_getscheduler) and the ``scheduling``
+value of the node's /diagnostics status, and checks that they agree. Whether the system
+grants SCHED_FIFO depends on the machine (CAP_SYS_NICE, rtprio limits): both outcomes are
+valid, a disagreement or a crash is not.
+"""
+
+import os
+import resource
+import shutil
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+import rclpy
+from diagnostic_msgs.msg import DiagnosticArray
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
+
+pytestmark = pytest.mark.ros
+
+DEADLINE_S = 60.0   # includes the node's start-up on a loaded machine
+
+
+def run_simulator(tmp_path, *params, without_cap_sys_nice=False):
+    """(scheduling value of the first simulation status, kernel policy of the node's main
+    thread then, the node's log, exit code after SIGINT)."""
+    args = [sys.executable, '-m', 'abb_ros.nodes.simulator', '--ros-args']
+    for p in params:
+        args += ['-p', p]
+    if without_cap_sys_nice:   # the same process, started by capsh without the capability
+        args = ['capsh', '--drop=cap_sys_nice', '--', '-c', 'exec "$0" "$@"', *args]
+    log = tmp_path / 'simulator.log'
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx)
+    node = Node('realtime_probe', context=ctx)
+    executor = SingleThreadedExecutor(context=ctx)
+    executor.add_node(node)
+    got = []
+    node.create_subscription(
+        DiagnosticArray, '/diagnostics',
+        lambda m: got.extend({kv.key: kv.value for kv in s.values} for s in m.status
+                             if s.name.endswith('simulation')), 10)
+    with open(log, 'w') as out:
+        proc = subprocess.Popen(args, stdout=out, stderr=subprocess.STDOUT)
+    try:
+        deadline = time.monotonic() + DEADLINE_S
+        while not any(float(v['steps']) > 0 for v in got):
+            assert proc.poll() is None, log.read_text()
+            assert time.monotonic() < deadline, 'no simulation status'
+            executor.spin_once(timeout_sec=0.05)
+        n = len(got)
+        while len(got) == n:     # a status from a window in which the thread was integrating
+            assert time.monotonic() < deadline, 'no second simulation status'
+            executor.spin_once(timeout_sec=0.05)
+        policy = os.sched_getscheduler(proc.pid), os.sched_getparam(proc.pid).sched_priority
+        state = got[-1]['scheduling']
+    finally:
+        proc.send_signal(signal.SIGINT)
+        code = proc.wait(timeout=30)
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.shutdown(context=ctx)
+    return state, policy, log.read_text(), code
+
+
+def test_paced_integration_runs_under_sched_fifo_or_reports_the_refusal(tmp_path):
+    state, (policy, priority), log, code = run_simulator(tmp_path, 'realtime_priority:=10')
+    assert code == 0 and 'Traceback' not in log
+    if policy == os.SCHED_FIFO:
+        assert (state, priority) == ('SCHED_FIFO 10', 10)
+        assert 'integrating under SCHED_FIFO 10' in log
+    else:
+        assert policy == os.SCHED_OTHER
+        assert state.startswith('normal (SCHED_FIFO 10 refused')
+        assert 'realtime_priority 10 refused by the system' in log
+
+
+def test_as_fast_as_possible_never_runs_under_sched_fifo(tmp_path):
+    state, (policy, _), log, code = run_simulator(
+        tmp_path, 'realtime_priority:=10', 'real_time_factor:=0.0')
+    assert code == 0 and 'Traceback' not in log
+    assert policy == os.SCHED_OTHER and state == 'normal'
+
+
+@pytest.mark.skipif(shutil.which('capsh') is None or os.geteuid() != 0
+                    or resource.getrlimit(resource.RLIMIT_RTPRIO)[0] != 0,
+                    reason='needs capsh, root and no rtprio limit to take CAP_SYS_NICE away')
+def test_a_refused_priority_is_one_warning_and_the_plant_runs_on(tmp_path):
+    state, (policy, _), log, code = run_simulator(tmp_path, 'realtime_priority:=10',
+                                                  without_cap_sys_nice=True)
+    assert code == 0 and 'Traceback' not in log
+    assert policy == os.SCHED_OTHER
+    assert state.startswith('normal (SCHED_FIFO 10 refused')
+    assert log.count('realtime_priority 10 refused by the system') == 1
