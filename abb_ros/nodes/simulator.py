@@ -128,14 +128,16 @@ class SimulatorNode(Node):
         self._diag_window = (self._steady.now().nanoseconds, self.sim.steps, True)
         self._diag_timer = self.create_timer(DIAGNOSTICS_PERIOD_S, self.publish_diagnostics,
                                              clock=self._steady)
-        self._timer = None
-        self._publish(self.sampler.sample_now())
-        self._restart_pacing()
         self.get_logger().info(
             f'n = {self.drive.n} balls, omega0 = {self.drive.omega0:.1f} rad/s, initial '
             f'{s.initial_speed:.1f} rad/s, {s.integration_rate_hz} Hz steps, publishing at '
             f'{s.publish_rate_hz} Hz, real_time_factor {s.real_time_factor:g}'
             + (', paused' if self.paused else ''))
+        # Last: the pacing is anchored now (the first log line alone can take ~80 ms, which
+        # the first tick would otherwise owe, or drop as a slip on a loaded machine).
+        self._timer = None
+        self._publish(self.sampler.sample_now())
+        self._restart_pacing()
 
     # ---- time ---------------------------------------------------------------------------
     @property
