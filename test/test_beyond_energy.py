@@ -22,7 +22,7 @@ import pytest
 import lagrange_sympy as L
 from abb_ros.io.scenario import load_scenario
 from abb_ros.model import kernels
-from abb_ros.model.beyond import simpson, with_steel_balls
+from abb_ros.model.beyond import with_steel_balls
 from abb_ros.model.dynamics import solver_buffers
 from abb_ros.model.integrate import ConstantSpeed, Simulation, initial_state
 
@@ -32,34 +32,111 @@ START_DEG = (30.0, 53.0)
 at 30 rad/s, so they collide within ~5 ms, then head for +-phi*."""
 
 
+def replay(params, y0, omega, dt, nsteps):
+    """The run of :class:`Simulation` step by step, as the pieces over which the right-hand
+    side is smooth: every (contact sub-)step, split at its located rolling switches. Each
+    piece: (start time, length, regimes, start state, end state); the regimes are the rolling
+    laws kept over it (None without rolling resistance). Returns (pieces, final state)."""
+    n, N2 = params.n, 2 * (7 + params.n)
+    K = kernels.JIT
+    P = kernels.pack_params(params)
+    S = ConstantSpeed().pack(omega)
+    stages = [np.empty(N2) for _ in range(5)]
+    events = np.empty((kernels.MAX_SWITCHES, 1 + n + N2))
+    qdd, Qf, bufs = np.empty(N2 // 2), np.empty(n), solver_buffers(n)
+    rolling = params.rolling_mu > 0
+    y = np.array(y0, dtype=float)
+    pieces = []
+    for s in range(nsteps):
+        sub = kernels.JIT.contact_substeps(y, n, P, dt) if params.contact_E > 0 else 1
+        h = dt / sub
+        for j in range(sub):
+            t = s * dt + j * h
+            start = y.copy()
+            if not rolling:
+                K.rk4_substep(t, h, y, n, P, S, *stages[:4], stages[4], qdd, *bufs)
+                pieces.append((t, h, None, start, y.copy()))
+                continue
+            mode = np.empty(n)
+            K.rolling_deriv(t, start, n, P, S, mode, False, stages[0], qdd, Qf, *bufs)
+            k = K.rk4_rolling_substep(t, h, y, n, P, S, *stages, events, *bufs)
+            offsets = [0.0, *events[:k, 0], h]
+            modes = [mode, *events[:k, 1:1 + n].copy()]
+            states = [start, *events[:k, 1 + n:].copy(), y.copy()]
+            for i in range(k + 1):
+                pieces.append((t + offsets[i], offsets[i + 1] - offsets[i], modes[i],
+                               states[i], states[i + 1]))
+    return pieces, y
+
+
+def samples(params, omega, pieces):
+    """Simpson's three points of every piece: its start and end states and the state half-way
+    (one RK4 step of half the piece from its start, with the piece's regimes), each with the
+    accelerations and rolling forces of the piece's regimes (one-sided at a switch).
+    Returns (times, states, accelerations, rolling forces), 3 rows per piece."""
+    n, N2 = params.n, 2 * (7 + params.n)
+    K = kernels.JIT
+    P = kernels.pack_params(params)
+    S = ConstantSpeed().pack(omega)
+    stages = [np.empty(N2) for _ in range(5)]
+    bufs = solver_buffers(n)
+    qdd, Qf = np.empty(N2 // 2), np.empty(n)
+    rows = 3 * len(pieces)
+    ts, ys, qdds, Qfs = np.empty(rows), np.empty((rows, N2)), np.empty((rows, N2 // 2)), \
+        np.zeros((rows, n))
+    for p, (t, h, mode, start, end) in enumerate(pieces):
+        mid = start.copy()
+        if mode is None:
+            K.rk4_substep(t, 0.5 * h, mid, n, P, S, *stages[:4], stages[4], qdd, *bufs)
+        else:
+            K.rolling_deriv(t, start, n, P, S, mode.copy(), True, stages[0], qdd, Qf, *bufs)
+            K.rk4_frozen(t, 0.5 * h, start, n, P, S, mode.copy(), *stages, mid, qdd, Qf, *bufs)
+        for r, (tk, yk) in enumerate(((t, start), (t + 0.5 * h, mid), (t + h, end))):
+            k = 3 * p + r
+            ts[k], ys[k] = tk, yk
+            if mode is None:
+                K.accel(tk, yk, n, P, S, qdds[k], *bufs)
+            else:
+                K.rolling_deriv(tk, yk, n, P, S, mode.copy(), True, stages[4], qdds[k],
+                                Qfs[k], *bufs)
+    return ts, ys, qdds, Qfs
+
+
+def piecewise_simpson(power, lengths):
+    """Sum over the pieces of Simpson's rule on (start, middle, end) rows of ``power``."""
+    p = power.reshape(-1, 3)
+    return float((lengths / 6 * (p[:, 0] + 4 * p[:, 1] + p[:, 2])).sum())
+
+
 def ledger(params, dt=1e-4, kick=30.0, truncation=False):
     scenario = load_scenario('p3')
     omega = scenario.omega
     n, N = params.n, 7 + params.n
+    nsteps = int(round(SECONDS / dt))
     y0 = initial_state(params, omega, phi0=np.radians(START_DEG), deck0=scenario.deck0)
     y0[N + 7] = kick
     sim = Simulation(params, omega, dt=dt, spindle=ConstantSpeed(), y0=y0)
-    ys = np.concatenate([y0[None], sim.trajectory(int(round(SECONDS / dt)), 1)])
+    sim.advance(nsteps)
+    pieces, y_end = replay(params, y0, omega, dt, nsteps)
+    np.testing.assert_array_equal(y_end, sim.y)         # the ledger's run is the simulation's
+    lengths = np.array([piece[1] for piece in pieces])
+    ts, ys, qdd, Qf = samples(params, omega, pieces)
     P = kernels.pack_params(params)
     S = ConstantSpeed().pack(omega)
-    qdd = np.empty((len(ys), N))
-    V_c = np.empty(len(ys))
-    rolling = np.empty(len(ys))
-    bufs = solver_buffers(n)
-    Qc, Qf = np.empty(n), np.empty(n)
-    for k, y in enumerate(ys):
-        kernels.JIT.accel(k * dt, y, n, P, S, qdd[k], *bufs)
-        V_c[k], _ = kernels.JIT.ball_forces(k * dt, y, n, P, S, Qc, Qf)
-        rolling[k] = -(Qf * y[N + 7:]).sum()
+    Qc, Qf_state = np.empty(n), np.empty(n)
+    V_c = np.array([kernels.JIT.ball_forces(t, y, n, P, S, Qc, Qf_state)[0]
+                    for t, y in ((0.0, y0), (sim.t, sim.y))])
+    rolling = -(Qf * ys[:, N + 7:]).sum(axis=1)
     T, V, F, tau = L.compiled_energy_terms(n)(list(ys[:, :N].T), list(ys[:, N:].T), list(qdd.T),
                                                L._pack(params))
-    w_in = simpson(ys[:, N] * tau, dt)
-    w_diss = simpson(2 * F + rolling, dt)
+    w_in = piecewise_simpson(ys[:, N] * tau, lengths)
+    w_diss = piecewise_simpson(2 * F + rolling, lengths)
     kinetic, potential = T[-1] - T[0], V[-1] - V[0] + V_c[-1] - V_c[0]
     residual = w_in - kinetic - potential - w_diss
     row = dict(w_in=w_in, kinetic=kinetic, potential=potential, w_diss=w_diss,
-               rolling=simpson(rolling, dt), residual=residual, relative=residual / w_in,
-               refined_steps=sim.refined_steps)
+               rolling=piecewise_simpson(rolling, lengths), residual=residual,
+               relative=residual / w_in, refined_steps=sim.refined_steps,
+               rolling_switches=sim.rolling_switches)
     if truncation:
         # power of the terms the first-order equations drop: exact minus first-order Lagrange
         # rows (with F and the balls' spin; contact and rolling have no deck terms to drop),
@@ -68,7 +145,7 @@ def ledger(params, dt=1e-4, kick=30.0, truncation=False):
         power = np.array([np.dot(y[N + 1:], L.exact_residual(params, y, a, spin)
                                  - L.first_order_residual(params, y, a, spin))
                           for y, a in zip(ys, qdd)])
-        row['truncation_work'] = simpson(power, dt)
+        row['truncation_work'] = piecewise_simpson(power, lengths)
         row['closed'] = (residual + row['truncation_work']) / w_in
     return row
 
