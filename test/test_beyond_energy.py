@@ -45,6 +45,7 @@ def replay(params, y0, omega, dt, nsteps):
     S = ConstantSpeed().pack(omega)
     stages = [np.empty(N2) for _ in range(5)]
     events = np.empty((kernels.MAX_SWITCHES, 1 + n + N2))
+    cache = np.zeros((3, N2))
     qdd, Qf, bufs = np.empty(N2 // 2), np.empty(n), solver_buffers(n)
     rolling = params.rolling_mu > 0
     y = np.array(y0, dtype=float)
@@ -61,7 +62,7 @@ def replay(params, y0, omega, dt, nsteps):
                 continue
             mode = np.empty(n)
             K.rolling_deriv(t, start, n, P, S, mode, False, stages[0], qdd, Qf, *bufs)
-            k = K.rk4_rolling_substep(t, h, y, n, P, S, *stages, events, *bufs)
+            k = K.rk4_rolling_substep(t, h, y, n, P, S, *stages, events, cache, *bufs)
             offsets = [0.0, *events[:k, 0], h]
             modes = [mode, *events[:k, 1:1 + n].copy()]
             states = [start, *events[:k, 1 + n:].copy(), y.copy()]

@@ -68,7 +68,10 @@ MAX_SWITCHES = 16
 """Most rolling-regime switches located within one RK4 (sub)step (the rest of the step then
 keeps the regimes it has)."""
 SWITCH_TOL = 1.0e-12
-"""A switching instant is located to this fraction of the (sub)step."""
+"""A switching instant is located to this fraction of the (sub)step at worst ..."""
+MARGIN_TOL = 1.0e-9
+"""... or to a state past it whose switching function (dimensionless) is above -MARGIN_TOL
+(the band's margin changes at ~1 / STICK_TIME: ~1e-12 s)."""
 MAX_LOCATE = 60
 """Most regula-falsi iterations per switching instant."""
 
@@ -769,7 +772,7 @@ def rk4_substep(t, h, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u):
 @kernel
 def rk4_frozen(t, h, y0, n, P, S, mode, k1, k2, k3, k4, yt, y, qdd, Qf, A, W, f, B, fb, u):
     """y = one classical RK4 step of h from (t, y0) with the rolling regimes ``mode`` kept
-    (k1, the derivative at y0, given); returns the switching function at y."""
+    (k1, the derivative at y0, given)."""
     n2 = y0.shape[0]
     for i in range(n2):
         yt[i] = y0[i] + 0.5 * h * k1[i]
@@ -783,95 +786,192 @@ def rk4_frozen(t, h, y0, n, P, S, mode, k1, k2, k3, k4, yt, y, qdd, Qf, A, W, f,
     h6 = h / 6.0
     for i in range(n2):
         y[i] = y0[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
-    return rolling_deriv(t + h, y, n, P, S, mode, True, yt, qdd, Qf, A, W, f, B, fb, u)
 
 @kernel
-def rk4_rolling_substep(t, h, y, n, P, S, k1, k2, k3, k4, yt, events, A, W, f, B, fb, u):
+def hermite(s, H, y0, f0, y1, f1, out):
+    """out = the cubic Hermite interpolant at s H of a step of H from (y0, f0) to (y1, f1)
+    (values and derivatives), 0 <= s <= 1."""
+    s2 = s * s
+    s3 = s2 * s
+    a0 = 2.0 * s3 - 3.0 * s2 + 1.0
+    b0 = (s3 - 2.0 * s2 + s) * H
+    a1 = 3.0 * s2 - 2.0 * s3
+    b1 = (s3 - s2) * H
+    for i in range(y0.shape[0]):
+        out[i] = a0 * y0[i] + b0 * f0[i] + a1 * y1[i] + b1 * f1[i]
+
+@kernel
+def illinois(lo, glo, hi, ghi, side, tau, gt):
+    """The bracket [lo, hi] of a root (margins glo >= 0 > ghi) updated with the point (tau,
+    gt), and the next estimate (regula falsi with the Illinois halving; bisection where it
+    would leave the bracket): (lo, glo, hi, ghi, side, estimate)."""
+    if gt >= 0.0:
+        lo, glo = tau, gt
+        if side == 1:
+            ghi *= 0.5
+        side = 1
+    else:
+        hi, ghi = tau, gt
+        if side == -1:
+            glo *= 0.5
+        side = -1
+    est = hi - ghi * (hi - lo) / (ghi - glo)
+    if not lo < est < hi:
+        est = 0.5 * (lo + hi)
+    return lo, glo, hi, ghi, side, est
+
+@kernel
+def rolling_cache_hit(y, n, S, cache):
+    """True when ``cache`` (:func:`rk4_rolling_substep`) holds the regimes and derivative of
+    the state y under the spindle profile S (a ramp's time-dependent theta'' never hits)."""
+    if cache[2, 0] != 1.0 or S[0] == SPINDLE_RAMP:
+        return False
+    for i in range(y.shape[0]):
+        if cache[0, i] != y[i]:
+            return False
+    for i in range(S.shape[0]):
+        if cache[2, 1 + n + i] != S[i]:
+            return False
+    return True
+
+@kernel
+def rk4_rolling_substep(t, h, y, n, P, S, k1, k2, k3, k4, yt, events, cache,
+                        A, W, f, B, fb, u):
     """One RK4 step of h from (t, y) with rolling resistance, switches located; y in place.
 
     The balls' regimes at the start (:func:`accel_rolling`) are kept over the step (each
-    law's smooth extension, so RK4 keeps its order). Where the switching function at the
-    end is negative a regime ended inside the step: its instant is located by regula falsi
-    (Illinois) on the RK4 step from the start, to SWITCH_TOL h; the step is taken to just
-    past it, the regimes of that state determined, and the rest of the step integrated the
-    same way (at most MAX_SWITCHES switches). The step's end stays t + h. Row k of
-    ``events`` receives switch k: [its offset from t, the regimes after it (n), the state
-    there (2N)]. Returns the number of switches."""
+    law's smooth extension, so RK4 keeps its order). Where the regimes of the end state
+    differ and the switching function there is negative, a regime ended inside the step: its
+    instant is located by regula falsi (Illinois) on the RK4 step from the start, to
+    SWITCH_TOL h; the step is taken to just past it, the regimes of that state determined,
+    and the rest of the step integrated the same way (at most MAX_SWITCHES switches). The
+    step's end stays t + h. Row k of ``events`` receives switch k: [its offset from t, the
+    regimes after it (n), the state there (2N)]. ``cache`` (3, 2N) carries the end state,
+    its derivative and [1, regimes (n), S] to the next step's start
+    (:func:`rolling_cache_hit`; zeros: none). Returns the number of switches."""
     n2 = y.shape[0]
     y0 = y.copy()
     qdd = np.empty(n2 // 2)
     Qf = np.empty(n)
     mode = np.empty(n)
     after = np.empty(n)
+    if rolling_cache_hit(y0, n, S, cache):
+        for i in range(n2):
+            k1[i] = cache[1, i]
+        for b in range(n):
+            mode[b] = cache[2, 1 + b]
+    else:
+        rolling_deriv(t, y0, n, P, S, mode, False, k1, qdd, Qf, A, W, f, B, fb, u)
     start = 0.0
-    g0 = rolling_deriv(t, y0, n, P, S, mode, False, k1, qdd, Qf, A, W, f, B, fb, u)
     switches = 0
+    locate = True
     while True:
-        left = h - start
-        g = rk4_frozen(t + start, left, y0, n, P, S, mode, k1, k2, k3, k4, yt, y, qdd, Qf,
-                       A, W, f, B, fb, u)
-        if g >= 0.0 or g0 < 0.0 or switches == MAX_SWITCHES:
+        rk4_frozen(t + start, h - start, y0, n, P, S, mode, k1, k2, k3, k4, yt, y, qdd, Qf,
+                   A, W, f, B, fb, u)
+        # the end state's regimes and derivative: the next step's start
+        rolling_deriv(t + h, y, n, P, S, after, False, cache[1], qdd, Qf, A, W, f, B, fb, u)
+        for i in range(n2):
+            cache[0, i] = y[i]
+        cache[2, 0] = 1.0
+        for b in range(n):
+            cache[2, 1 + b] = after[b]
+        for i in range(S.shape[0]):
+            cache[2, 1 + n + i] = S[i]
+        changed = False
+        for b in range(n):
+            if after[b] != mode[b]:
+                changed = True
+        if not changed or not locate or switches == MAX_SWITCHES:
             return switches
-        lo, glo, hi, ghi = 0.0, g0, left, g
-        side = 0
+        H = h - start
+        ghi = rolling_deriv(t + h, y, n, P, S, mode, True, k4, qdd, Qf, A, W, f, B, fb, u)
+        glo = rolling_deriv(t + start, y0, n, P, S, mode, True, yt, qdd, Qf, A, W, f, B, fb, u)
+        if ghi >= 0.0 or glo < 0.0:
+            return switches                 # no crossing of this regime's boundary
+        # 1. the crossing on the step's cubic Hermite interpolant (one solve per iterate)
+        lo, g_lo, hi, g_hi, side = 0.0, glo, H, ghi, 0
+        tau = H * glo / (glo - ghi)
         for _ in range(MAX_LOCATE):
+            hermite(tau / H, H, y0, k1, y, k4, yt)
+            gt = rolling_deriv(t + start + tau, yt, n, P, S, mode, True, k3, qdd, Qf,
+                               A, W, f, B, fb, u)
+            if abs(gt) <= 1e-3 * MARGIN_TOL:
+                break
+            lo, g_lo, hi, g_hi, side, tau = illinois(lo, g_lo, hi, g_hi, side, tau, gt)
             if hi - lo <= SWITCH_TOL * h:
                 break
-            tau = hi - ghi * (hi - lo) / (ghi - glo)
+        # 2. secant on RK4 steps from the segment start, from there (the interpolant's local
+        # slope first) until one lands just past the crossing (margin in (-MARGIN_TOL, 0))
+        slope = (g_hi - g_lo) / (hi - lo)
+        lo, hi = 0.0, H
+        at_hi = False
+        t_prev, g_prev = tau, 0.0
+        for k in range(MAX_LOCATE):
+            rk4_frozen(t + start, tau, y0, n, P, S, mode, k1, k2, k3, k4, yt, y, qdd, Qf,
+                       A, W, f, B, fb, u)
+            gt = rolling_deriv(t + start + tau, y, n, P, S, mode, True, yt, qdd, Qf,
+                               A, W, f, B, fb, u)
+            at_hi = gt < 0.0
+            if at_hi:
+                hi = tau
+            else:
+                lo = tau
+            if (at_hi and gt > -MARGIN_TOL) or hi - lo <= SWITCH_TOL * h:
+                break
+            if k > 0 and tau != t_prev:
+                slope = (gt - g_prev) / (tau - t_prev)
+            t_prev, g_prev = tau, gt
+            step = gt / slope
+            if 0.0 <= gt < MARGIN_TOL:
+                step *= 2.0                 # just short of it: aim as far past
+            tau -= step
             if not lo < tau < hi:
                 tau = 0.5 * (lo + hi)
-            gt = rk4_frozen(t + start, tau, y0, n, P, S, mode, k1, k2, k3, k4, yt, y, qdd,
-                            Qf, A, W, f, B, fb, u)
-            if gt >= 0.0:
-                lo, glo = tau, gt
-                if side == 1:
-                    ghi *= 0.5
-                side = 1
-            else:
-                hi, ghi = tau, gt
-                if side == -1:
-                    glo *= 0.5
-                side = -1
-        rk4_frozen(t + start, hi, y0, n, P, S, mode, k1, k2, k3, k4, yt, y, qdd, Qf,
-                   A, W, f, B, fb, u)
+        if not at_hi:
+            rk4_frozen(t + start, hi, y0, n, P, S, mode, k1, k2, k3, k4, yt, y, qdd, Qf,
+                       A, W, f, B, fb, u)
         start += hi
         for i in range(n2):
             y0[i] = y[i]
-        g0 = rolling_deriv(t + start, y0, n, P, S, after, False, k1, qdd, Qf, A, W, f, B, fb,
-                           u)
+        rolling_deriv(t + start, y0, n, P, S, after, False, k1, qdd, Qf, A, W, f, B, fb, u)
         changed = False
         for b in range(n):
             if after[b] != mode[b]:
                 changed = True
             mode[b] = after[b]
-        if not changed:
-            # the state past the crossing keeps its regimes: nothing to switch, finish
-            rk4_frozen(t + start, h - start, y0, n, P, S, mode, k1, k2, k3, k4, yt, y, qdd,
-                       Qf, A, W, f, B, fb, u)
-            return switches
-        events[switches, 0] = start
-        for b in range(n):
-            events[switches, 1 + b] = mode[b]
-        for i in range(n2):
-            events[switches, 1 + n + i] = y0[i]
-        switches += 1
+        if changed:
+            events[switches, 0] = start
+            for b in range(n):
+                events[switches, 1 + b] = mode[b]
+            for i in range(n2):
+                events[switches, 1 + n + i] = y0[i]
+            switches += 1
+        else:
+            locate = False      # the state past the crossing keeps its regimes: finish with them
 
 @kernel
 def rk4_step(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B, fb, u):
-    """:func:`rk4_step_located` without the count of rolling switches: (status, sub-steps)."""
+    """:func:`rk4_step_located` without the count of rolling switches and without a cache
+    from the previous step: (status, sub-steps)."""
+    n2 = y.shape[0]
+    if P[I_ROLLING_MU] > 0.0:
+        cache = np.zeros((3, n2))
+    else:
+        cache = ysave.reshape((1, n2))      # not used: no allocation on the paper's path
     status, sub, _ = rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd,
-                                      A, W, f, B, fb, u)
+                                      A, W, f, B, fb, u, cache)
     return status, sub
 
 @kernel
-def rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B, fb, u):
+def rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B, fb, u,
+                     cache):
     """One step of dt from (t, y), y updated in place: one classical RK4 step, or, while
     balls touch (issue 12), as many RK4 sub-steps as :func:`contact_substeps` asks for;
     with rolling resistance each (sub)step locates its regime switches
-    (:func:`rk4_rolling_substep`). k1..k4, yt and ysave are stage buffers of shape (2N,),
-    the rest the solver scratch of :func:`accel`. Returns (status, sub-steps, switches): the
-    :func:`check_state` status of the new state (when it is not OK, y is put back to its
-    value before the step)."""
+    (:func:`rk4_rolling_substep`, ``cache`` (3, 2N) carried from step to step). k1..k4, yt
+    and ysave are stage buffers of shape (2N,), the rest the solver scratch of :func:`accel`.
+    Returns (status, sub-steps, switches): the :func:`check_state` status of the new state
+    (when it is not OK, y is put back to its value before the step)."""
     n2 = y.shape[0]
     for i in range(n2):
         ysave[i] = y[i]
@@ -884,7 +984,7 @@ def rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f,
         h = dt / sub
         for j in range(sub):
             switches += rk4_rolling_substep(t + j * h, h, y, n, P, S, k1, k2, k3, k4, yt,
-                                            events, A, W, f, B, fb, u)
+                                            events, cache, A, W, f, B, fb, u)
     elif sub == 1:
         rk4_substep(t, dt, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u)
     else:
@@ -915,10 +1015,11 @@ def rk4_advance(y, t0, dt, step0, nsteps, n, P, S, work):
     B = np.empty((max(n, 1), 6))
     fb = np.empty(max(n, 1))
     u = np.empty(6)
+    cache = work[7:10] if work.shape[0] >= 10 else np.zeros((3, 2 * N))
     for s in range(nsteps):
         t = t0 + (step0 + s) * dt
         status, sub, switches = rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave,
-                                                 qdd, A, W, f, B, fb, u)
+                                                 qdd, A, W, f, B, fb, u, cache)
         if sub > 1 and work.shape[0] > 6:   # contact statistics (issue 12)
             work[6, 0] += 1.0
             work[6, 1] = max(work[6, 1], float(sub))
@@ -956,10 +1057,11 @@ pure-Python twin of every kernel, the same source run by the interpreter."""
 
 
 def make_work(n: int) -> np.ndarray:
-    """Stage buffers for :func:`rk4_advance`: shape (7, 2 (7 + n)); row 6 counts the
+    """Stage buffers for :func:`rk4_advance`: shape (10, 2 (7 + n)); row 6 counts the
     steps refined for contact ([6, 0]), the most sub-steps of one step ([6, 1]), the
-    sub-steps of all refined steps ([6, 2]) and the located rolling switches ([6, 3])."""
-    return np.zeros((7, 2 * (PHI + n)))
+    sub-steps of all refined steps ([6, 2]) and the located rolling switches ([6, 3]); rows
+    7-9 carry the rolling regimes from step to step (:func:`rk4_rolling_substep`)."""
+    return np.zeros((10, 2 * (PHI + n)))
 
 
 def pack_params(params) -> np.ndarray:
