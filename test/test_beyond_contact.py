@@ -140,9 +140,10 @@ def test_slip_to_stick_switch_is_located_at_the_instant_the_ball_enters_the_stic
     until phi' = psi' - omega meets the band c psi'^2 STICK_TIME (~7.7 ms, inside a step of
     0.1 ms); then it sticks and phi' = phi'(t*) exp(-(t - t*) / STICK_TIME). The integrator
     locates the switch at the analytic instant (to 1e-12 s) and the stuck decay runs from it
-    (RK4's decay of the stuck law from the located instant, to 1e-9). (Without another force the stuck ball's force at the band's floor is exactly
-    Qmax: the state just inside counts as broken free, which holds for ~1e-15 s, so there are
-    two switches at the same instant, slip -> broken free -> stuck.)"""
+    (RK4's decay of the stuck law from the located instant, to 1e-9). Without another force
+    the stuck ball's force at the band's floor is exactly Qmax: the state just inside counts
+    as broken free, which holds for ~1e-15 s, so there may be two switches at that instant,
+    slip -> broken free -> stuck."""
     mu, omega, rate0, dt = 1e-6, 811.0, 2.0, 1e-4
     params = clamped(n=1, contact_E=0.0, rolling_mu=mu)
     c, tau = mu / params.r_ball, kernels.STICK_TIME
