@@ -902,7 +902,9 @@ def rk4_rolling_substep(t, h, y, n, P, S, k1, k2, k3, k4, yt, events, cache,
                 break
         # 2. secant on RK4 steps from the segment start, from there (the interpolant's local
         # slope first) until one lands just past the crossing (margin in (-MARGIN_TOL, 0))
-        slope = (g_hi - g_lo) / (hi - lo)
+        slope = (g_hi - g_lo) / (hi - lo) if hi > lo else 0.0
+        if not slope < 0.0:
+            slope = (ghi - glo) / H         # the step's secant (ghi < 0 <= glo)
         lo, hi = 0.0, H
         at_hi = False
         t_prev, g_prev = tau, 0.0
@@ -918,7 +920,7 @@ def rk4_rolling_substep(t, h, y, n, P, S, k1, k2, k3, k4, yt, events, cache,
                 lo = tau
             if (at_hi and gt > -MARGIN_TOL) or hi - lo <= SWITCH_TOL * h:
                 break
-            if k > 0 and tau != t_prev:
+            if k > 0 and tau != t_prev and (gt - g_prev) / (tau - t_prev) < 0.0:
                 slope = (gt - g_prev) / (tau - t_prev)
             t_prev, g_prev = tau, gt
             step = gt / slope
