@@ -895,13 +895,14 @@ def rk4_rolling_substep(t, h, y, n, P, S, k1, k2, k3, k4, yt, events, cache,
             hermite(tau / H, H, y0, k1, y, k4, yt)
             gt = rolling_deriv(t + start + tau, yt, n, P, S, mode, True, k3, qdd, Qf,
                                A, W, f, B, fb, u)
-            if abs(gt) <= 1e-3 * MARGIN_TOL:
-                break
+            if abs(gt) <= 1e-3 * MARGIN_TOL:    # (a ball that has just switched has a
+                break                           # margin of ~MARGIN_TOL: not a crossing)
             lo, g_lo, hi, g_hi, side, tau = illinois(lo, g_lo, hi, g_hi, side, tau, gt)
             if hi - lo <= SWITCH_TOL * h:
                 break
         # 2. secant on RK4 steps from the segment start, from there (the interpolant's local
-        # slope first) until one lands just past the crossing (margin in (-MARGIN_TOL, 0))
+        # slope first), aimed at the margin -MARGIN_TOL / 2 just past the crossing, until one
+        # lands in (-MARGIN_TOL, 0)
         slope = (g_hi - g_lo) / (hi - lo) if hi > lo else 0.0
         if not slope < 0.0:
             slope = (ghi - glo) / H         # the step's secant (ghi < 0 <= glo)
@@ -923,10 +924,7 @@ def rk4_rolling_substep(t, h, y, n, P, S, k1, k2, k3, k4, yt, events, cache,
             if k > 0 and tau != t_prev and (gt - g_prev) / (tau - t_prev) < 0.0:
                 slope = (gt - g_prev) / (tau - t_prev)
             t_prev, g_prev = tau, gt
-            step = gt / slope
-            if 0.0 <= gt < MARGIN_TOL:
-                step *= 2.0                 # just short of it: aim as far past
-            tau -= step
+            tau -= (gt + 0.5 * MARGIN_TOL) / slope
             if not lo < tau < hi:
                 tau = 0.5 * (lo + hi)
         if not at_hi:
