@@ -14,7 +14,8 @@ the node's default step (10 kHz), integration alone (the compiled kernels), for:
   1.5 s of settling.
 The node keeps real time when the factor is above 1 (its own overhead: see
 benchmarks/bench_simulator_node.py). "RK4 steps per step" (sub-steps included, counted over the
-whole run with its settling) is the machine-independent cost. Nothing is asserted (shared, noisy
+whole run with its settling) is the machine-independent cost; "rolling switches" counts the
+stick/slip switches located inside steps (over the whole run). Nothing is asserted (shared, noisy
 machines).
 
 Run: nice -n 10 .venv/bin/python benchmarks/bench_contact.py [--seconds 2]
@@ -71,7 +72,7 @@ def main():
         per_step = (steps - sim.refined_steps + sim.substeps) / steps
         print(f'  {label:42s} real-time factor {rtf:7.2f}x   RK4 steps per step '
               f'{per_step:6.2f}   refined steps {sim.refined_steps:6d}   max sub-steps '
-              f'{sim.max_substeps}')
+              f'{sim.max_substeps:3d}   rolling switches {sim.rolling_switches}')
 
 
 if __name__ == '__main__':

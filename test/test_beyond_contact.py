@@ -14,6 +14,7 @@ import pytest
 
 from abb_ros.model import kernels
 from abb_ros.model.beyond import STEEL_E, clamped_race, collision_state, race_energy_ledger
+from abb_ros.model.dynamics import solver_buffers
 from abb_ros.model.integrate import ConstantSpeed, Ramp, Simulation, initial_state
 from abb_ros.model.params import DriveParams, ParamError
 
@@ -131,3 +132,45 @@ def test_energy_of_a_collision_with_contact_damping_and_rolling_resistance_close
     # both caught in the stick band (2.3 rad/s here: Qmax / (m R^2) STICK_TIME), dying out
     assert np.all(np.abs(ys[-1, 9 + 7:]) < 0.1)
     assert w_diss > 0 and abs(residual) < 1e-6 * abs(w_in)
+
+
+def test_slip_to_stick_switch_is_located_at_the_instant_the_ball_enters_the_stick_band():
+    """Event-located Coulomb switching. One ball on the clamped race at 811 rad/s, slipping
+    forwards at 2 rad/s, no drag: psi'' = -c psi'^2 (c = mu / r), so 1/psi' = 1/psi'_0 + c t,
+    until phi' = psi' - omega meets the band c psi'^2 STICK_TIME (~7.7 ms, inside a step of
+    0.1 ms); then it sticks and phi' = phi'(t*) exp(-(t - t*) / STICK_TIME). The integrator
+    locates the switch at the analytic instant (to 1e-12 s) and the stuck decay runs from it
+    (RK4's decay of the stuck law from the located instant, to 1e-9). Without another force
+    the stuck ball's force at the band's floor is exactly Qmax: the state just inside counts
+    as broken free, which holds for ~1e-15 s, so there may be two switches at that instant,
+    slip -> broken free -> stuck."""
+    mu, omega, rate0, dt = 1e-6, 811.0, 2.0, 1e-4
+    params = clamped(n=1, contact_E=0.0, rolling_mu=mu)
+    c, tau = mu / params.r_ball, kernels.STICK_TIME
+    band_psi = (1 - math.sqrt(1 - 4 * c * tau * omega)) / (2 * c * tau)
+    t_star = (1 / band_psi - 1 / (omega + rate0)) / c
+    y = initial_state(params, omega, phi0=[0.3], deck0=(0.0,) * 6)
+    y[8 + 7] = rate0
+    P, S = kernels.pack_params(params), ConstantSpeed().pack(omega)
+    stages = [np.empty(y.size) for _ in range(5)]
+    events, cache = np.empty((kernels.MAX_SWITCHES, 1 + 1 + y.size)), np.zeros((3, y.size))
+    bufs = solver_buffers(1)
+    located = []
+    steps = 150
+    for s in range(steps):
+        k = kernels.JIT.rk4_rolling_substep(s * dt, dt, y, 1, P, S, *stages, events, cache,
+                                            *bufs)
+        located += [(s * dt + events[i, 0], events[i, 1], events[i, 2 + 8 + 7])
+                    for i in range(k)]
+    print(f'analytic switch {t_star:.15f} s; located {located}')
+    assert 1 <= len(located) <= 2
+    t_switch, regime, rate_switch = located[-1]
+    assert regime == 0.0                                                   # stuck
+    assert all(abs(t - t_star) < 1e-12 for t, _, _ in located)
+    assert rate_switch == pytest.approx(band_psi - omega, rel=1e-9)
+    # stuck: phi'' = -phi' / STICK_TIME, which RK4 multiplies by its polynomial of -h / tau,
+    # from the switch to the end of its step, then step by step
+    rk4 = np.polynomial.Polynomial([1, 1, 1 / 2, 1 / 6, 1 / 24])
+    after = (t_switch // dt + 1) * dt - t_switch
+    decay = rate_switch * rk4(-after / tau) * rk4(-dt / tau) ** (steps - t_switch // dt - 1)
+    assert y[8 + 7] == pytest.approx(decay, rel=1e-9)

@@ -16,13 +16,15 @@ STEEL_P1 = ['--set', 'r_ball=2.873e-3', '--set', 'contact_E=2e11', '--set', 'rol
 
 def test_headless_run_takes_the_new_parameters_and_reports_refined_steps(abb_sim):
     """abb-sim run --set r_ball=... on P1: the balls meet within 0.3 s (docs/beyond_the_paper.md,
-    P1 figure), so contact sub-steps are reported in the summary, with the active terms."""
+    P1 figure), so contact sub-steps are reported in the summary, with the active terms; the
+    rolling balls stick and slip, so located rolling switches are reported too."""
     code, out, err = abb_sim('run', '--scenario', 'p1', '--duration', '0.5', '--json',
                              '--no-progress', *STEEL_P1)
     assert code == 0, err
     summary = json.loads(out)
     assert summary['beyond_paper'] == ['contact', 'rolling_mu', 'ball_rotation']
     assert summary['contact_refined_steps'] > 0 and summary['contact_max_substeps'] > 1
+    assert summary['rolling_switches'] > 0
 
 
 def test_stability_says_which_terms_the_linear_analysis_ignores(capsys):

@@ -184,6 +184,8 @@ def run(args) -> dict:
     if result.refined_steps:
         summary['contact_refined_steps'] = result.refined_steps
         summary['contact_max_substeps'] = result.max_substeps
+    if result.rolling_switches:
+        summary['rolling_switches'] = result.rolling_switches
     if args.out:
         summary['bag'] = str(args.out)
         summary['messages'] = result.messages

@@ -337,6 +337,12 @@ class Simulation:
         return int(self._work[6, 2])
 
     @property
+    def rolling_switches(self) -> int:
+        """Rolling-resistance regime switches (stick, slip, break-free) located inside steps
+        since the last parameter change (issue 12: event-located Coulomb switching)."""
+        return int(self._work[6, 3])
+
+    @property
     def max_substeps(self) -> int:
         """Most sub-steps taken in one step since the last parameter change (1: none)."""
         return max(1, int(self._work[6, 1]))

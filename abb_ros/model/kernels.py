@@ -64,6 +64,16 @@ CONTACT_OMEGA_H_REST = 2.0
 its approach speed): below RK4's stability limit 2.78, its unresolved contact vibration is
 damped numerically, the static compression is exact."""
 MAX_SUBSTEPS = 4096
+MAX_SWITCHES = 16
+"""Most rolling-regime switches located within one RK4 (sub)step (the rest of the step then
+keeps the regimes it has)."""
+SWITCH_TOL = 1.0e-12
+"""A switching instant is located to this fraction of the (sub)step at worst ..."""
+MARGIN_TOL = 1.0e-9
+"""... or to a state past it whose switching function (dimensionless) is above -MARGIN_TOL
+(the band's margin changes at ~1 / STICK_TIME: ~1e-12 s)."""
+MAX_LOCATE = 60
+"""Most regula-falsi iterations per switching instant."""
 
 
 
@@ -526,12 +536,11 @@ def accel(t, y, n, P, S, qdd, A, W, f, B, fb, u):
     N = PHI + n
     thdd = spindle_accel(t, y[N + THETA], S)
     assemble(y, n, P, thdd, A, W, f, B, fb)
-    mR2 = P[6] * P[3] * P[3]
-    if P[I_BALL_ROTATION] != 0.0:
-        mR2 += SPIN_INERTIA * mR2            # J_b (R/r)^2: a rolling ball's 7/5
+    mR2 = ball_inertia(P)
     if P[I_ROLLING_MU] > 0.0 and n > 0:
         Qf = np.empty(n)
-        accel_rolling(y, n, P, mR2, qdd, A, W, f, B, fb, u, Qf)
+        mode = np.empty(n)
+        accel_rolling(y, n, P, mR2, qdd, A, W, f, B, fb, u, Qf, mode, False)
         qdd[0] = thdd
         return
     inv = 1.0 / mR2
@@ -555,6 +564,14 @@ def accel(t, y, n, P, S, qdd, A, W, f, B, fb, u):
         qdd[PHI + b] = acc * inv
 
 @kernel
+def ball_inertia(P):
+    """m R^2 of a ball's row, times 7/5 for rolling balls (J_b (R/r)^2 = 2/5 m R^2)."""
+    mR2 = P[6] * P[3] * P[3]
+    if P[I_BALL_ROTATION] != 0.0:
+        mR2 += SPIN_INERTIA * mR2
+    return mR2
+
+@kernel
 def rolling_threshold(y, n, P, b):
     """Largest rolling-resistance generalized force on ball b [N m]: torque mu N about the
     contact, N = m R psi_b'^2 the centrifugal load on the race (first order), as a force
@@ -565,7 +582,7 @@ def rolling_threshold(y, n, P, b):
     return P[I_ROLLING_MU] * P[6] * R * psid * psid / P[I_R_BALL] * R
 
 @kernel
-def accel_rolling(y, n, P, mR2, qdd, A, W, f, B, fb, u, Qf):
+def accel_rolling(y, n, P, mR2, qdd, A, W, f, B, fb, u, Qf, mode, frozen):
     """q'' (deck and balls) with rolling resistance: Coulomb with a Karnopp stick band.
 
     Band: |phi_b'| < max(rolling_stick_rate, Qmax_b / (m_eff R^2) STICK_TIME), i.e. speeds
@@ -576,26 +593,33 @@ def accel_rolling(y, n, P, mR2, qdd, A, W, f, B, fb, u, Qf):
     whatever force that takes (solved with the deck, all balls coupled) while |Qf_b| <= Qmax_b;
     where it would exceed Qmax_b the ball breaks free with Qf_b = Qmax_b sign(Qf_b), and the
     rest are solved again (at most n + 1 solves). Qf receives the forces.
+
+    Regimes, one per ball in ``mode``: 0 stuck, +-1 slipping outside the band, +-2 broken
+    free inside it (Qf_b = sign(mode_b) Qmax_b). ``frozen`` False: the regimes of the state,
+    written to ``mode``; True: ``mode`` is kept, each regime's law continued smoothly past its
+    boundary (event-located switching, :func:`rk4_rolling_substep`). Returns the switching
+    function :func:`rolling_margin` of the regimes.
     """
     N = PHI + n
     A0 = A.copy()
     f0 = f.copy()
     inv = 1.0 / mR2
-    stuck = np.zeros(n, dtype=np.bool_)
     Qmax = np.empty(n)
-    target = np.zeros(n)
+    band = np.empty(n)
+    target = np.empty(n)
     for b in range(n):
         rate = y[N + PHI + b]
         Qmax[b] = rolling_threshold(y, n, P, b)
         # the band: rolling_stick_rate, or the speed the rolling resistance alone takes away
         # in STICK_TIME if larger (so that a step of dt <= STICK_TIME cannot jump across it)
-        band = max(P[I_STICK_RATE], Qmax[b] * inv * STICK_TIME)
-        if abs(rate) < band:
-            stuck[b] = True
-            target[b] = -rate / STICK_TIME
-            Qf[b] = 0.0
-        else:
-            Qf[b] = -Qmax[b] if rate > 0.0 else Qmax[b]
+        band[b] = max(P[I_STICK_RATE], Qmax[b] * inv * STICK_TIME)
+        target[b] = -rate / STICK_TIME
+        if not frozen:
+            if abs(rate) < band[b]:
+                mode[b] = 0.0
+            else:
+                mode[b] = -1.0 if rate > 0.0 else 1.0
+        Qf[b] = 0.0 if mode[b] == 0.0 else math.copysign(Qmax[b], mode[b])
     for _ in range(n + 1):
         for i in range(6):
             f[i] = f0[i]
@@ -603,7 +627,7 @@ def accel_rolling(y, n, P, mR2, qdd, A, W, f, B, fb, u, Qf):
                 A[i, j] = A0[i, j]
         for i in range(6):
             for b in range(n):
-                if stuck[b]:
+                if mode[b] == 0.0:
                     f[i] -= W[i, b] * target[b]
                 else:
                     w = W[i, b] * inv
@@ -614,13 +638,13 @@ def accel_rolling(y, n, P, mR2, qdd, A, W, f, B, fb, u, Qf):
         solve_deck(A, f, u)
         released = False
         for b in range(n):
-            if stuck[b]:
+            if mode[b] == 0.0:
                 need = mR2 * target[b] - fb[b]
                 for j in range(6):
                     need += B[b, j] * u[j]
-                if abs(need) > Qmax[b]:
-                    stuck[b] = False
-                    Qf[b] = Qmax[b] if need > 0.0 else -Qmax[b]
+                if not frozen and abs(need) > Qmax[b]:
+                    mode[b] = 2.0 if need > 0.0 else -2.0
+                    Qf[b] = math.copysign(Qmax[b], need)
                     released = True
                 else:
                     Qf[b] = need
@@ -629,13 +653,52 @@ def accel_rolling(y, n, P, mR2, qdd, A, W, f, B, fb, u, Qf):
     for i in range(6):
         qdd[1 + i] = u[i]
     for b in range(n):
-        if stuck[b]:
+        if mode[b] == 0.0:
             qdd[PHI + b] = target[b]
         else:
             acc = fb[b] + Qf[b]
             for j in range(6):
                 acc -= B[b, j] * u[j]
             qdd[PHI + b] = acc * inv
+    return rolling_margin(y, n, mode, Qmax, band, Qf, qdd, mR2)
+
+@kernel
+def rolling_margin(y, n, mode, Qmax, band, Qf, qdd, mR2):
+    """Switching function of the rolling regimes ``mode`` at y (forces Qf, accelerations qdd):
+    the least over the balls of a dimensionless margin, >= 0 while each stays in its regime.
+    Stuck: inside the band (1 - |phi'| / band) and holding (1 - |Qf| / Qmax); slipping: outside
+    the band on its side (-sign(mode) phi' / band - 1); broken free: still short of the stuck
+    acceleration -phi' / STICK_TIME in the direction of its force (sign(mode) (-phi' /
+    STICK_TIME - phi'') m R^2 / Qmax)."""
+    N = PHI + n
+    margin = math.inf
+    for b in range(n):
+        rate = y[N + PHI + b]
+        scale = Qmax[b] if Qmax[b] > 0.0 else 1.0
+        if mode[b] == 0.0:
+            g = min(1.0 - abs(rate) / band[b], 1.0 - abs(Qf[b]) / scale)
+        elif abs(mode[b]) == 1.0:
+            g = -mode[b] * rate / band[b] - 1.0
+        else:
+            g = math.copysign(mR2 / scale, mode[b]) * (-rate / STICK_TIME - qdd[PHI + b])
+        if g < margin:
+            margin = g
+    return margin
+
+@kernel
+def rolling_deriv(t, y, n, P, S, mode, frozen, dy, qdd, Qf, A, W, f, B, fb, u):
+    """y' at (t, y) with rolling resistance and a speed-driven spindle, the regimes ``mode``
+    determined (``frozen`` False) or kept (True), forces into Qf (:func:`accel_rolling`);
+    returns the switching function."""
+    N = PHI + n
+    thdd = spindle_accel(t, y[N + THETA], S)
+    assemble(y, n, P, thdd, A, W, f, B, fb)
+    margin = accel_rolling(y, n, P, ball_inertia(P), qdd, A, W, f, B, fb, u, Qf, mode, frozen)
+    qdd[THETA] = thdd
+    for i in range(N):
+        dy[i] = y[N + i]
+        dy[N + i] = qdd[i]
+    return margin
 
 @kernel
 def ball_forces(t, y, n, P, S, Qc, Qf):
@@ -658,12 +721,8 @@ def ball_forces(t, y, n, P, S, Qc, Qf):
     if P[I_CONTACT_E] > 0.0 and n > 1:
         energy, power = contact_forces(y, n, P, Qc)
     if P[I_ROLLING_MU] > 0.0 and n > 0:
-        thdd = spindle_accel(t, y[N], S)
-        assemble(y, n, P, thdd, A, W, f, B, fb)
-        mR2 = P[6] * P[3] * P[3]
-        if P[I_BALL_ROTATION] != 0.0:
-            mR2 += SPIN_INERTIA * mR2
-        accel_rolling(y, n, P, mR2, qdd, A, W, f, B, fb, u, Qf)
+        mode = np.empty(n)
+        rolling_deriv(t, y, n, P, S, mode, False, np.empty(2 * N), qdd, Qf, A, W, f, B, fb, u)
     return energy, power
 
 @kernel
@@ -711,19 +770,222 @@ def rk4_substep(t, h, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u):
         y[i] = y[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
 
 @kernel
+def rk4_frozen(t, h, y0, n, P, S, mode, k1, k2, k3, k4, yt, y, qdd, Qf, A, W, f, B, fb, u):
+    """y = one classical RK4 step of h from (t, y0) with the rolling regimes ``mode`` kept
+    (k1, the derivative at y0, given)."""
+    n2 = y0.shape[0]
+    for i in range(n2):
+        yt[i] = y0[i] + 0.5 * h * k1[i]
+    rolling_deriv(t + 0.5 * h, yt, n, P, S, mode, True, k2, qdd, Qf, A, W, f, B, fb, u)
+    for i in range(n2):
+        yt[i] = y0[i] + 0.5 * h * k2[i]
+    rolling_deriv(t + 0.5 * h, yt, n, P, S, mode, True, k3, qdd, Qf, A, W, f, B, fb, u)
+    for i in range(n2):
+        yt[i] = y0[i] + h * k3[i]
+    rolling_deriv(t + h, yt, n, P, S, mode, True, k4, qdd, Qf, A, W, f, B, fb, u)
+    h6 = h / 6.0
+    for i in range(n2):
+        y[i] = y0[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+
+@kernel
+def hermite(s, H, y0, f0, y1, f1, out):
+    """out = the cubic Hermite interpolant at s H of a step of H from (y0, f0) to (y1, f1)
+    (values and derivatives), 0 <= s <= 1."""
+    s2 = s * s
+    s3 = s2 * s
+    a0 = 2.0 * s3 - 3.0 * s2 + 1.0
+    b0 = (s3 - 2.0 * s2 + s) * H
+    a1 = 3.0 * s2 - 2.0 * s3
+    b1 = (s3 - s2) * H
+    for i in range(y0.shape[0]):
+        out[i] = a0 * y0[i] + b0 * f0[i] + a1 * y1[i] + b1 * f1[i]
+
+@kernel
+def illinois(lo, glo, hi, ghi, side, tau, gt):
+    """The bracket [lo, hi] of a root (margins glo >= 0 > ghi) updated with the point (tau,
+    gt), and the next estimate (regula falsi with the Illinois halving; bisection where it
+    would leave the bracket): (lo, glo, hi, ghi, side, estimate)."""
+    if gt >= 0.0:
+        lo, glo = tau, gt
+        if side == 1:
+            ghi *= 0.5
+        side = 1
+    else:
+        hi, ghi = tau, gt
+        if side == -1:
+            glo *= 0.5
+        side = -1
+    est = hi - ghi * (hi - lo) / (ghi - glo)
+    if not lo < est < hi:
+        est = 0.5 * (lo + hi)
+    return lo, glo, hi, ghi, side, est
+
+@kernel
+def rolling_cache_hit(y, n, S, cache):
+    """True when ``cache`` (:func:`rk4_rolling_substep`) holds the regimes and derivative of
+    the state y under the spindle profile S (a ramp's time-dependent theta'' never hits)."""
+    if cache[2, 0] != 1.0 or S[0] == SPINDLE_RAMP:
+        return False
+    for i in range(y.shape[0]):
+        if cache[0, i] != y[i]:
+            return False
+    for i in range(S.shape[0]):
+        if cache[2, 1 + n + i] != S[i]:
+            return False
+    return True
+
+@kernel
+def rk4_rolling_substep(t, h, y, n, P, S, k1, k2, k3, k4, yt, events, cache,
+                        A, W, f, B, fb, u):
+    """One RK4 step of h from (t, y) with rolling resistance, switches located; y in place.
+
+    The balls' regimes at the start (:func:`accel_rolling`) are kept over the step (each
+    law's smooth extension, so RK4 keeps its order). Where the regimes of the end state
+    differ and the switching function there is negative, a regime ended inside the step: its
+    instant is located by regula falsi (Illinois) on the RK4 step from the start, to
+    SWITCH_TOL h; the step is taken to just past it, the regimes of that state determined,
+    and the rest of the step integrated the same way (at most MAX_SWITCHES switches). The
+    step's end stays t + h. Row k of ``events`` receives switch k: [its offset from t, the
+    regimes after it (n), the state there (2N)]. ``cache`` (3, 2N) carries the end state,
+    its derivative and [1, regimes (n), S] to the next step's start
+    (:func:`rolling_cache_hit`; zeros: none). Returns the number of switches."""
+    n2 = y.shape[0]
+    y0 = y.copy()
+    qdd = np.empty(n2 // 2)
+    Qf = np.empty(n)
+    mode = np.empty(n)
+    after = np.empty(n)
+    if rolling_cache_hit(y0, n, S, cache):
+        for i in range(n2):
+            k1[i] = cache[1, i]
+        for b in range(n):
+            mode[b] = cache[2, 1 + b]
+    else:
+        rolling_deriv(t, y0, n, P, S, mode, False, k1, qdd, Qf, A, W, f, B, fb, u)
+    start = 0.0
+    switches = 0
+    locate = True
+    while True:
+        rk4_frozen(t + start, h - start, y0, n, P, S, mode, k1, k2, k3, k4, yt, y, qdd, Qf,
+                   A, W, f, B, fb, u)
+        # the end state's regimes and derivative: the next step's start
+        rolling_deriv(t + h, y, n, P, S, after, False, cache[1], qdd, Qf, A, W, f, B, fb, u)
+        for i in range(n2):
+            cache[0, i] = y[i]
+        cache[2, 0] = 1.0
+        for b in range(n):
+            cache[2, 1 + b] = after[b]
+        for i in range(S.shape[0]):
+            cache[2, 1 + n + i] = S[i]
+        changed = False
+        for b in range(n):
+            if after[b] != mode[b]:
+                changed = True
+        if not changed or not locate or switches == MAX_SWITCHES:
+            return switches
+        H = h - start
+        ghi = rolling_deriv(t + h, y, n, P, S, mode, True, k4, qdd, Qf, A, W, f, B, fb, u)
+        glo = rolling_deriv(t + start, y0, n, P, S, mode, True, yt, qdd, Qf, A, W, f, B, fb, u)
+        if ghi >= 0.0 or glo < 0.0:
+            return switches                 # no crossing of this regime's boundary
+        # 1. the crossing on the step's cubic Hermite interpolant (one solve per iterate)
+        lo, g_lo, hi, g_hi, side = 0.0, glo, H, ghi, 0
+        tau = H * glo / (glo - ghi)
+        for _ in range(MAX_LOCATE):
+            hermite(tau / H, H, y0, k1, y, k4, yt)
+            gt = rolling_deriv(t + start + tau, yt, n, P, S, mode, True, k3, qdd, Qf,
+                               A, W, f, B, fb, u)
+            if abs(gt) <= 1e-3 * MARGIN_TOL:    # (a ball that has just switched has a
+                break                           # margin of ~MARGIN_TOL: not a crossing)
+            lo, g_lo, hi, g_hi, side, tau = illinois(lo, g_lo, hi, g_hi, side, tau, gt)
+            if hi - lo <= SWITCH_TOL * h:
+                break
+        # 2. secant on RK4 steps from the segment start, from there (the interpolant's local
+        # slope first), aimed at the margin -MARGIN_TOL / 2 just past the crossing, until one
+        # lands in (-MARGIN_TOL, 0)
+        slope = (g_hi - g_lo) / (hi - lo) if hi > lo else 0.0
+        if not slope < 0.0:
+            slope = (ghi - glo) / H         # the step's secant (ghi < 0 <= glo)
+        lo, hi = 0.0, H
+        at_hi = False
+        t_prev, g_prev = tau, 0.0
+        for k in range(MAX_LOCATE):
+            rk4_frozen(t + start, tau, y0, n, P, S, mode, k1, k2, k3, k4, yt, y, qdd, Qf,
+                       A, W, f, B, fb, u)
+            gt = rolling_deriv(t + start + tau, y, n, P, S, mode, True, yt, qdd, Qf,
+                               A, W, f, B, fb, u)
+            at_hi = gt < 0.0
+            if at_hi:
+                hi = tau
+            else:
+                lo = tau
+            if (at_hi and gt > -MARGIN_TOL) or hi - lo <= SWITCH_TOL * h:
+                break
+            if k > 0 and tau != t_prev and (gt - g_prev) / (tau - t_prev) < 0.0:
+                slope = (gt - g_prev) / (tau - t_prev)
+            t_prev, g_prev = tau, gt
+            tau -= (gt + 0.5 * MARGIN_TOL) / slope
+            if not lo < tau < hi:
+                tau = 0.5 * (lo + hi)
+        if not at_hi:
+            rk4_frozen(t + start, hi, y0, n, P, S, mode, k1, k2, k3, k4, yt, y, qdd, Qf,
+                       A, W, f, B, fb, u)
+        start += hi
+        for i in range(n2):
+            y0[i] = y[i]
+        rolling_deriv(t + start, y0, n, P, S, after, False, k1, qdd, Qf, A, W, f, B, fb, u)
+        changed = False
+        for b in range(n):
+            if after[b] != mode[b]:
+                changed = True
+            mode[b] = after[b]
+        if changed:
+            events[switches, 0] = start
+            for b in range(n):
+                events[switches, 1 + b] = mode[b]
+            for i in range(n2):
+                events[switches, 1 + n + i] = y0[i]
+            switches += 1
+        else:
+            locate = False      # the state past the crossing keeps its regimes: finish with them
+
+@kernel
 def rk4_step(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B, fb, u):
+    """:func:`rk4_step_located` without the count of rolling switches and without a cache
+    from the previous step: (status, sub-steps)."""
+    n2 = y.shape[0]
+    if P[I_ROLLING_MU] > 0.0:
+        cache = np.zeros((3, n2))
+    else:
+        cache = ysave.reshape((1, n2))      # not used: no allocation on the paper's path
+    status, sub, _ = rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd,
+                                      A, W, f, B, fb, u, cache)
+    return status, sub
+
+@kernel
+def rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B, fb, u,
+                     cache):
     """One step of dt from (t, y), y updated in place: one classical RK4 step, or, while
-    balls touch (issue 12), as many RK4 sub-steps as :func:`contact_substeps` asks for.
-    k1..k4, yt and ysave are stage buffers of shape (2N,), the rest the solver scratch of
-    :func:`accel`. Returns (status, sub-steps): the :func:`check_state` status of the new
-    state (when it is not OK, y is put back to its value before the step)."""
+    balls touch (issue 12), as many RK4 sub-steps as :func:`contact_substeps` asks for;
+    with rolling resistance each (sub)step locates its regime switches
+    (:func:`rk4_rolling_substep`, ``cache`` (3, 2N) carried from step to step). k1..k4, yt
+    and ysave are stage buffers of shape (2N,), the rest the solver scratch of :func:`accel`.
+    Returns (status, sub-steps, switches): the :func:`check_state` status of the new state
+    (when it is not OK, y is put back to its value before the step)."""
     n2 = y.shape[0]
     for i in range(n2):
         ysave[i] = y[i]
     sub = 1
     if P[I_CONTACT_E] > 0.0 and n > 1:
         sub = contact_substeps(y, n, P, dt)
-    if sub == 1:
+    switches = 0
+    if P[I_ROLLING_MU] > 0.0 and n > 0 and S[0] != SPINDLE_TORQUE:
+        events = np.empty((MAX_SWITCHES, 1 + n + n2))
+        h = dt / sub
+        for j in range(sub):
+            switches += rk4_rolling_substep(t + j * h, h, y, n, P, S, k1, k2, k3, k4, yt,
+                                            events, cache, A, W, f, B, fb, u)
+    elif sub == 1:
         rk4_substep(t, dt, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u)
     else:
         h = dt / sub
@@ -733,7 +995,7 @@ def rk4_step(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B, fb, 
     if status != OK:
         for i in range(n2):
             y[i] = ysave[i]
-    return status, sub
+    return status, sub, switches
 
 @kernel
 def rk4_advance(y, t0, dt, step0, nsteps, n, P, S, work):
@@ -753,14 +1015,17 @@ def rk4_advance(y, t0, dt, step0, nsteps, n, P, S, work):
     B = np.empty((max(n, 1), 6))
     fb = np.empty(max(n, 1))
     u = np.empty(6)
+    cache = work[7:10] if work.shape[0] >= 10 else np.zeros((3, 2 * N))
     for s in range(nsteps):
         t = t0 + (step0 + s) * dt
-        status, sub = rk4_step(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B,
-                               fb, u)
+        status, sub, switches = rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave,
+                                                 qdd, A, W, f, B, fb, u, cache)
         if sub > 1 and work.shape[0] > 6:   # contact statistics (issue 12)
             work[6, 0] += 1.0
             work[6, 1] = max(work[6, 1], float(sub))
             work[6, 2] += float(sub)
+        if switches > 0 and work.shape[0] > 6:     # located rolling switches
+            work[6, 3] += float(switches)
         if status != OK:
             return s, status
     return nsteps, OK
@@ -792,10 +1057,11 @@ pure-Python twin of every kernel, the same source run by the interpreter."""
 
 
 def make_work(n: int) -> np.ndarray:
-    """Stage buffers for :func:`rk4_advance`: shape (7, 2 (7 + n)); row 6 counts the
-    steps refined for contact ([6, 0]), the most sub-steps of one step ([6, 1]) and the
-    sub-steps of all refined steps ([6, 2])."""
-    return np.zeros((7, 2 * (PHI + n)))
+    """Stage buffers for :func:`rk4_advance`: shape (10, 2 (7 + n)); row 6 counts the
+    steps refined for contact ([6, 0]), the most sub-steps of one step ([6, 1]), the
+    sub-steps of all refined steps ([6, 2]) and the located rolling switches ([6, 3]); rows
+    7-9 carry the rolling regimes from step to step (:func:`rk4_rolling_substep`)."""
+    return np.zeros((10, 2 * (PHI + n)))
 
 
 def pack_params(params) -> np.ndarray:
