@@ -6,12 +6,18 @@ in ``__pycache__`` next to the sources (``*.nbi``/``*.nbc``); where that directo
 writable (a read-only install) numba uses its user-wide cache, ``$NUMBA_CACHE_DIR`` if set,
 else ``~/.cache/numba`` (``$XDG_CACHE_HOME/numba``). Without this step the first start of the
 simulator (integration kernels) and of the analysis node (Floquet kernels) compiles them.
+
+It first deletes the package's cached kernels: numba checks a cached function against the
+time stamp of its own source file only, so a kernel of ``batch.py`` or ``floquet.py`` that
+calls into a changed ``kernels.py`` would load stale machine code. Run it after every change
+or update of ``abb_ros/model`` (scripts/ensure-venv does).
 """
 
 from __future__ import annotations
 
 import sys
 import time
+from pathlib import Path
 
 from abb_ros.model import speed_bands
 from abb_ros.model.integrate import DEFAULT_DT, Simulation, SpindleMotor
@@ -55,7 +61,25 @@ def cache_location() -> str:
     return cache._cache_path
 
 
+def clear_cache() -> int:
+    """Delete this package's cached kernels (index and data files in :func:`cache_location`;
+    every file there is one of abb_ros.model's); returns how many were deleted."""
+    where = Path(cache_location())
+    removed = 0
+    if where.is_dir():
+        for path in list(where.glob('*.nbi')) + list(where.glob('*.nbc')):
+            try:
+                path.unlink()
+                removed += 1
+            except FileNotFoundError:
+                pass
+    return removed
+
+
 def main() -> int:
+    removed = clear_cache()
+    if removed:
+        print(f'abb_ros: {removed} cached kernel files deleted (recompiling)')
     took = warm_up()
     parts = ', '.join(f'{k} {v:.1f} s' for k, v in took.items())
     print(f'abb_ros kernels compiled or loaded ({parts}); cache: {cache_location()}')
