@@ -516,6 +516,7 @@ class SimulatorNode(Node):
                       spindle_mode=self.settings.spindle_mode,
                       n=self.drive.n, paused=self.paused, fault=self.fault,
                       contact_refined_steps=self.sim.refined_steps,
+                      rolling_switches=self.sim.rolling_switches,
                       recording=str(self.bag.path) if self.bag is not None else '',
                       recorded=self.bag.message_count if self.bag is not None else 0,
                       **{f'published {t}': count for t, count in self.published.items()})
