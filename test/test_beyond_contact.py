@@ -105,6 +105,7 @@ def test_contact_and_rolling_need_a_ball_radius_and_balls_must_fit():
         DriveParams(ball_rotation=0.5)
 
 
+@pytest.mark.slow
 def test_energy_of_a_collision_with_contact_damping_and_rolling_resistance_closes():
     """Clamped race at P3's speed (811 rad/s): ball 1 hits ball 2 at 0.05 m/s with
     Hunt-Crossley damping (chi = 0.5 s/m), ball drag D and rolling resistance (mu = 1e-5 m,
@@ -134,6 +135,7 @@ def test_energy_of_a_collision_with_contact_damping_and_rolling_resistance_close
     assert w_diss > 0 and abs(residual) < 1e-6 * abs(w_in)
 
 
+@pytest.mark.slow
 def test_slip_to_stick_switch_is_located_at_the_instant_the_ball_enters_the_stick_band():
     """Event-located Coulomb switching. One ball on the clamped race at 811 rad/s, slipping
     forwards at 2 rad/s, no drag: psi'' = -c psi'^2 (c = mu / r), so 1/psi' = 1/psi'_0 + c t,
