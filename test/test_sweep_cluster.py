@@ -122,16 +122,15 @@ def test_killing_a_worker_mid_sweep_loses_nothing(tmp_path, client):
 @pytest.mark.slow
 def test_resume_after_interrupting_the_command_recomputes_only_missing_partitions(
         tmp_path, client, capsys):
-    # 100 partitions of two 0.5 s runs: several seconds of work for two workers, so that the
-    # interrupt (sent once 3 partitions are written) finds the sweep running. (With 30 of them
-    # a quiet machine finished the whole sweep before the signal arrived.)
-    partitions = 100
-    path = _spec_file(tmp_path, samples=2 * partitions, part=2, duration=0.5)
+    path = _spec_file(tmp_path, samples=60, part=2, duration=0.5)
     out = tmp_path / 'out'
     address = client.scheduler.address
+    # SIGINT as from a terminal, even when this test runs with SIGINT ignored (a background job
+    # of a non-interactive shell), which the command would inherit and so never be interrupted
     proc = subprocess.Popen([sys.executable, '-m', 'abb_ros.cli', 'sweep', str(path), '--out',
                              str(out), '--scheduler', address, '--no-progress'],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     try:
         deadline = time.monotonic() + 60
         while time.monotonic() < deadline and proc.poll() is None:
@@ -146,8 +145,8 @@ def test_resume_after_interrupting_the_command_recomputes_only_missing_partition
             proc.wait()
     assert proc.returncode == 130, err.decode()
     first = {p.name: p.stat().st_mtime_ns for p in out.glob('part-*.parquet')}
-    missing = partitions - len(first)
-    assert 3 <= len(first) < partitions, f'{len(first)} partitions written before the interrupt'
+    missing = 30 - len(first)
+    assert 3 <= len(first) < 30, f'{len(first)} partitions written before the interrupt'
     assert not list(out.glob('.part-*'))
     # a new run without --resume refuses the directory; with it, only the missing partitions
     assert main(['sweep', str(path), '--out', str(out), '--scheduler', address]) == 2
