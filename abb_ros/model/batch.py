@@ -33,7 +33,7 @@ import numpy as np
 
 from abb_ros.model import kernels
 from abb_ros.model.jit import KernelSet
-from abb_ros.model.kernels import OK, rk4_step
+from abb_ros.model.kernels import OK, rk4_step, solver_scratch
 from abb_ros.model.state import DECK, PHI
 
 __all__ = ['METRICS', 'PEAK_RBAR', 'TIME_ABOVE', 'LAST_ABOVE', 'new_metrics', 'JIT', 'PY',
@@ -62,7 +62,6 @@ def rk4_metrics_batch(Y, P, S, t0, dt, step0, nsteps, n, rbar_limit, metrics, st
     goes bad gets its status and keeps its last good state. All in place."""
     N = PHI + n
     n2 = 2 * N
-    nb = max(n, 1)
     k1 = np.empty(n2)
     k2 = np.empty(n2)
     k3 = np.empty(n2)
@@ -70,12 +69,7 @@ def rk4_metrics_batch(Y, P, S, t0, dt, step0, nsteps, n, rbar_limit, metrics, st
     yt = np.empty(n2)
     ysave = np.empty(n2)
     qdd = np.empty(N)
-    A = np.empty((6, 6))
-    W = np.empty((6, nb))
-    f = np.empty(6)
-    B = np.empty((nb, 6))
-    fb = np.empty(nb)
-    u = np.empty(6)
+    A, W, f, B, fb, u = solver_scratch(n)
     for b in range(Y.shape[0]):
         if status[b] != OK:
             continue

@@ -51,9 +51,7 @@ __all__ = ['lagrange_residual', 'accelerations']
 
 def solver_buffers(n: int) -> tuple:
     """Scratch arrays (A, W, f, B, fb, u) of :func:`abb_ros.model.kernels.accel` for n balls."""
-    nb = max(n, 1)
-    return (np.empty((6, 6)), np.empty((6, nb)), np.empty(6), np.empty((nb, 6)), np.empty(nb),
-            np.empty(6))
+    return kernels.solver_scratch(n)
 
 
 def _check(params: DriveParams, y) -> np.ndarray:

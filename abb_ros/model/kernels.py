@@ -475,6 +475,29 @@ def theta_row(y, n, P, a, col):
 
 
 @kernel
+def eliminate_balls(n, inv, A, W, f, B, fb):
+    """Schur complement of the ball rows in the deck rows (the balls' block is m R^2 I,
+    ``inv`` its inverse): A -= W B / m R^2, f -= W fb / m R^2, in place."""
+    for i in range(6):
+        for b in range(n):
+            w = W[i, b] * inv
+            if w != 0.0:
+                # Eq. (24) involves X'', Y'' and gamma'' only (B[:, 2:5] = 0)
+                A[i, 0] -= w * B[b, 0]
+                A[i, 1] -= w * B[b, 1]
+                A[i, 5] -= w * B[b, 5]
+                f[i] -= w * fb[b]
+
+
+@kernel
+def solver_scratch(n):
+    """Scratch arrays (A, W, f, B, fb, u) of :func:`accel` for n balls."""
+    nb = max(n, 1)
+    return (np.empty((6, 6)), np.empty((6, nb)), np.empty(6), np.empty((nb, 6)),
+            np.empty(nb), np.empty(6))
+
+
+@kernel
 def accel_free_theta(t, y, n, P, S, qdd, A, W, f, B, fb, u):
     """q'' with theta a degree of freedom driven by Q_theta = :func:`spindle_torque`.
 
@@ -492,14 +515,11 @@ def accel_free_theta(t, y, n, P, S, qdd, A, W, f, B, fb, u):
     Q = spindle_torque(y[N + THETA], S)
     mR2 = P[6] * P[3] * P[3]
     inv = 1.0 / mR2
+    eliminate_balls(n, inv, A, W, f, B, fb)
     for i in range(6):
         for b in range(n):
             w = W[i, b] * inv
             if w != 0.0:
-                A[i, 0] -= w * B[b, 0]
-                A[i, 1] -= w * B[b, 1]
-                A[i, 5] -= w * B[b, 5]
-                f[i] -= w * fb[b]
                 col[i] -= w * mR2
     for b in range(n):
         # in the theta row, m R^2 phi_b'' = fb_b - B_b u - m R^2 theta''
@@ -544,15 +564,7 @@ def accel(t, y, n, P, S, qdd, A, W, f, B, fb, u):
         qdd[0] = thdd
         return
     inv = 1.0 / mR2
-    for i in range(6):
-        for b in range(n):
-            w = W[i, b] * inv
-            if w != 0.0:
-                # Eq. (24) involves X'', Y'' and gamma'' only (B[:, 2:5] = 0)
-                A[i, 0] -= w * B[b, 0]
-                A[i, 1] -= w * B[b, 1]
-                A[i, 5] -= w * B[b, 5]
-                f[i] -= w * fb[b]
+    eliminate_balls(n, inv, A, W, f, B, fb)
     solve_deck(A, f, u)
     qdd[THETA] = thdd
     for i in range(6):
@@ -705,13 +717,7 @@ def ball_forces(t, y, n, P, S, Qc, Qf):
     """Diagnostics (issue 12): contact forces Qc and rolling-resistance forces Qf on the ball
     rows at (t, y); returns (contact energy [J], contact damping power [W])."""
     N = PHI + n
-    nb = max(n, 1)
-    A = np.empty((6, 6))
-    W = np.empty((6, nb))
-    f = np.empty(6)
-    B = np.empty((nb, 6))
-    fb = np.empty(nb)
-    u = np.empty(6)
+    A, W, f, B, fb, u = solver_scratch(n)
     qdd = np.empty(N)
     energy = 0.0
     power = 0.0
@@ -1009,12 +1015,7 @@ def rk4_advance(y, t0, dt, step0, nsteps, n, P, S, work):
     N = PHI + n
     k1, k2, k3, k4, yt, ysave = work[0], work[1], work[2], work[3], work[4], work[5]
     qdd = np.empty(N)
-    A = np.empty((6, 6))
-    W = np.empty((6, max(n, 1)))
-    f = np.empty(6)
-    B = np.empty((max(n, 1), 6))
-    fb = np.empty(max(n, 1))
-    u = np.empty(6)
+    A, W, f, B, fb, u = solver_scratch(n)
     cache = work[7:10] if work.shape[0] >= 10 else np.zeros((3, 2 * N))
     for s in range(nsteps):
         t = t0 + (step0 + s) * dt
