@@ -154,8 +154,7 @@ class SimulatorNode(Node):
             self.destroy_timer(self._timer)
             self._timer = None
         rtf = self.settings.real_time_factor
-        # SCHED_FIFO only while paced: a FIFO thread that never sleeps would hold a core
-        self.scheduling.want(self.get_parameter('realtime_priority').value if rtf > 0 else 0)
+        self._want_scheduling()
         if self.paused or self.fault:
             return
         if self._wall_time_base and rtf == 1.0:
@@ -208,6 +207,12 @@ class SimulatorNode(Node):
         for _ in range(periods):
             if not self._integrate_period():
                 return
+
+    def _want_scheduling(self) -> None:
+        """SCHED_FIFO at realtime_priority only while paced: a FIFO thread that never sleeps
+        (real_time_factor 0) would hold a core."""
+        paced = self.settings.real_time_factor > 0
+        self.scheduling.want(self.get_parameter('realtime_priority').value if paced else 0)
 
     def _apply_scheduling(self) -> None:
         """Give this (the integrating) thread the wanted policy; a refusal is one warning."""
@@ -412,11 +417,10 @@ class SimulatorNode(Node):
         self.imu.reconfigure(s.imu)
         self.sampler.set_rates(s.publish_every, s.imu_every)
         self.bench.apply(s.bench)
+        self._want_scheduling()
         if (s.real_time_factor, s.publish_rate_hz) != (old.real_time_factor,
                                                        old.publish_rate_hz):
             self._restart_pacing()
-        elif s.real_time_factor > 0:
-            self.scheduling.want(self.get_parameter('realtime_priority').value)
 
     # ---- services ------------------------------------------------------------------------
     def _on_reset(self, request, response):
