@@ -2,8 +2,9 @@
 nothing).
 
 1. In this process, per call: SpeedSensor.update at 1 kHz samples of a drive at P3 speed,
-   SpeedFaults.apply and ImuFaults.apply (inactive and active), marker_array (n = 2, 10),
-   and rclpy's publish of a Float64 and of the n = 2 MarkerArray (no subscriber).
+   SpeedFaults.apply and ImuFaults.apply (inactive and active), marker_array (CDR bytes,
+   n = 2, 10),
+   and rclpy's publish of a Float64 and of the n = 2 MarkerArray's bytes (no subscriber).
 2. The simulator node in its own process, real time (real_time_factor 1, 10 kHz / 1 kHz,
    n = 2), no subscriber: CPU of the node process (/proc/<pid>/stat utime + stime) over a
    window, with visualization.rate_hz 0 (markers off), 20 (default) and 100; with
@@ -65,12 +66,11 @@ def in_process():
     for n in (2, 10):
         p = DriveParams(n=n)
         y = initial_state(p, omega)
-        reuse = marker_array(0, y, p, 100.0)
+        encoded = marker_array(0, y, p, 100.0)
         if n == 2:
-            two = reuse
-        print(f'  marker_array, n = {n:2d}, new / filled in place   '
-              f'{per_call_us(lambda i: marker_array(i, y, p, 100.0), 2000):6.1f} us / '
-              f'{per_call_us(lambda i: marker_array(i, y, p, 100.0, reuse), 2000):6.1f} us')
+            two = encoded
+        print(f'  marker_array (CDR bytes), n = {n:2d}            '
+              f'{per_call_us(lambda i: marker_array(i, y, p, 100.0), 2000):6.1f} us')
     return two
 
 
@@ -88,7 +88,7 @@ def publish_costs(markers):
         print(f'  publish Float64 (spindle/speed)             '
               f'{per_call_us(lambda i: speed.publish(msg), 20000):6.2f} us')
         pub = node.create_publisher(MarkerArray, 'bench_io/markers', 10)
-        print(f'  publish MarkerArray, n = 2                  '
+        print(f'  publish MarkerArray (CDR bytes), n = 2      '
               f'{per_call_us(lambda i: pub.publish(markers), 2000):6.1f} us')
     finally:
         node.destroy_node()

@@ -45,7 +45,6 @@ class BenchIO:
         self.counters = dict(shocks=0, disc_swaps=0)
         self._last_event = ''
         self._marker_slot = None
-        self._markers = None            # the MarkerArray, reused (filled in place)
         self._markers_pub = node._pubs[MARKERS_TOPIC]   # created from the topic list
         self._diag_pub = node._pubs['/diagnostics']
         node.create_service(Trigger, '~/apply_shock', self._on_shock)
@@ -126,10 +125,8 @@ class BenchIO:
         if slot == self._marker_slot:
             return
         self._marker_slot = slot
-        self._markers = markers.marker_array(
-            stamp_ns, sample.y, self.node.sim.params, self.bench.visualization_exaggeration,
-            self._markers)
-        self._markers_pub.publish(self._markers)
+        self._markers_pub.publish(markers.marker_array(
+            stamp_ns, sample.y, self.node.sim.params, self.bench.visualization_exaggeration))
 
     def publish_diagnostics(self) -> None:
         """The 'faults and disturbances' status: WARN listing the active faults, else OK."""
