@@ -31,8 +31,8 @@ def _tilted_state(n=2):
 def test_a_shock_steps_the_deck_twist_by_exactly_the_step_and_leaves_positions():
     y = _tilted_state()
     after = apply_shock(y, 2, STEP)
-    twist = np.array(ros_messages.deck_twist_content(y, 2))
-    twist_after = np.array(ros_messages.deck_twist_content(after, 2))
+    twist = np.array(ros_messages.deck_pose_twist_content(y, 2)[1])
+    twist_after = np.array(ros_messages.deck_pose_twist_content(after, 2)[1])
     np.testing.assert_allclose(twist_after - twist, STEP, rtol=0, atol=1e-15)
     N = n_coords(2)
     assert np.array_equal(after[:N], y[:N])

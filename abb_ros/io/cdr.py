@@ -132,13 +132,13 @@ _TWIST = _fixed(TOPIC_FRAMES['deck/twist'], 6)    # Vector3 linear, angular
 
 
 def pose_stamped(sec: int, nanosec: int, content) -> bytes:
-    """geometry_msgs/PoseStamped of ros_messages.deck_pose_content."""
+    """geometry_msgs/PoseStamped of the pose of ros_messages.deck_pose_twist_content."""
     st, (c0, c1) = _POSE
     return st.pack(c0, sec, nanosec, c1, *content)
 
 
 def twist_stamped(sec: int, nanosec: int, content) -> bytes:
-    """geometry_msgs/TwistStamped of ros_messages.deck_twist_content."""
+    """geometry_msgs/TwistStamped of the twist of ros_messages.deck_pose_twist_content."""
     st, (c0, c1) = _TWIST
     return st.pack(c0, sec, nanosec, c1, *content)
 

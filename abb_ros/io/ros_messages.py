@@ -22,14 +22,15 @@ from std_msgs.msg import Float64
 
 from abb_ros.io import topics
 from abb_ros.io.topics import FRAME_BASE, FRAME_DECK
+from abb_ros.model import sensors
 from abb_ros.model.sampling import Sample
-from abb_ros.model.sensors import ImuConfig, deck_velocity, euler_quaternion
-from abb_ros.model.state import StateLayout
+from abb_ros.model.sensors import ImuConfig
+from abb_ros.model.state import PHI, StateLayout
 
 __all__ = ['FRAME_BASE', 'FRAME_DECK', 'TOPIC_TYPES', 'STATE_TOPICS', 'time_msg',
            'joint_names', 'joint_state', 'deck_pose', 'deck_twist', 'deck_imu', 'clock',
            'diagnostics', 'sample_messages', 'TOPIC_FRAMES', 'joint_state_content',
-           'deck_pose_content', 'deck_twist_content', 'deck_imu_content', 'diagnostics_content',
+           'deck_pose_twist_content', 'deck_imu_content', 'diagnostics_content',
            'sample_contents', 'SPEED_TOPIC']
 
 HARDWARE_ID = 'abb_ros'
@@ -72,21 +73,20 @@ def joint_state_content(y: np.ndarray, n: int) -> tuple[list[float], list[float]
     """(position, velocity) of ``joint_names(n)``: [theta, phi_1..phi_n] [rad] and
     [omega, phi_1'..phi_n'] [rad/s]."""
     s = StateLayout.of(n)
-    return ([float(y[s.theta_index])] + y[s.phi_slice].tolist(),
-            [float(y[s.omega_index])] + y[s.phi_rate_slice].tolist())
+    v = y.tolist()
+    return ([v[s.theta_index]] + v[s.phi_slice], [v[s.omega_index]] + v[s.phi_rate_slice])
 
 
-def deck_pose_content(y: np.ndarray) -> tuple[float, ...]:
-    """(X, Y, Z, qx, qy, qz, qw): C in ``base`` [m] and R = Rz(gamma) Rx(alpha) Ry(beta)."""
-    X, Y, Z, alpha, beta, gamma = y[StateLayout.deck_slice].tolist()
-    return (X, Y, Z) + euler_quaternion(alpha, beta, gamma)
-
-
-def deck_twist_content(y: np.ndarray, n: int) -> tuple[float, ...]:
-    """(vx, vy, vz, wx, wy, wz): velocity of C [m/s] and Eq. (10) [rad/s], deck axes."""
+def deck_pose_twist_content(y: np.ndarray, n: int) -> tuple[tuple[float, ...],
+                                                           tuple[float, ...]]:
+    """((X, Y, Z, qx, qy, qz, qw), (vx, vy, vz, wx, wy, wz)): C in ``base`` [m] and
+    R = Rz(gamma) Rx(alpha) Ry(beta); the velocity of C [m/s] and Eq. (10) [rad/s], deck
+    axes (one compiled kernel, :func:`abb_ros.model.sensors.deck_pose_twist`)."""
     s = StateLayout.of(n)
-    v, w = deck_velocity(y[s.q], y[s.qd])
-    return tuple(v.tolist()) + tuple(w.tolist())
+    out = np.empty(13)
+    sensors.JIT.deck_pose_twist(y[s.q], y[s.qd], out)
+    v = out.tolist()
+    return tuple(v[:7]), tuple(v[7:])
 
 
 def deck_imu_content(reading, config: ImuConfig) -> tuple[float, ...]:
@@ -107,9 +107,9 @@ def sample_contents(sample: Sample, dt_ns: int, imu_config: ImuConfig, epoch_ns:
     y = sample.y
     if y is not None:
         effort = [] if sample.effort is None else [sample.effort] + [0.0] * sample.n
+        pose, twist = deck_pose_twist_content(y, sample.n)
         out += [('joint_states', (sample.n,) + joint_state_content(y, sample.n) + (effort,)),
-                ('deck/pose', deck_pose_content(y)),
-                ('deck/twist', deck_twist_content(y, sample.n))]
+                ('deck/pose', pose), ('deck/twist', twist)]
     if sample.speed is not None:
         out.append((SPEED_TOPIC, sample.speed))
     if sample.imu is not None:
@@ -187,14 +187,14 @@ def deck_pose(stamp, y: np.ndarray, out: PoseStamped | None = None) -> PoseStamp
     """Position of C (X, Y, Z) [m] and the deck orientation R = Rz(gamma) Rx(alpha) Ry(beta)
     in frame ``base``."""
     return _fill_pose(PoseStamped() if out is None else out, _stamp(stamp),
-                      deck_pose_content(y))
+                      deck_pose_twist_content(y, len(y) // 2 - PHI)[0])
 
 
 def deck_twist(stamp, y: np.ndarray, n: int, out: TwistStamped | None = None
                ) -> TwistStamped:
     """Velocity of C [m/s] and angular velocity Eq. (10) [rad/s], both in deck axes."""
     return _fill_twist(TwistStamped() if out is None else out, _stamp(stamp),
-                       deck_twist_content(y, n))
+                       deck_pose_twist_content(y, n)[1])
 
 
 def deck_imu(stamp, reading, config: ImuConfig, out: Imu | None = None) -> Imu:

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from abb_ros.model.jit import KernelSet
 from abb_ros.model.state import ALPHA, DECK
 
 __all__ = ['GRAVITY', 'euler_rotation', 'euler_quaternion', 'deck_angular_velocity',
@@ -39,7 +40,10 @@ __all__ = ['GRAVITY', 'euler_rotation', 'euler_quaternion', 'deck_angular_veloci
 GRAVITY = 9.80665
 """Standard gravity [m/s^2], acting along -Z of the base frame when enabled."""
 
+kernel = KernelSet()
 
+
+@kernel
 def _t_matrix(alpha: float, beta: float, gamma: float) -> tuple[float, ...]:
     """T_beta T_alpha T_gamma of Eq. (2), row-major (9 floats): base -> deck components.
 
@@ -54,12 +58,14 @@ def _t_matrix(alpha: float, beta: float, gamma: float) -> tuple[float, ...]:
             sb * cg + sa * cb * sg, sb * sg - sa * cb * cg, ca * cb)
 
 
+@kernel
 def _mul(t, v) -> tuple[float, float, float]:
     return (t[0] * v[0] + t[1] * v[1] + t[2] * v[2],
             t[3] * v[0] + t[4] * v[1] + t[5] * v[2],
             t[6] * v[0] + t[7] * v[1] + t[8] * v[2])
 
 
+@kernel
 def _cross(u, v) -> tuple[float, float, float]:
     return (u[1] * v[2] - u[2] * v[1], u[2] * v[0] - u[0] * v[2], u[0] * v[1] - u[1] * v[0])
 
@@ -70,6 +76,7 @@ def euler_rotation(alpha: float, beta: float, gamma: float) -> np.ndarray:
     return np.array(_t_matrix(alpha, beta, gamma)).reshape(3, 3).T
 
 
+@kernel
 def euler_quaternion(alpha: float, beta: float, gamma: float) -> tuple[float, float, float,
                                                                          float]:
     """Unit quaternion (x, y, z, w) of R = Rz(gamma) Rx(alpha) Ry(beta) (Hamilton product
@@ -86,12 +93,14 @@ def euler_quaternion(alpha: float, beta: float, gamma: float) -> tuple[float, fl
     return x, y, z, w
 
 
+@kernel
 def _omega(alpha, beta, dalpha, dbeta, dgamma) -> tuple[float, float, float]:
     ca, sa = math.cos(alpha), math.sin(alpha)
     cb, sb = math.cos(beta), math.sin(beta)
     return (dalpha * cb - dgamma * ca * sb, dbeta + dgamma * sa, dalpha * sb + dgamma * ca * cb)
 
 
+@kernel
 def _omega_dot(alpha, beta, dalpha, dbeta, dgamma, ddalpha, ddbeta, ddgamma
                ) -> tuple[float, float, float]:
     ca, sa = math.cos(alpha), math.sin(alpha)
@@ -132,21 +141,57 @@ def _floats(v, start: int, stop: int) -> list[float]:
     return [float(x) for x in v[start:stop]]
 
 
+@kernel
 def _specific_force(q, qd, qdd, r, gravity):
-    """point_specific_force and Eq. (10) as float tuples."""
-    a, b, g = _floats(q, ALPHA, ALPHA + 3)
-    da, db, dg = _floats(qd, ALPHA, ALPHA + 3)
-    ddX, ddY, ddZ, dda, ddb, ddg = _floats(qdd, DECK, ALPHA + 3)
+    """point_specific_force and Eq. (10) as float tuples (arrays q, q', q'', r)."""
+    a, b, g = q[ALPHA], q[ALPHA + 1], q[ALPHA + 2]
+    da, db, dg = qd[ALPHA], qd[ALPHA + 1], qd[ALPHA + 2]
+    ddX, ddY, ddZ = qdd[DECK], qdd[DECK + 1], qdd[DECK + 2]
+    dda, ddb, ddg = qdd[ALPHA], qdd[ALPHA + 1], qdd[ALPHA + 2]
     t = _t_matrix(a, b, g)
     w = _omega(a, b, da, db, dg)
     wd = _omega_dot(a, b, da, db, dg, dda, ddb, ddg)
-    r = (float(r[0]), float(r[1]), float(r[2]))
     a_c = _mul(t, (ddX, ddY, ddZ))
     e1, e2 = _cross(wd, r), _cross(w, _cross(w, r))
-    f = [a_c[i] + e1[i] + e2[i] for i in range(3)]
+    f0, f1, f2 = a_c[0] + e1[0] + e2[0], a_c[1] + e1[1] + e2[1], a_c[2] + e1[2] + e2[2]
     if gravity:  # -g = +GRAVITY along Z of base: T (0, 0, g) is g times T's last column
-        f = [f[0] + t[2] * GRAVITY, f[1] + t[5] * GRAVITY, f[2] + t[8] * GRAVITY]
-    return f, w
+        f0, f1, f2 = f0 + t[2] * GRAVITY, f1 + t[5] * GRAVITY, f2 + t[8] * GRAVITY
+    return (f0, f1, f2), w
+
+
+@kernel
+def imu_reading(q, qd, qdd, r, gravity, z, k, bias, out):
+    """One IMU sample into ``out`` (specific force [m/s^2], then angular rate [rad/s]), deck
+    axes: bias += z[:6] (ka, ka, ka, kg, kg, kg) (random walk), then out = ideal + bias +
+    z[6:] (sa, sa, sa, sg, sg, sg) (white noise); ``k`` = (ka, kg, sa, sg), ``bias`` (6,)
+    updated in place."""
+    accel, gyro = _specific_force(q, qd, qdd, r, gravity)
+    for i in range(3):
+        bias[i] = bias[i] + z[i] * k[0]
+        bias[3 + i] = bias[3 + i] + z[3 + i] * k[1]
+    for i in range(3):
+        out[i] = accel[i] + bias[i] + z[6 + i] * k[2]
+        out[3 + i] = gyro[i] + bias[3 + i] + z[9 + i] * k[3]
+
+
+@kernel
+def deck_pose_twist(q, qd, out):
+    """``out`` (13,) = C in base [m], the quaternion (x, y, z, w) of R (Eqs. 1-2), the
+    velocity of C [m/s] and Eq. (10) [rad/s], both in deck axes (deck/pose, deck/twist)."""
+    a, b, g = q[ALPHA], q[ALPHA + 1], q[ALPHA + 2]
+    quat = euler_quaternion(a, b, g)
+    v = _mul(_t_matrix(a, b, g), (qd[DECK], qd[DECK + 1], qd[DECK + 2]))
+    w = _omega(a, b, qd[ALPHA], qd[ALPHA + 1], qd[ALPHA + 2])
+    for i in range(3):
+        out[i] = q[DECK + i]
+        out[7 + i] = v[i]
+        out[10 + i] = w[i]
+    for i in range(4):
+        out[3 + i] = quat[i]
+
+
+JIT, PY = kernel.build()
+"""The IMU model's kernels compiled (numba) and as Python (see abb_ros.model.jit)."""
 
 
 def point_specific_force(q, qd, qdd, r, gravity: bool = False) -> np.ndarray:
@@ -154,7 +199,12 @@ def point_specific_force(q, qd, qdd, r, gravity: bool = False) -> np.ndarray:
 
     a_C + w' x r + w x (w x r) - g, with a_C = R^T (X'', Y'', Z'').
     """
-    return np.array(_specific_force(q, qd, qdd, r, gravity)[0])
+    return np.array(_specific_force(_array(q), _array(qd), _array(qdd), _array(r),
+                                    bool(gravity))[0])
+
+
+def _array(v) -> np.ndarray:
+    return np.asarray(v, dtype=float)
 
 
 @dataclass(frozen=True)
@@ -214,45 +264,48 @@ class ImuModel:
     rng: np.random.Generator = field(init=False, repr=False)
 
     def __post_init__(self):
+        self.reconfigure(self.config)
         self.reset()
 
     def reset(self) -> None:
         """Re-seed: the readings repeat from the start."""
         self.rng = np.random.default_rng(self.seed)
         c = self.config
-        self.accel_bias = (self.rng.normal(0.0, 1.0, 3) * c.accel_bias).tolist()
-        self.gyro_bias = (self.rng.normal(0.0, 1.0, 3) * c.gyro_bias).tolist()
-        self._normals = []      # drawn ahead, NORMALS_AHEAD samples at a time
+        self.bias = np.concatenate([self.rng.normal(0.0, 1.0, 3) * c.accel_bias,
+                                    self.rng.normal(0.0, 1.0, 3) * c.gyro_bias])
+        """[accel (m/s^2), gyro (rad/s)] biases, deck axes"""
+        self._normals = np.empty((0, 12))   # drawn ahead, NORMALS_AHEAD samples at a time
+        self._next = 0
 
     def reconfigure(self, config: ImuConfig) -> None:
         """New mounting/noise parameters; the generator and the bias state carry on."""
         self.config = config
+        sqrt_dt = math.sqrt(1.0 / config.rate)
+        self._k = np.array([config.accel_bias_random_walk * sqrt_dt,
+                            config.gyro_bias_random_walk * sqrt_dt,
+                            math.sqrt(config.accel_variance), math.sqrt(config.gyro_variance)])
+        self._position = np.asarray(config.position, dtype=float)
 
-    def _next_normals(self) -> list[float]:
+    def _next_normals(self) -> np.ndarray:
         """The next 12 standard normals of the generator. Drawn NORMALS_AHEAD samples at a
         time: a Generator's normals come one after another from its bit stream, so a block
         holds the same numbers as the 12-draws it replaces (a test checks), at a fraction of
         the per-call cost."""
-        if not self._normals:
-            block = self.rng.standard_normal(12 * NORMALS_AHEAD).tolist()
-            self._normals = [block[i:i + 12] for i in range(len(block) - 12, -1, -12)]
-        return self._normals.pop()
+        if self._next == len(self._normals):
+            self._normals = self.rng.standard_normal((NORMALS_AHEAD, 12))
+            self._next = 0
+        self._next += 1
+        return self._normals[self._next - 1]
 
     def read(self, q, qd, qdd) -> ImuReading:
         """The reading at the state (q, q', q''); advances the noise generator.
 
-        Plain floats, the same operations in the same order as the 3-vector form
-        bias += z rw sqrt(dt); reading = ideal + bias + z sqrt(variance)."""
-        c = self.config
-        accel, gyro = _specific_force(q, qd, qdd, c.position, c.gravity)
+        bias += z rw sqrt(dt); reading = ideal + bias + z sqrt(variance), in one compiled
+        kernel (:func:`imu_reading`)."""
         # One draw of 12 normals per sample whatever the settings, so that the sequence of
         # the generator (and so every later reading) does not depend on which terms are on.
         z = self._next_normals()
-        sqrt_dt = math.sqrt(1.0 / c.rate)
-        ka, kg = c.accel_bias_random_walk * sqrt_dt, c.gyro_bias_random_walk * sqrt_dt
-        ab = [self.accel_bias[i] + z[i] * ka for i in range(3)]
-        gb = [self.gyro_bias[i] + z[3 + i] * kg for i in range(3)]
-        sa, sg = math.sqrt(c.accel_variance), math.sqrt(c.gyro_variance)
-        self.accel_bias, self.gyro_bias = ab, gb      # [m/s^2], [rad/s], deck axes
-        return ImuReading(np.array([accel[i] + ab[i] + z[6 + i] * sa for i in range(3)]),
-                          np.array([gyro[i] + gb[i] + z[9 + i] * sg for i in range(3)]))
+        out = np.empty(6)
+        JIT.imu_reading(q, qd, qdd, self._position, self.config.gravity, z, self._k,
+                        self.bias, out)
+        return ImuReading(out[:3], out[3:])

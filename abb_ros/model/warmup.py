@@ -19,9 +19,12 @@ import sys
 import time
 from pathlib import Path
 
-from abb_ros.model import speed_bands
+import numpy as np
+
+from abb_ros.model import sensors, speed_bands
 from abb_ros.model.integrate import DEFAULT_DT, Simulation, SpindleMotor
 from abb_ros.model.params import DriveParams
+from abb_ros.model.sensors import TYPICAL_IMU, ImuModel
 
 WARMUP_TABLE_POINTS = 4
 """Speeds of the warm-up table: the kernels' types do not depend on the count."""
@@ -37,6 +40,9 @@ def warm_up() -> dict[str, float]:
     sim.advance(1)
     sim.accelerations()
     sim.trajectory(2, 1)
+    s = sim.layout
+    ImuModel(TYPICAL_IMU).read(sim.y[s.q], sim.y[s.qd], sim.accelerations())
+    sensors.JIT.deck_pose_twist(sim.y[s.q], sim.y[s.qd], np.empty(13))
     took['integration'] = time.perf_counter() - start
     start = time.perf_counter()
     table = speed_bands.speed_table(params, 1500.0, WARMUP_TABLE_POINTS)
