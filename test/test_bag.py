@@ -147,6 +147,24 @@ def test_mcap_passes_the_mcap_library_validation_and_carries_rosbag2_records(tmp
     assert inner['duration']['nanoseconds'] == 49 * 1000 + len(samples) - 1
 
 
+def test_the_fast_message_appender_writes_the_file_add_message_writes(tmp_path):
+    """MessageAppender works on mcap's private writer state (abb_ros/io/mcap_append.py): with
+    it the file is the one mcap's own add_message writes, byte for byte (several chunks,
+    out-of-order log times included)."""
+    files = []
+    for fast in (True, False):
+        path = tmp_path / str(fast) / 'bag'
+        with BagWriter(path, chunk_size=2048, fast_append=fast) as bag:
+            assert bag._append.fast is fast
+            for topic, type_name, _ in sample_messages():
+                bag.add_topic(topic, type_name)
+            for i in range(200):
+                for j, (topic, _, msg) in enumerate(sample_messages()):
+                    bag.write(topic, cdr_bytes(msg), 1_000_000_000 + 1000 * (i ^ 5) + j)
+        files.append((path / 'bag_0.mcap').read_bytes())
+    assert files[0] == files[1]
+
+
 def test_schema_text_is_the_msg_file_then_each_dependency_once_after_80_equals():
     text = msgdefs.full_text('sensor_msgs/msg/Imu')
     own = (msgdefs.share_dir('sensor_msgs') / 'msg' / 'Imu.msg').read_text()

@@ -35,6 +35,7 @@ import yaml
 from mcap.writer import CompressionType, Writer
 
 from abb_ros.io import msgdefs
+from abb_ros.io.mcap_append import MessageAppender
 
 METADATA_VERSION = 9
 ROS_DISTRO = 'jazzy'
@@ -200,7 +201,7 @@ class BagWriter:
 
     def __init__(self, path, overwrite: bool = False, chunk_size: int = DEFAULT_CHUNK_SIZE,
                  compression: str = 'zstd', flush_period: float = DEFAULT_FLUSH_PERIOD,
-                 opener=None):
+                 opener=None, fast_append: bool = True):
         if compression not in _COMPRESSION:
             raise BagError(f'compression must be one of {", ".join(_COMPRESSION)}, '
                            f'got {compression!r}')
@@ -213,6 +214,7 @@ class BagWriter:
         self._sink = _FileSink(self.mcap_path, opener, self._chunk_written)
         self._mcap = Writer(self._sink, chunk_size=int(chunk_size),
                             compression=_COMPRESSION[compression])
+        self._append = MessageAppender(self._mcap, fast=fast_append)
         self._flush_period = float(flush_period)
         self._next_flush = time.monotonic() + self._flush_period
         self._topics: dict[str, _Topic] = {}
@@ -286,9 +288,9 @@ class BagWriter:
         self._start_ns = log_time_ns if self._start_ns is None else min(self._start_ns,
                                                                          log_time_ns)
         self._end_ns = max(self._end_ns, log_time_ns)
-        self._guard(self._mcap.add_message, channel_id=entry.channel_id, log_time=log_time_ns,
-                    data=data, sequence=entry.count - 1,
-                    publish_time=log_time_ns if publish_time_ns is None else int(publish_time_ns))
+        self._guard(self._append.add, entry.channel_id, log_time_ns, data,
+                    log_time_ns if publish_time_ns is None else int(publish_time_ns),
+                    entry.count - 1)
         if time.monotonic() >= self._next_flush:
             self.flush()
 
