@@ -51,21 +51,11 @@ class MessageAppender:
                                      publish_time=publish_time, sequence=sequence)
             return
         stats = self._stats
-        if stats.message_count == 0:
-            stats.message_start_time = log_time
-        elif log_time < stats.message_start_time:
-            stats.message_start_time = log_time
-        if log_time > stats.message_end_time:
-            stats.message_end_time = log_time
+        _widen(stats, log_time, stats.message_count == 0)
         stats.channel_message_counts[channel_id] += 1
         stats.message_count += 1
         chunk = self._chunk
-        if chunk.num_messages == 0:
-            chunk.message_start_time = log_time
-        elif log_time < chunk.message_start_time:
-            chunk.message_start_time = log_time
-        if log_time > chunk.message_end_time:
-            chunk.message_end_time = log_time
+        _widen(chunk, log_time, chunk.num_messages == 0)
         buffer = chunk.record_writer._buffer     # a new BytesIO after every chunk
         index = chunk.message_indices.get(channel_id)
         if index is None:
@@ -78,3 +68,11 @@ class MessageAppender:
         buffer.write(data)
         if buffer.tell() > self._chunk_size:
             self._finalize()
+
+
+def _widen(record, log_time: int, empty: bool) -> None:
+    """Extend the message time range of ``record`` (statistics or chunk) to ``log_time``."""
+    if empty or log_time < record.message_start_time:
+        record.message_start_time = log_time
+    if log_time > record.message_end_time:
+        record.message_end_time = log_time
