@@ -175,3 +175,18 @@ def test_turn_on_bias_is_constant_without_walk_and_scaled_by_its_std():
     np.testing.assert_array_equal(a, np.broadcast_to(a[0], a.shape))
     assert 0 < np.max(np.abs(a[0])) < 5 * 0.05  # a draw of N(0, 0.05^2), within 5 sigma
     assert 0 < np.max(np.abs(g[0])) < 5 * 2e-3
+
+
+def test_the_compiled_imu_and_deck_kernels_equal_their_python_twins_bit_for_bit():
+    """What ABB_ROS_NO_JIT runs (the kernels' Python source) is what the node runs."""
+    from abb_ros.model import sensors
+    rng = np.random.default_rng(4)
+    q, qd, qdd = rng.normal(0, 1e-2, 9), rng.normal(0, 1.0, 9), rng.normal(0, 10.0, 9)
+    r, z, k = np.array([0.01, -0.02, 0.003]), rng.standard_normal(12), rng.random(4)
+    outs = []
+    for kern in (sensors.JIT, sensors.PY):
+        bias, out, pose = np.full(6, 0.1), np.empty(6), np.empty(13)
+        kern.imu_reading(q, qd, qdd, r, True, z, k, bias, out)
+        kern.deck_pose_twist(q, qd, pose)
+        outs.append(np.concatenate([bias, out, pose]))
+    assert outs[0].tobytes() == outs[1].tobytes()

@@ -31,6 +31,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from abb_ros.model.jit import KernelSet
+
 __all__ = ['SpeedSensorConfig', 'SpeedSensor', 'fg_speed', 'SPEED_SEED_STREAM']
 
 SPEED_SEED_STREAM = 1
@@ -38,6 +40,14 @@ SPEED_SEED_STREAM = 1
 independent of the IMU noise drawn from ``default_rng(seed)``."""
 
 _NEWTON_ITERATIONS = 4
+JITTER_AHEAD = 256
+"""Edge jitter normals drawn from the generator per call (the same numbers, in the same
+order, as one draw per edge)."""
+# FG state vector of the kernel: tick count and time [s] of the last captured edge (valid when
+# HAS_EDGE is 1), the held reading [rad/s], the edge count, the next jitter normal's index.
+EDGE_TICKS, EDGE_T, VALUE, EDGES, HAS_EDGE, NEXT_NORMAL, N_STATE = range(7)
+
+kernel = KernelSet()
 
 
 @dataclass(frozen=True)
@@ -58,9 +68,15 @@ class SpeedSensorConfig:
 
 def fg_speed(period_ticks: int, config: SpeedSensorConfig) -> float:
     """The speed [rad/s] read from a pulse period of ``period_ticks`` timer ticks."""
-    return 2.0 * math.pi * config.timer_hz / (config.pulses_per_rev * period_ticks)
+    return _fg_speed(period_ticks, config.timer_hz, config.pulses_per_rev)
 
 
+@kernel
+def _fg_speed(period_ticks, timer_hz, pulses_per_rev):
+    return 2.0 * math.pi * timer_hz / (pulses_per_rev * period_ticks)
+
+
+@kernel
 def _hermite_crossing(level, h, th0, w0, th1, w1) -> float:
     """Time s in [0, h] at which the cubic Hermite interpolant of (th0, w0) at 0 and
     (th1, w1) at h equals ``level`` (which lies between th0 and th1)."""
@@ -98,16 +114,24 @@ class SpeedSensor:
         """Re-seed and forget every edge: the readings repeat from the start."""
         self.rng = np.random.default_rng([self.seed, SPEED_SEED_STREAM])
         self._last = None          # (t, theta, omega) of the previous sample
-        self._edge_ticks = None    # tick count of the last captured edge
-        self._edge_t = None        # its time [s]
-        self.value = 0.0
-        self.edges = 0
+        self._state = np.zeros(N_STATE)
+        self._normals = np.empty(0)   # edge jitter normals drawn ahead
+
+    @property
+    def value(self) -> float:
+        """The held reading [rad/s]."""
+        return float(self._state[VALUE])
+
+    @property
+    def edges(self) -> int:
+        """Edges captured since the last reset."""
+        return int(self._state[EDGES])
 
     def reconfigure(self, config: SpeedSensorConfig) -> None:
         """New settings; a new pulse count restarts the edge bookkeeping (not the seed)."""
         if config.pulses_per_rev != self.config.pulses_per_rev:
-            self._last = self._edge_ticks = self._edge_t = None
-            self.value = 0.0
+            self._last = None
+            self._state[[EDGE_TICKS, EDGE_T, VALUE, HAS_EDGE]] = 0.0
         self.config = config
 
     def shift_angle(self, delta: float) -> None:
@@ -121,33 +145,50 @@ class SpeedSensor:
         """The reading [rad/s] after the state sample (t, theta, omega); advances the jitter
         generator once per edge crossed since the previous sample."""
         last, self._last = self._last, (t, theta, omega)
+        state = self._state
         if last is not None and t > last[0]:
-            self._edges_between(last, (t, theta, omega))
-        if self._edge_t is not None and t - self._edge_t > self.config.timeout:
-            self.value = 0.0
-        return self.value
+            c = self.config
+            while not JIT.fg_edges(last, self._last, c.pitch, c.timer_hz, c.pulses_per_rev,
+                                   c.edge_jitter, self._normals, state):
+                # the normals not used yet, then a new block: the generator's own order
+                unused = self._normals[int(state[NEXT_NORMAL]):]
+                self._normals = np.concatenate([unused, self.rng.standard_normal(JITTER_AHEAD)])
+                state[NEXT_NORMAL] = 0.0
+        if state[HAS_EDGE] and t - state[EDGE_T] > self.config.timeout:
+            state[VALUE] = 0.0
+        return float(state[VALUE])
 
-    def _edges_between(self, a, b) -> None:
-        c = self.config
-        (t0, th0, w0), (t1, th1, w1) = a, b
-        k0, k1 = math.floor(th0 / c.pitch), math.floor(th1 / c.pitch)
-        if k1 > k0:
-            levels = range(k0 + 1, k1 + 1)
-        elif k1 < k0:           # turning backwards: the edges in reverse order
-            levels = range(k0, k1, -1)
-        else:
-            return
-        h = t1 - t0
-        for k in levels:
-            s = _hermite_crossing(k * c.pitch, h, th0, w0, th1, w1)
-            self._capture(t0 + s)
 
-    def _capture(self, t_edge: float) -> None:
-        c = self.config
-        jitter = self.rng.standard_normal() * c.edge_jitter
-        ticks = math.floor((t_edge + jitter) * c.timer_hz)
-        if self._edge_ticks is not None and ticks > self._edge_ticks:
-            self.value = fg_speed(ticks - self._edge_ticks, c)
-        self._edge_ticks = ticks
-        self._edge_t = t_edge
-        self.edges += 1
+@kernel
+def fg_edges(a, b, pitch, timer_hz, pulses_per_rev, edge_jitter, normals, state):
+    """Capture every FG edge between the state samples a = (t0, theta0, omega0) and b (a
+    later one): each crossing of a multiple of ``pitch`` (in the order the rotor meets them)
+    is found on the Hermite interpolant, jittered by the next of ``normals`` times
+    ``edge_jitter`` and captured by the timer; ``state`` (EDGE_TICKS...) is updated. Returns
+    False, changing nothing, when fewer normals are left than edges to capture."""
+    t0, th0, w0 = a[0], a[1], a[2]
+    t1, th1, w1 = b[0], b[1], b[2]
+    k0, k1 = math.floor(th0 / pitch), math.floor(th1 / pitch)
+    if state[NEXT_NORMAL] + abs(k1 - k0) > normals.size:
+        return False
+    step = 1 if k1 > k0 else -1
+    first = k0 + 1 if k1 > k0 else k0
+    h = t1 - t0
+    for i in range(abs(k1 - k0)):
+        k = first + step * i
+        s = _hermite_crossing(k * pitch, h, th0, w0, th1, w1)
+        t_edge = t0 + s
+        j = int(state[NEXT_NORMAL])
+        state[NEXT_NORMAL] = j + 1
+        ticks = math.floor((t_edge + normals[j] * edge_jitter) * timer_hz)
+        if state[HAS_EDGE] != 0.0 and ticks > state[EDGE_TICKS]:
+            state[VALUE] = _fg_speed(ticks - state[EDGE_TICKS], timer_hz, pulses_per_rev)
+        state[EDGE_TICKS] = ticks
+        state[EDGE_T] = t_edge
+        state[HAS_EDGE] = 1.0
+        state[EDGES] += 1.0
+    return True
+
+
+JIT, PY = kernel.build()
+"""The FG's kernels compiled (numba) and as Python (see abb_ros.model.jit)."""

@@ -25,6 +25,7 @@ from abb_ros.model import sensors, speed_bands
 from abb_ros.model.integrate import DEFAULT_DT, Simulation, SpindleMotor
 from abb_ros.model.params import DriveParams
 from abb_ros.model.sensors import TYPICAL_IMU, ImuModel
+from abb_ros.model.speed_sensor import SpeedSensor
 
 WARMUP_TABLE_POINTS = 4
 """Speeds of the warm-up table: the kernels' types do not depend on the count."""
@@ -43,6 +44,9 @@ def warm_up() -> dict[str, float]:
     s = sim.layout
     ImuModel(TYPICAL_IMU).read(sim.y[s.q], sim.y[s.qd], sim.accelerations())
     sensors.JIT.deck_pose_twist(sim.y[s.q], sim.y[s.qd], np.empty(13))
+    fg = SpeedSensor()
+    for step in range(2):
+        fg.update(step * 1e-3, step * 1e-3 * omega, omega)
     took['integration'] = time.perf_counter() - start
     start = time.perf_counter()
     table = speed_bands.speed_table(params, 1500.0, WARMUP_TABLE_POINTS)
