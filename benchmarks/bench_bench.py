@@ -11,7 +11,9 @@ diagnostics, since start and over the last window), the largest stamp lag (simul
 measure, and receive time - stamp at the subscriber), messages published / received /
 recorded / lost per topic, CPU per process (/proc/<pid>/stat utime + stime over the measured
 window, in % of one core), RSS growth per minute (least squares over samples every 5 s), and
-each process's exit code and whether its output holds 'Traceback' or 'FATAL'.
+each process's exit code and whether its output holds 'Traceback' or 'FATAL'. The nodes'
+last statuses are read from the recorded bag (no extra /diagnostics subscription: the
+measurement adds nothing to the bench).
 
     .venv/bin/python benchmarks/bench_bench.py [--duration 60] [--hog] [--record-in-process]
 """
@@ -53,8 +55,8 @@ STATUS_RECORDER = 'abb_recorder: recording'
 
 def run_subscriber(out: Path) -> int:
     """Count joint_states (gaps in the 1 ms stamps = missed) and their lag behind the wall
-    clock; keep the last status of each node; write JSON to ``out`` on SIGINT."""
-    from diagnostic_msgs.msg import DiagnosticArray
+    clock; write JSON to ``out`` on SIGINT. (The nodes' statuses are read from the recorded
+    bag afterwards, so that the measurement adds no subscription to the bench.)"""
     from rclpy.node import Node
     from sensor_msgs.msg import JointState
 
@@ -64,9 +66,8 @@ def run_subscriber(out: Path) -> int:
         def __init__(self):
             super().__init__('bench_subscriber')
             self.stats = dict(received=0, missed=0, max_gap_ms=0.0, max_lag_ms=-math.inf,
-                              first_stamp=None, last_stamp=None, statuses={})
+                              first_stamp=None, last_stamp=None)
             self.create_subscription(JointState, 'joint_states', self.on_joint_states, 10)
-            self.create_subscription(DiagnosticArray, '/diagnostics', self.on_diag, 100)
 
         def on_joint_states(self, msg):
             s = self.stats
@@ -82,13 +83,6 @@ def run_subscriber(out: Path) -> int:
             s['max_lag_ms'] = max(s['max_lag_ms'], lag_ms)
             s['last_stamp'] = stamp
             s['received'] += 1
-
-        def on_diag(self, msg):
-            for status in msg.status:
-                name = status.name.lstrip('/')
-                self.stats['statuses'][name] = dict(
-                    level=int(status.level[0]), message=status.message,
-                    values={kv.key: kv.value for kv in status.values})
 
         def close(self):
             out.write_text(json.dumps(self.stats))
@@ -137,6 +131,19 @@ def bag_counts(bag: Path) -> tuple[dict, dict]:
     counts = {t['topic_metadata']['name']: t['message_count']
               for t in meta['topics_with_message_count']}
     return counts, meta.get('custom_data') or {}
+
+
+def bag_statuses(bag: Path) -> dict:
+    """{status name: {level, message, values}}: the last /diagnostics status of each node
+    in the bag."""
+    from abb_ros.io.bag_reader import read_bag
+    statuses = {}
+    for _, msg, _ in read_bag(bag, ['/diagnostics']):
+        for status in msg.status:
+            statuses[status.name.lstrip('/')] = dict(
+                level=int(status.level[0]), message=status.message,
+                values={kv.key: kv.value for kv in status.values})
+    return statuses
 
 
 def main() -> int:
@@ -207,7 +214,7 @@ def main() -> int:
 
 def report(args, work, sub_out, cpu, rss, codes, wall) -> None:
     sub = json.loads(sub_out.read_text())
-    statuses = sub['statuses']
+    statuses = bag_statuses(work / 'bag')
     sim = statuses.get(STATUS_SIM, {}).get('values', {})
     rec = statuses.get(STATUS_RECORDER, {})
     ana = statuses.get(STATUS_ANALYSIS, {})
