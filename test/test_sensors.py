@@ -182,11 +182,12 @@ def test_the_compiled_imu_and_deck_kernels_equal_their_python_twins_bit_for_bit(
     from abb_ros.model import sensors
     rng = np.random.default_rng(4)
     q, qd, qdd = rng.normal(0, 1e-2, 9), rng.normal(0, 1.0, 9), rng.normal(0, 10.0, 9)
+    y = np.concatenate([q, qd])   # n = 2
     r, z, k = np.array([0.01, -0.02, 0.003]), rng.standard_normal(12), rng.random(4)
     outs = []
     for kern in (sensors.JIT, sensors.PY):
         bias, out, pose = np.full(6, 0.1), np.empty(6), np.empty(13)
         kern.imu_reading(q, qd, qdd, r, True, z, k, bias, out)
-        kern.deck_pose_twist(q, qd, pose)
+        kern.deck_pose_twist(y, 2, pose)
         outs.append(np.concatenate([bias, out, pose]))
     assert outs[0].tobytes() == outs[1].tobytes()

@@ -82,9 +82,8 @@ def deck_pose_twist_content(y: np.ndarray, n: int) -> tuple[tuple[float, ...],
     """((X, Y, Z, qx, qy, qz, qw), (vx, vy, vz, wx, wy, wz)): C in ``base`` [m] and
     R = Rz(gamma) Rx(alpha) Ry(beta); the velocity of C [m/s] and Eq. (10) [rad/s], deck
     axes (one compiled kernel, :func:`abb_ros.model.sensors.deck_pose_twist`)."""
-    s = StateLayout.of(n)
     out = np.empty(13)
-    sensors.JIT.deck_pose_twist(y[s.q], y[s.qd], out)
+    sensors.JIT.deck_pose_twist(y, n, out)
     v = out.tolist()
     return tuple(v[:7]), tuple(v[7:])
 

@@ -31,7 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from abb_ros.model.jit import KernelSet
-from abb_ros.model.state import ALPHA, DECK
+from abb_ros.model.state import ALPHA, DECK, PHI
 
 __all__ = ['GRAVITY', 'euler_rotation', 'euler_quaternion', 'deck_angular_velocity',
            'deck_angular_acceleration', 'point_specific_force', 'ImuConfig', 'ImuReading',
@@ -175,15 +175,17 @@ def imu_reading(q, qd, qdd, r, gravity, z, k, bias, out):
 
 
 @kernel
-def deck_pose_twist(q, qd, out):
+def deck_pose_twist(y, n, out):
     """``out`` (13,) = C in base [m], the quaternion (x, y, z, w) of R (Eqs. 1-2), the
-    velocity of C [m/s] and Eq. (10) [rad/s], both in deck axes (deck/pose, deck/twist)."""
-    a, b, g = q[ALPHA], q[ALPHA + 1], q[ALPHA + 2]
+    velocity of C [m/s] and Eq. (10) [rad/s], both in deck axes (deck/pose, deck/twist), for
+    the state ``y`` of ``n`` balls."""
+    N = PHI + n
+    a, b, g = y[ALPHA], y[ALPHA + 1], y[ALPHA + 2]
     quat = euler_quaternion(a, b, g)
-    v = _mul(_t_matrix(a, b, g), (qd[DECK], qd[DECK + 1], qd[DECK + 2]))
-    w = _omega(a, b, qd[ALPHA], qd[ALPHA + 1], qd[ALPHA + 2])
+    v = _mul(_t_matrix(a, b, g), (y[N + DECK], y[N + DECK + 1], y[N + DECK + 2]))
+    w = _omega(a, b, y[N + ALPHA], y[N + ALPHA + 1], y[N + ALPHA + 2])
     for i in range(3):
-        out[i] = q[DECK + i]
+        out[i] = y[DECK + i]
         out[7 + i] = v[i]
         out[10 + i] = w[i]
     for i in range(4):

@@ -43,7 +43,7 @@ def warm_up() -> dict[str, float]:
     sim.trajectory(2, 1)
     s = sim.layout
     ImuModel(TYPICAL_IMU).read(sim.y[s.q], sim.y[s.qd], sim.accelerations())
-    sensors.JIT.deck_pose_twist(sim.y[s.q], sim.y[s.qd], np.empty(13))
+    sensors.JIT.deck_pose_twist(sim.y, params.n, np.empty(13))
     fg = SpeedSensor()
     for step in range(2):
         fg.update(step * 1e-3, step * 1e-3 * omega, omega)
