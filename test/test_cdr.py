@@ -101,6 +101,7 @@ def test_diagnostics_encode_to_the_bytes_of_the_serialised_diagnostic_array(alph
         sec, nanosec = divmod(stamp_ns, 1_000_000_000)
         data = cdr.diagnostic_array(sec, nanosec, ros_messages.diagnostics_content(*args))
         assert data == cdr_bytes(ros_messages.diagnostics(stamp_ns, *args))
+        assert cdr.diagnostics(stamp_ns, *args) == data
 
 
 def test_layout_aligns_each_primitive_to_its_size_after_the_encapsulation_header():

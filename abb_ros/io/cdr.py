@@ -19,10 +19,11 @@ from __future__ import annotations
 import functools
 import struct
 
-from abb_ros.io.ros_messages import TOPIC_FRAMES, joint_names, sample_contents
+from abb_ros.io.ros_messages import (TOPIC_FRAMES, diagnostics_content, joint_names,
+                                     sample_contents)
 
 __all__ = ['ENCAPSULATION', 'Layout', 'joint_state', 'pose_stamped', 'twist_stamped', 'imu',
-           'clock', 'float64', 'diagnostic_array', 'ENCODERS', 'sample_cdr']
+           'clock', 'float64', 'diagnostic_array', 'diagnostics', 'ENCODERS', 'sample_cdr']
 
 ENCAPSULATION = b'\x00\x01\x00\x00'
 """CDR_LE: representation identifier 0x0001 (big-endian on the wire), options 0."""
@@ -191,6 +192,13 @@ def diagnostic_array(sec: int, nanosec: int, content) -> bytes:
     for key, value in pairs:
         layout.string(key).string(value)
     return layout.constant_bytes()
+
+
+def diagnostics(stamp_ns: int, name: str, level: bytes, message: str, values: dict) -> bytes:
+    """The CDR bytes of ros_messages.diagnostics (one status; publishing them skips building
+    and converting an rclpy DiagnosticArray of some thirty key/values)."""
+    sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
+    return diagnostic_array(sec, nanosec, diagnostics_content(name, level, message, values))
 
 
 ENCODERS = {'joint_states': joint_state, 'deck/pose': pose_stamped,

@@ -39,7 +39,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy, qos_profile_parameter_event
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
-from abb_ros.io import ros_messages
+from abb_ros.io import cdr, ros_messages
 from abb_ros.io.joint_speed import JointSpeedReader
 from abb_ros.model import speed_bands
 from abb_ros.model.param_spec import DRIVE_PREFIX, specs_for
@@ -260,7 +260,7 @@ class AnalysisNode(Node):
         stamp_ns = self.speed[1] if self.speed else self.get_clock().now().nanoseconds
         if not math.isnan(a.margin):
             self._margin_pub.publish(Float64(data=a.margin))
-        self._diag_pub.publish(ros_messages.diagnostics(
+        self._diag_pub.publish(cdr.diagnostics(
             stamp_ns, f'{self.get_fully_qualified_name()}: stability', bytes([level]),
             message, values))
         self._last_pub = time.monotonic()

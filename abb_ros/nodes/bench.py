@@ -18,7 +18,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from rclpy.parameter import Parameter
 from std_srvs.srv import Trigger
 
-from abb_ros.io import markers, ros_messages
+from abb_ros.io import cdr, markers
 from abb_ros.model import disturbances
 from abb_ros.model.sensor_faults import ImuFaults, SpeedFaults
 from abb_ros.model.speed_sensor import SpeedSensor
@@ -135,7 +135,7 @@ class BenchIO:
         message = ('active faults: ' + ', '.join(active)) if active else 'no fault injected'
         values = dict(active, **self.counters, last_disturbance=self._last_event,
                       speed_sensor_edges=self.speed.edges)
-        self._diag_pub.publish(ros_messages.diagnostics(
+        self._diag_pub.publish(cdr.diagnostics(
             self.node.stamp_ns(),
             f'{self.node.get_fully_qualified_name()}: faults and disturbances', level,
             message, values))

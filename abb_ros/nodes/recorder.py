@@ -32,7 +32,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-from abb_ros.io import msgdefs, ros_messages
+from abb_ros.io import cdr, msgdefs, ros_messages
 from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
 from abb_ros.model.param_spec import ParamError, specs_for
 from abb_ros.nodes import ros_params
@@ -174,7 +174,7 @@ class Recorder(Node):
         values.update({f'recorded {t}': counts.get(t, 0) for t in self.losses})
         values.update({f'lost {t}': n for t, n in lost.items()})
         values.update({f'lost {t}': 'unchecked (several publishers)' for t in self.unchecked})
-        self._diag_pub.publish(ros_messages.diagnostics(
+        self._diag_pub.publish(cdr.diagnostics(
             self.get_clock().now().nanoseconds, f'{self.get_fully_qualified_name()}: recording',
             level, message, values))
 

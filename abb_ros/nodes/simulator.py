@@ -528,10 +528,9 @@ class SimulatorNode(Node):
             values.update(current_cmd=self.current_cmd, motor_current=self.sim.motor_current,
                           motor_torque=self.sim.motor_torque)
         stamp_ns = self.stamp_ns()
-        content = ros_messages.diagnostics_content(
-            f'{self.get_fully_qualified_name()}: simulation', level, message, values)
-        sec, nanosec = divmod(stamp_ns, 1_000_000_000)
-        self._send('/diagnostics', cdr.diagnostic_array(sec, nanosec, content), stamp_ns)
+        self._send('/diagnostics', cdr.diagnostics(
+            stamp_ns, f'{self.get_fully_qualified_name()}: simulation', level, message, values),
+            stamp_ns)
         self.bench.publish_diagnostics()
 
 
