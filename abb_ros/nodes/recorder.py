@@ -32,7 +32,7 @@ from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-from abb_ros.io import cdr, msgdefs, ros_messages
+from abb_ros.io import cdr, msgdefs
 from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
 from abb_ros.model.param_spec import ParamError, specs_for
 from abb_ros.nodes import ros_params
