@@ -53,11 +53,12 @@ def replay(params, y0, omega, dt, nsteps):
     y = np.array(y0, dtype=float)
     pieces = []
     for s in range(nsteps):
-        sub = kernels.JIT.contact_substeps(y, n, P, dt) if params.contact_E > 0 else 1
+        sub = K.contact_substeps(y, n, P, dt) if params.contact_E > 0 else 1
         if sub > 1 and not rolling:
-            trace = np.empty((sub + 3, 2 + N2))
+            fast = K.mis_substeps(y, n, P, dt)
+            trace = np.empty((fast + 3, 2 + N2))
             start = y.copy()
-            rows = K.mis_contact_step(s * dt, dt, y, n, P, S, sub, trace, *stages, qdd, *bufs)
+            rows = K.mis_contact_step(s * dt, dt, y, n, P, S, fast, trace, *stages, qdd, *bufs)
             for t, h, *end in trace[:rows]:
                 pieces.append((t, h, None, start, np.array(end)))
                 start = pieces[-1][-1]

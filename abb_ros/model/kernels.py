@@ -80,6 +80,11 @@ MIS_A = np.array([[0.0, 0.0, 0.0], [1.0 / 3.0, 0.0, 0.0], [-3.0 / 16.0, 15.0 / 1
 the multirate contact step (:func:`mis_contact_step`; MIS: Wensch, Knoth, Galant 2009)."""
 MIS_C = np.array([0.0, 1.0 / 3.0, 3.0 / 4.0, 1.0])
 """Its stage times c_i, and 1."""
+MIS_IMPACT_REFINE = 1.5
+"""The multirate step's fast sub-steps per contact sub-step in an impact (rounded up): the
+impact's resolution is its largest error (energy closure of test_beyond_energy's collision
+without rolling: 1.0e-6 with 1, 5.3e-7 with 1.5, 5.2e-7 with 2, 3.9e-7 with 4; RK4 sub-steps
+of the whole system: 1.5e-7, docs/beyond_the_paper.md)."""
 
 
 
@@ -395,6 +400,13 @@ def contact_regime(y, n, P, dt):
     return k, impact
 
 @kernel
+def mis_substeps(y, n, P, dt):
+    """Fast RK4 sub-steps of :func:`mis_contact_step` for the step of dt from y:
+    :func:`contact_substeps`, times MIS_IMPACT_REFINE in an impact (:func:`contact_regime`)."""
+    sub, impact = contact_regime(y, n, P, dt)
+    return int(math.ceil(sub * MIS_IMPACT_REFINE)) if impact else sub
+
+@kernel
 def neighbour_pairs(y, n):
     """The pairs of balls next to each other on the race, (n, 2) (one pair for n = 2): the
     balls sorted by angle, each with the next (cyclically). Balls in contact cannot pass each
@@ -434,13 +446,14 @@ def neighbour_reference(y, n, pairs, ref):
 @kernel
 def sincos_near(h0, s0, c0, e):
     """(sin, cos) of h0 + e from s0 = sin h0 and c0 = cos h0: the addition theorem with
-    the Taylor series of sin e and cos e (round-off for |e| < 1e-2), else math.sin, cos."""
-    if abs(e) >= 1e-2:
+    the Taylor series of sin e and cos e (round-off for |e| < 0.1), else math.sin, cos."""
+    if abs(e) >= 0.1:
         return math.sin(h0 + e), math.cos(h0 + e)
     e2 = e * e
-    sin_e = e * (1.0 - e2 * (1.0 / 6.0) * (1.0 - e2 * (1.0 / 20.0) * (1.0 - e2 * (1.0 / 42.0))))
-    cos_e = 1.0 - e2 * 0.5 * (1.0 - e2 * (1.0 / 12.0) * (1.0 - e2 * (1.0 / 30.0)
-                                                       * (1.0 - e2 * (1.0 / 56.0))))
+    sin_e = e * (1.0 - e2 * (1.0 / 6.0) * (1.0 - e2 * (1.0 / 20.0) * (
+        1.0 - e2 * (1.0 / 42.0) * (1.0 - e2 * (1.0 / 72.0)))))
+    cos_e = 1.0 - e2 * 0.5 * (1.0 - e2 * (1.0 / 12.0) * (1.0 - e2 * (1.0 / 30.0) * (
+        1.0 - e2 * (1.0 / 56.0) * (1.0 - e2 * (1.0 / 90.0)))))
     return s0 * cos_e + c0 * sin_e, c0 * cos_e - s0 * sin_e
 
 @kernel
@@ -480,16 +493,19 @@ def velocity_coupling(y, n, P, inv, A, W, B, Jv):
         Jv[PHI + b, b] -= inv * D
 
 @kernel
-def mis_fast_deriv(y, n, R, r, reach, K, chi, inv, pairs, ref, Z, B, Jv, v0, g, Qc, dy):
+def mis_fast_deriv(y, n, P, R, r, reach, K, chi, inv, pairs, ref, Ainv, psi, Jv, v0, g, Qc, sc,
+                   du, dy):
     """y' of the fast part of :func:`mis_contact_step`: q' = q-dot, q-dot' = g + C0 Qc +
     Jv (phi' - v0).
 
     Qc: the contact forces of the neighbour pairs at y (:func:`pair_state`,
     :func:`hertz_force`; reach = asin(r / R), the half-angle of contact; the half-angles'
     sines from the step's reference ``ref``, :func:`sincos_near`). C0 Qc: the accelerations
-    they cause through the coupled system of the step's start, ``inv`` = 1 / m R^2 (ball
-    elimination), Z = A^-1 W (eliminated deck rows), B (ball rows): deck u = -inv Z Qc, ball
-    b (Qc_b - B_b u) inv. Jv (phi' - v0): the change of the balls' Coriolis, centrifugal and
+    they cause through the coupled system, ``inv`` = 1 / m R^2 (ball elimination), Ainv the
+    inverse of the eliminated deck rows at the step's start: deck u = Ainv (-inv W Qc), ball
+    b (Qc_b - B_b u) inv, with W and B at y (the balls' angles from the step's ``psi`` =
+    [psi_b, sin, cos] by :func:`sincos_near`; R, r, inv include the rolling balls' spin).
+    Jv (phi' - v0): the change of the balls' Coriolis, centrifugal and
     drag terms with their rates since the step's start (:func:`velocity_coupling`)."""
     N = PHI + n
     for i in range(n):
@@ -520,27 +536,35 @@ def mis_fast_deriv(y, n, R, r, reach, K, chi, inv, pairs, ref, Z, B, Jv, v0, g, 
                 dy[N + c] += Jv[c, b] * dv
     if not touching:
         return
-    u0 = 0.0
-    u1 = 0.0
-    u5 = 0.0
-    for row in range(6):
-        s = 0.0
-        for b in range(n):
-            s += Z[row, b] * Qc[b]
-        s *= -inv
-        dy[N + DECK + row] += s
-        if row == 0:
-            u0 = s
-        elif row == 1:
-            u1 = s
-        elif row == 5:
-            u5 = s
+    mr = P[6] * R
+    mr2 = mr * R - (SPIN_INERTIA * P[6] * R * r if P[I_BALL_ROTATION] != 0.0 else 0.0)
+    al, be, ga = y[DECK + 3], y[DECK + 4], y[DECK + 5]
+    w0 = 0.0
+    w1 = 0.0
+    w2 = 0.0
+    w5 = 0.0
     for b in range(n):
-        dy[N + PHI + b] += inv * (Qc[b] - B[b, 0] * u0 - B[b, 1] * u1 - B[b, 5] * u5)
+        sb, cb = sincos_near(psi[b, 0], psi[b, 1], psi[b, 2], y[THETA] + y[PHI + b] - psi[b, 0])
+        sc[0, b] = sb
+        sc[1, b] = cb
+        q = -inv * Qc[b]
+        if q != 0.0:                            # -inv W Qc (W of assemble at y)
+            w0 -= mr * (sb + ga * cb) * q
+            w1 += mr * (cb - ga * sb) * q
+            w2 += mr * (al * cb + be * sb) * q
+            w5 += mr2 * q
+    w3 = be * w5
+    for row in range(6):
+        du[row] = Ainv[row, 0] * w0 + Ainv[row, 1] * w1 + Ainv[row, 2] * w2 \
+            + Ainv[row, 3] * w3 + Ainv[row, 5] * w5
+        dy[N + DECK + row] += du[row]
+    for b in range(n):                          # inv (Qc - B u) (B of assemble at y)
+        dy[N + PHI + b] += inv * (Qc[b] + mr * sc[0, b] * du[0] - mr * sc[1, b] * du[1]
+                                  - mr2 * du[5])
 
 @kernel
-def mis_fast_solve(t0, m, h, y, n, R, r, reach, K, chi, inv, pairs, ref, Z, B, Jv, v0, g,
-                   Qc, k1, k2, k3, k4, yt, trace, rows):
+def mis_fast_solve(t0, m, h, y, n, P, R, r, reach, K, chi, inv, pairs, ref, Ainv, psi, Jv, v0,
+                   g, Qc, sc, du, k1, k2, k3, k4, yt, trace, rows):
     """m RK4 sub-steps of h of the fast part (:func:`mis_fast_deriv`) from (t0, y), y in
     place, rows of ``trace`` from ``rows`` on (:func:`mis_contact_step`); returns the next
     row."""
@@ -548,16 +572,20 @@ def mis_fast_solve(t0, m, h, y, n, R, r, reach, K, chi, inv, pairs, ref, Z, B, J
     h2 = 0.5 * h
     h6 = h / 6.0
     for s in range(m):
-        mis_fast_deriv(y, n, R, r, reach, K, chi, inv, pairs, ref, Z, B, Jv, v0, g, Qc, k1)
+        mis_fast_deriv(y, n, P, R, r, reach, K, chi, inv, pairs, ref, Ainv, psi, Jv, v0, g,
+                       Qc, sc, du, k1)
         for i in range(n2):
             yt[i] = y[i] + h2 * k1[i]
-        mis_fast_deriv(yt, n, R, r, reach, K, chi, inv, pairs, ref, Z, B, Jv, v0, g, Qc, k2)
+        mis_fast_deriv(yt, n, P, R, r, reach, K, chi, inv, pairs, ref, Ainv, psi, Jv, v0, g,
+                       Qc, sc, du, k2)
         for i in range(n2):
             yt[i] = y[i] + h2 * k2[i]
-        mis_fast_deriv(yt, n, R, r, reach, K, chi, inv, pairs, ref, Z, B, Jv, v0, g, Qc, k3)
+        mis_fast_deriv(yt, n, P, R, r, reach, K, chi, inv, pairs, ref, Ainv, psi, Jv, v0, g,
+                       Qc, sc, du, k3)
         for i in range(n2):
             yt[i] = y[i] + h * k3[i]
-        mis_fast_deriv(yt, n, R, r, reach, K, chi, inv, pairs, ref, Z, B, Jv, v0, g, Qc, k4)
+        mis_fast_deriv(yt, n, P, R, r, reach, K, chi, inv, pairs, ref, Ainv, psi, Jv, v0, g,
+                       Qc, sc, du, k4)
         for i in range(n2):
             y[i] = y[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
         if rows < trace.shape[0]:
@@ -595,33 +623,41 @@ def mis_contact_step(t, dt, y, n, P, S, sub, trace, k1, k2, k3, k4, yt, qdd,
     pairs = neighbour_pairs(y, n)
     ref = np.empty((pairs.shape[0], 4))
     neighbour_reference(y, n, pairs, ref)
-    Z = np.empty((6, n))
+    Ainv = np.empty((6, 6))
+    psi = np.empty((n, 3))
+    for b in range(n):
+        psi[b, 0] = y[THETA] + y[PHI + b]
+        psi[b, 1] = math.sin(psi[b, 0])
+        psi[b, 2] = math.cos(psi[b, 0])
     Jv = np.empty((N, n))
     v0 = y[N + PHI:].copy()
-    rhs = np.empty(6)
-    z = np.empty(6)
+    sc = np.empty((2, n))
+    du = np.empty(6)
     F = np.empty((3, N))
     g = np.zeros(N)
     Qc = np.empty(n)
     rows = 0
+    P_slow = P.copy()
+    P_slow[I_CONTACT_E] = 0.0
     for i in range(3):
         t_i = t + MIS_C[i] * dt
-        accel(t_i, y, n, P, S, qdd, A, W, f, B, fb, u)
+        accel(t_i, y, n, P_slow, S, qdd, A, W, f, B, fb, u)
         if i == 0:
-            # C0: A is now the eliminated deck matrix; Z = A^-1 W, column by column
-            for b in range(n):
+            # A is now the eliminated deck matrix: its inverse, column by column
+            for col in range(6):
                 for row in range(6):
-                    rhs[row] = W[row, b]
-                solve_deck(A, rhs, z)
+                    f[row] = 1.0 if row == col else 0.0
+                solve_deck(A, f, u)
                 for row in range(6):
-                    Z[row, b] = z[row]
+                    Ainv[row, col] = u[row]
             velocity_coupling(y, n, P, inv, A, W, B, Jv)
-        # the slow part at stage i: accel minus C0 Qc (the fast part's accelerations, g = 0)
+        # the slow part at stage i: accel without contact minus Jv (phi' - v0)
         for c in range(N):
-            g[c] = 0.0
-        mis_fast_deriv(y, n, R, r, reach, K, chi, inv, pairs, ref, Z, B, Jv, v0, g, Qc, k1)
-        for c in range(N):
-            F[i, c] = qdd[c] - k1[N + c]
+            F[i, c] = qdd[c]
+        for b in range(n):
+            dv = y[N + PHI + b] - v0[b]
+            for c in range(N):
+                F[i, c] -= Jv[c, b] * dv
         span = MIS_C[i + 1] - MIS_C[i]
         for c in range(N):
             s = 0.0
@@ -629,8 +665,9 @@ def mis_contact_step(t, dt, y, n, P, S, sub, trace, k1, k2, k3, k4, yt, qdd,
                 s += (MIS_A[i + 1, j] - MIS_A[i, j]) * F[j, c]
             g[c] = s / span
         m = max(1, int(math.ceil(sub * span - 1e-9)))
-        rows = mis_fast_solve(t_i, m, span * dt / m, y, n, R, r, reach, K, chi, inv, pairs,
-                              ref, Z, B, Jv, v0, g, Qc, k1, k2, k3, k4, yt, trace, rows)
+        rows = mis_fast_solve(t_i, m, span * dt / m, y, n, P, R, r, reach, K, chi, inv, pairs,
+                              ref, Ainv, psi, Jv, v0, g, Qc, sc, du, k1, k2, k3, k4, yt, trace,
+                              rows)
     return rows
 
 @kernel
@@ -1243,10 +1280,10 @@ def rk4_step(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B, fb, 
 def rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B, fb, u,
                      cache):
     """One step of dt from (t, y), y updated in place: one classical RK4 step, or, while
-    balls touch (issue 12), sub-steps of dt / :func:`contact_substeps`: while the contacts
-    rest, the multirate step :func:`mis_contact_step` (only the contact forces sub-stepped);
-    in an impact (:func:`contact_regime`), in torque mode and with rolling resistance, RK4
-    sub-steps of the whole system; with rolling resistance each
+    balls touch (issue 12), sub-steps of dt / :func:`contact_substeps`: the multirate step
+    :func:`mis_contact_step` (only the contact forces sub-stepped, :func:`mis_substeps`
+    times), or, in torque mode and with rolling resistance, RK4 sub-steps of the whole
+    system; with rolling resistance each
     (sub)step locates its regime switches (:func:`rk4_rolling_substep`, ``cache`` (3, 2N)
     carried from step to step). k1..k4, yt
     and ysave are stage buffers of shape (2N,), the rest the solver scratch of :func:`accel`.
@@ -1256,7 +1293,7 @@ def rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f,
     for i in range(n2):
         ysave[i] = y[i]
     sub = 1
-    impact = True
+    impact = False
     if P[I_CONTACT_E] > 0.0 and n > 1:
         sub, impact = contact_regime(y, n, P, dt)
     switches = 0
@@ -1268,8 +1305,9 @@ def rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f,
                                             events, cache, A, W, f, B, fb, u)
     elif sub == 1:
         rk4_substep(t, dt, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u)
-    elif not impact and S[0] != SPINDLE_TORQUE:
-        sub = mis_contact_step(t, dt, y, n, P, S, sub, np.empty((0, n2)), k1, k2, k3, k4, yt,
+    elif S[0] != SPINDLE_TORQUE:
+        fast = int(math.ceil(sub * MIS_IMPACT_REFINE)) if impact else sub  # mis_substeps
+        sub = mis_contact_step(t, dt, y, n, P, S, fast, np.empty((0, n2)), k1, k2, k3, k4, yt,
                                qdd, A, W, f, B, fb, u)
     else:
         h = dt / sub
