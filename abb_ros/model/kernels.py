@@ -605,14 +605,15 @@ def mis_contact_step(t, dt, y, n, P, S, sub, trace, k1, k2, k3, k4, yt, qdd,
 
     The right-hand side is split into a fast part, the positions' rates, the accelerations
     C0 Qc that the contact forces of the neighbour pairs cause through the coupled system
-    at the step's start and the linear change of the rate-dependent terms with the balls'
-    rates (an impact changes them within a step; :func:`mis_fast_deriv`), and the slow rest,
-    the full accelerations (:func:`accel`) minus the fast ones. The slow part is evaluated at
-    the three stages only; from stage to stage the fast part is integrated by RK4 sub-steps
-    of at most dt / sub with the slow part's stage combination as a constant forcing: a
-    sub-step costs O(n), not a coupled solve. Row r of ``trace`` (when it has rows) receives
-    sub-step r: [its start time, its length, the state after it]; k1..k4, yt: stage buffers
-    (2N). Returns the number of sub-steps. Speed-driven spindle, no rolling resistance
+    and the linear change of the rate-dependent terms with the balls' rates since the step's
+    start (an impact changes them within a step; :func:`mis_fast_deriv`), and a slow part,
+    the accelerations without contact (:func:`accel`) minus that linear change (so that no
+    contact spike is sampled at a stage). The slow part is evaluated at the three stages
+    only; from stage to stage the fast part is integrated by RK4 sub-steps of at most
+    dt / sub with the slow part's stage combination as a constant forcing: a sub-step costs
+    O(n), not a coupled solve. Row r of ``trace`` (when it has rows) receives sub-step r:
+    [its start time, its length, the state after it]; k1..k4, yt: stage buffers (2N).
+    Returns the number of sub-steps. Speed-driven spindle, no rolling resistance
     (:func:`rk4_step_located`)."""
     N = PHI + n
     inv = 1.0 / ball_inertia(P)
@@ -1283,12 +1284,12 @@ def rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f,
     balls touch (issue 12), sub-steps of dt / :func:`contact_substeps`: the multirate step
     :func:`mis_contact_step` (only the contact forces sub-stepped, :func:`mis_substeps`
     times), or, in torque mode and with rolling resistance, RK4 sub-steps of the whole
-    system; with rolling resistance each
-    (sub)step locates its regime switches (:func:`rk4_rolling_substep`, ``cache`` (3, 2N)
-    carried from step to step). k1..k4, yt
+    system; with rolling resistance each (sub)step locates its regime switches
+    (:func:`rk4_rolling_substep`, ``cache`` (3, 2N) carried from step to step). k1..k4, yt
     and ysave are stage buffers of shape (2N,), the rest the solver scratch of :func:`accel`.
-    Returns (status, sub-steps, switches): the :func:`check_state` status of the new state
-    (when it is not OK, y is put back to its value before the step)."""
+    Returns (status, sub-steps (the multirate step's fast ones), switches): the
+    :func:`check_state` status of the new state (when it is not OK, y is put back to its
+    value before the step)."""
     n2 = y.shape[0]
     for i in range(n2):
         ysave[i] = y[i]
