@@ -58,7 +58,7 @@ def replay(params, y0, omega, dt, nsteps):
             fast = K.mis_substeps(y, n, P, dt)
             trace = np.empty((fast + 3, 2 + N2))
             start = y.copy()
-            rows = K.mis_contact_step(s * dt, dt, y, n, P, S, fast, trace, *stages, qdd, *bufs)
+            rows = K.mis_contact_step(s * dt, dt, y, n, P, S, fast, trace, qdd, *bufs)
             for t, h, *end in trace[:rows]:
                 pieces.append((t, h, None, start, np.array(end)))
                 start = pieces[-1][-1]

@@ -433,7 +433,7 @@ def neighbour_pairs(y, n):
 def neighbour_reference(y, n, pairs, ref):
     """ref[k] = [its wrap 2 pi w, half-angle h0, sin h0, cos h0] of neighbour pair k at y
     (half = (phi_j - phi_i - 2 pi w) / 2 as in :func:`pair_state`), the reference of
-    :func:`mis_fast_deriv` within the step."""
+    :func:`mis_fast_solve` within the step."""
     for k in range(pairs.shape[0]):
         d = y[PHI + pairs[k, 1]] - y[PHI + pairs[k, 0]]
         w = 2.0 * math.pi * math.floor(d / (2.0 * math.pi) + 0.5)
@@ -457,11 +457,12 @@ def sincos_near(h0, s0, c0, e):
     return s0 * cos_e + c0 * sin_e, c0 * cos_e - s0 * sin_e
 
 @kernel
-def velocity_coupling(y, n, P, inv, A, W, B, Jv):
+def velocity_coupling(y, n, P, inv, Ainv, W, B, Jv):
     """Jv[:, b] = d q'' / d phi_b' at y (N x n), of the terms of :func:`assemble` and
     :func:`add_ball_rotation` in the balls' rates psi_b' = theta' + phi_b' (Eqs. 18-22:
-    Coriolis and centrifugal; the ball's drag D), through the coupled system: A the
-    eliminated deck rows, W and B as :func:`accel` leaves them, inv = 1 / m R^2."""
+    Coriolis and centrifugal; the ball's drag D), through the coupled system: Ainv the
+    inverse of the eliminated deck rows, W and B as :func:`accel` leaves them, inv =
+    1 / m R^2."""
     N = PHI + n
     R, m, D = P[3], P[6], P[15]
     mr = m * R
@@ -484,7 +485,10 @@ def velocity_coupling(y, n, P, inv, A, W, B, Jv):
         df[5] = 0.0
         for row in range(6):
             df[row] += W[row, b] * D * inv        # the ball row's -D, eliminated
-        solve_deck(A, df, du)
+        for row in range(6):
+            du[row] = 0.0
+            for col in range(6):
+                du[row] += Ainv[row, col] * df[col]
         Jv[THETA, b] = 0.0
         for row in range(6):
             Jv[DECK + row, b] = du[row]
@@ -493,101 +497,99 @@ def velocity_coupling(y, n, P, inv, A, W, B, Jv):
         Jv[PHI + b, b] -= inv * D
 
 @kernel
-def mis_fast_deriv(y, n, P, R, r, reach, K, chi, inv, pairs, ref, Ainv, psi, Jv, v0, g, Qc, sc,
-                   du, dy):
-    """y' of the fast part of :func:`mis_contact_step`: q' = q-dot, q-dot' = g + C0 Qc +
-    Jv (phi' - v0).
+def mis_fast_solve(t0, m, h, y, n, P, reach, inv, pairs, ref, Ainv, psi, Jv, v0, g, Qc, k, yt,
+                   trace, rows):
+    """m RK4 sub-steps of h from (t0, y), y in place, of the fast part of
+    :func:`mis_contact_step`: q' = q-dot, q-dot' = g + C0 Qc + Jv (phi' - v0). Rows of
+    ``trace`` from ``rows`` on; returns the next row. (One function with its right-hand side
+    inline: a sub-step is a few hundred flops, a kernel call per stage would cost as much.)
 
-    Qc: the contact forces of the neighbour pairs at y (:func:`pair_state`,
-    :func:`hertz_force`; reach = asin(r / R), the half-angle of contact; the half-angles'
-    sines from the step's reference ``ref``, :func:`sincos_near`). C0 Qc: the accelerations
-    they cause through the coupled system, ``inv`` = 1 / m R^2 (ball elimination), Ainv the
-    inverse of the eliminated deck rows at the step's start: deck u = Ainv (-inv W Qc), ball
-    b (Qc_b - B_b u) inv, with W and B at y (the balls' angles from the step's ``psi`` =
-    [psi_b, sin, cos] by :func:`sincos_near`; R, r, inv include the rolling balls' spin).
-    Jv (phi' - v0): the change of the balls' Coriolis, centrifugal and
-    drag terms with their rates since the step's start (:func:`velocity_coupling`)."""
+    Qc: the contact forces of the neighbour pairs (:func:`pair_state`, :func:`hertz_force`;
+    reach = asin(r / R), the half-angle of contact; the half-angles' sines from the step's
+    reference ``ref`` by :func:`sincos_near`). C0 Qc: the accelerations they cause through the
+    coupled system, ``inv`` = 1 / m R^2 (ball elimination), Ainv the inverse of the eliminated
+    deck rows at the step's start: deck u = Ainv (-inv W Qc), ball b (Qc_b - B_b u) inv, with
+    W and B at the present angles psi_b = theta + phi_b (``psi``: rows [phi_b, sin psi_b,
+    cos psi_b] of the step's start and [theta]; the rotor's turn by :func:`sincos_near`, the
+    ball's own, at most ~1e-2 within a step, to third order; R, r, inv include the rolling
+    balls' spin). Jv (phi' - v0): the change of the balls' Coriolis, centrifugal and drag terms
+    with their rates since the step's start (:func:`velocity_coupling`). k (4, 2N), yt (2N):
+    stage buffers; Qc (n) scratch."""
     N = PHI + n
-    for i in range(n):
-        Qc[i] = 0.0
-    touching = False
-    for k in range(pairs.shape[0]):
-        i = pairs[k, 0]
-        j = pairs[k, 1]
-        half = 0.5 * (y[PHI + j] - y[PHI + i] - ref[k, 0])
-        if abs(half) >= reach:
-            continue                            # apart
-        sh, ch = sincos_near(ref[k, 1], ref[k, 2], ref[k, 3], half - ref[k, 1])
-        lever = R * ch if half >= 0.0 else -R * ch
-        delta = 2.0 * r - 2.0 * R * abs(sh)
-        if delta <= 0.0:
-            continue
-        force, _ = hertz_force(K, chi, delta, -lever * (y[N + PHI + j] - y[N + PHI + i]))
-        Qc[j] += force * lever
-        Qc[i] -= force * lever
-        touching = True
-    for i in range(N):
-        dy[i] = y[N + i]
-        dy[N + i] = g[i]
-    for b in range(n):
-        dv = y[N + PHI + b] - v0[b]
-        if dv != 0.0:
-            for c in range(N):
-                dy[N + c] += Jv[c, b] * dv
-    if not touching:
-        return
+    n2 = 2 * N
+    R, r = P[3], P[I_R_BALL]
+    K = contact_stiffness(P)
+    chi = P[I_CONTACT_DAMPING]
     mr = P[6] * R
     mr2 = mr * R - (SPIN_INERTIA * P[6] * R * r if P[I_BALL_ROTATION] != 0.0 else 0.0)
-    al, be, ga = y[DECK + 3], y[DECK + 4], y[DECK + 5]
-    w0 = 0.0
-    w1 = 0.0
-    w2 = 0.0
-    w5 = 0.0
-    for b in range(n):
-        sb, cb = sincos_near(psi[b, 0], psi[b, 1], psi[b, 2], y[THETA] + y[PHI + b] - psi[b, 0])
-        sc[0, b] = sb
-        sc[1, b] = cb
-        q = -inv * Qc[b]
-        if q != 0.0:                            # -inv W Qc (W of assemble at y)
-            w0 -= mr * (sb + ga * cb) * q
-            w1 += mr * (cb - ga * sb) * q
-            w2 += mr * (al * cb + be * sb) * q
-            w5 += mr2 * q
-    w3 = be * w5
-    for row in range(6):
-        du[row] = Ainv[row, 0] * w0 + Ainv[row, 1] * w1 + Ainv[row, 2] * w2 \
-            + Ainv[row, 3] * w3 + Ainv[row, 5] * w5
-        dy[N + DECK + row] += du[row]
-    for b in range(n):                          # inv (Qc - B u) (B of assemble at y)
-        dy[N + PHI + b] += inv * (Qc[b] + mr * sc[0, b] * du[0] - mr * sc[1, b] * du[1]
-                                  - mr2 * du[5])
-
-@kernel
-def mis_fast_solve(t0, m, h, y, n, P, R, r, reach, K, chi, inv, pairs, ref, Ainv, psi, Jv, v0,
-                   g, Qc, sc, du, k1, k2, k3, k4, yt, trace, rows):
-    """m RK4 sub-steps of h of the fast part (:func:`mis_fast_deriv`) from (t0, y), y in
-    place, rows of ``trace`` from ``rows`` on (:func:`mis_contact_step`); returns the next
-    row."""
-    n2 = y.shape[0]
-    h2 = 0.5 * h
-    h6 = h / 6.0
     for s in range(m):
-        mis_fast_deriv(y, n, P, R, r, reach, K, chi, inv, pairs, ref, Ainv, psi, Jv, v0, g,
-                       Qc, sc, du, k1)
+        for stage in range(4):
+            a = 0.0 if stage == 0 else (h if stage == 3 else 0.5 * h)
+            for i in range(n2):
+                yt[i] = y[i] + a * k[stage - 1, i] if stage > 0 else y[i]
+            dy = k[stage]
+            for i in range(n):
+                Qc[i] = 0.0
+            touching = False
+            for p in range(pairs.shape[0]):
+                i = pairs[p, 0]
+                j = pairs[p, 1]
+                half = 0.5 * (yt[PHI + j] - yt[PHI + i] - ref[p, 0])
+                if abs(half) >= reach:
+                    continue                    # apart
+                sh, ch = sincos_near(ref[p, 1], ref[p, 2], ref[p, 3], half - ref[p, 1])
+                lever = R * ch if half >= 0.0 else -R * ch
+                delta = 2.0 * r - 2.0 * R * abs(sh)
+                if delta <= 0.0:
+                    continue
+                force, _ = hertz_force(K, chi, delta,
+                                       -lever * (yt[N + PHI + j] - yt[N + PHI + i]))
+                Qc[j] += force * lever
+                Qc[i] -= force * lever
+                touching = True
+            for i in range(N):
+                dy[i] = yt[N + i]
+                dy[N + i] = g[i]
+            for b in range(n):
+                dv = yt[N + PHI + b] - v0[b]
+                if dv != 0.0:
+                    for c in range(N):
+                        dy[N + c] += Jv[c, b] * dv
+            if not touching:
+                continue
+            al, be, ga = yt[DECK + 3], yt[DECK + 4], yt[DECK + 5]
+            st, ct = sincos_near(0.0, 0.0, 1.0, yt[THETA] - psi[n, 0])     # the rotor's turn
+            w0 = 0.0
+            w1 = 0.0
+            w2 = 0.0
+            w5 = 0.0
+            for b in range(n):
+                q = -inv * Qc[b]
+                if q != 0.0:                    # -inv W Qc (W of assemble at yt)
+                    sb, cb = ball_sincos(psi, st, ct, b, yt[PHI + b])
+                    w0 -= mr * (sb + ga * cb) * q
+                    w1 += mr * (cb - ga * sb) * q
+                    w2 += mr * (al * cb + be * sb) * q
+                    w5 += mr2 * q
+            w3 = be * w5
+            u0 = 0.0
+            u1 = 0.0
+            u5 = 0.0
+            for row in range(6):
+                ur = (Ainv[row, 0] * w0 + Ainv[row, 1] * w1 + Ainv[row, 2] * w2
+                      + Ainv[row, 3] * w3 + Ainv[row, 5] * w5)
+                dy[N + DECK + row] += ur
+                if row == 0:
+                    u0 = ur
+                elif row == 1:
+                    u1 = ur
+                elif row == 5:
+                    u5 = ur
+            for b in range(n):                  # inv (Qc - B u) (B of assemble at yt)
+                sb, cb = ball_sincos(psi, st, ct, b, yt[PHI + b])
+                dy[N + PHI + b] += inv * (Qc[b] + mr * sb * u0 - mr * cb * u1 - mr2 * u5)
         for i in range(n2):
-            yt[i] = y[i] + h2 * k1[i]
-        mis_fast_deriv(yt, n, P, R, r, reach, K, chi, inv, pairs, ref, Ainv, psi, Jv, v0, g,
-                       Qc, sc, du, k2)
-        for i in range(n2):
-            yt[i] = y[i] + h2 * k2[i]
-        mis_fast_deriv(yt, n, P, R, r, reach, K, chi, inv, pairs, ref, Ainv, psi, Jv, v0, g,
-                       Qc, sc, du, k3)
-        for i in range(n2):
-            yt[i] = y[i] + h * k3[i]
-        mis_fast_deriv(yt, n, P, R, r, reach, K, chi, inv, pairs, ref, Ainv, psi, Jv, v0, g,
-                       Qc, sc, du, k4)
-        for i in range(n2):
-            y[i] = y[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
+            y[i] = y[i] + h / 6.0 * (k[0, i] + 2.0 * (k[1, i] + k[2, i]) + k[3, i])
         if rows < trace.shape[0]:
             trace[rows, 0] = t0 + s * h
             trace[rows, 1] = h
@@ -597,8 +599,17 @@ def mis_fast_solve(t0, m, h, y, n, P, R, r, reach, K, chi, inv, pairs, ref, Ainv
     return rows
 
 @kernel
-def mis_contact_step(t, dt, y, n, P, S, sub, trace, k1, k2, k3, k4, yt, qdd,
-                     A, W, f, B, fb, u):
+def ball_sincos(psi, st, ct, b, phi):
+    """(sin, cos) of ball b's psi_b = theta + phi: its step-start values ``psi[b]`` turned by
+    the rotor's (st, ct) and by its own phi - phi_b0 to third order (:func:`mis_fast_solve`)."""
+    sr = psi[b, 1] * ct + psi[b, 2] * st
+    cr = psi[b, 2] * ct - psi[b, 1] * st
+    d = phi - psi[b, 0]
+    d2 = 1.0 - 0.5 * d * d
+    return sr * d2 + cr * d, cr * d2 - sr * d
+
+@kernel
+def mis_contact_step(t, dt, y, n, P, S, sub, trace, qdd, A, W, f, B, fb, u):
     """One step of dt from (t, y) while balls touch (issue 12), y in place: multirate
     infinitesimal step (MIS: Wensch, Knoth, Galant 2009) on Knoth & Wolke's three-stage RK
     (third order, :data:`MIS_A`, :data:`MIS_C`).
@@ -606,34 +617,32 @@ def mis_contact_step(t, dt, y, n, P, S, sub, trace, k1, k2, k3, k4, yt, qdd,
     The right-hand side is split into a fast part, the positions' rates, the accelerations
     C0 Qc that the contact forces of the neighbour pairs cause through the coupled system
     and the linear change of the rate-dependent terms with the balls' rates since the step's
-    start (an impact changes them within a step; :func:`mis_fast_deriv`), and a slow part,
+    start (an impact changes them within a step; :func:`mis_fast_solve`), and a slow part,
     the accelerations without contact (:func:`accel`) minus that linear change (so that no
     contact spike is sampled at a stage). The slow part is evaluated at the three stages
     only; from stage to stage the fast part is integrated by RK4 sub-steps of at most
     dt / sub with the slow part's stage combination as a constant forcing: a sub-step costs
     O(n), not a coupled solve. Row r of ``trace`` (when it has rows) receives sub-step r:
-    [its start time, its length, the state after it]; k1..k4, yt: stage buffers (2N).
-    Returns the number of sub-steps. Speed-driven spindle, no rolling resistance
+    [its start time, its length, the state after it]; qdd and the rest: the scratch of
+    :func:`accel`. Returns the number of sub-steps. Speed-driven spindle, no rolling resistance
     (:func:`rk4_step_located`)."""
     N = PHI + n
     inv = 1.0 / ball_inertia(P)
-    K = contact_stiffness(P)
-    chi = P[I_CONTACT_DAMPING]
-    R, r = P[3], P[I_R_BALL]
-    reach = math.asin(r / R)
+    reach = math.asin(P[I_R_BALL] / P[3])
     pairs = neighbour_pairs(y, n)
     ref = np.empty((pairs.shape[0], 4))
     neighbour_reference(y, n, pairs, ref)
     Ainv = np.empty((6, 6))
-    psi = np.empty((n, 3))
+    psi = np.empty((n + 1, 3))
     for b in range(n):
-        psi[b, 0] = y[THETA] + y[PHI + b]
-        psi[b, 1] = math.sin(psi[b, 0])
-        psi[b, 2] = math.cos(psi[b, 0])
+        psi[b, 0] = y[PHI + b]
+        psi[b, 1] = math.sin(y[THETA] + y[PHI + b])
+        psi[b, 2] = math.cos(y[THETA] + y[PHI + b])
+    psi[n, 0] = y[THETA]
     Jv = np.empty((N, n))
     v0 = y[N + PHI:].copy()
-    sc = np.empty((2, n))
-    du = np.empty(6)
+    k = np.empty((4, 2 * N))
+    yt = np.empty(2 * N)
     F = np.empty((3, N))
     g = np.zeros(N)
     Qc = np.empty(n)
@@ -651,7 +660,7 @@ def mis_contact_step(t, dt, y, n, P, S, sub, trace, k1, k2, k3, k4, yt, qdd,
                 solve_deck(A, f, u)
                 for row in range(6):
                     Ainv[row, col] = u[row]
-            velocity_coupling(y, n, P, inv, A, W, B, Jv)
+            velocity_coupling(y, n, P, inv, Ainv, W, B, Jv)
         # the slow part at stage i: accel without contact minus Jv (phi' - v0)
         for c in range(N):
             F[i, c] = qdd[c]
@@ -666,9 +675,8 @@ def mis_contact_step(t, dt, y, n, P, S, sub, trace, k1, k2, k3, k4, yt, qdd,
                 s += (MIS_A[i + 1, j] - MIS_A[i, j]) * F[j, c]
             g[c] = s / span
         m = max(1, int(math.ceil(sub * span - 1e-9)))
-        rows = mis_fast_solve(t_i, m, span * dt / m, y, n, P, R, r, reach, K, chi, inv, pairs,
-                              ref, Ainv, psi, Jv, v0, g, Qc, sc, du, k1, k2, k3, k4, yt, trace,
-                              rows)
+        rows = mis_fast_solve(t_i, m, span * dt / m, y, n, P, reach, inv, pairs, ref, Ainv, psi,
+                              Jv, v0, g, Qc, k, yt, trace, rows)
     return rows
 
 @kernel
@@ -1308,8 +1316,8 @@ def rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f,
         rk4_substep(t, dt, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u)
     elif S[0] != SPINDLE_TORQUE:
         fast = int(math.ceil(sub * MIS_IMPACT_REFINE)) if impact else sub  # mis_substeps
-        sub = mis_contact_step(t, dt, y, n, P, S, fast, np.empty((0, n2)), k1, k2, k3, k4, yt,
-                               qdd, A, W, f, B, fb, u)
+        sub = mis_contact_step(t, dt, y, n, P, S, fast, np.empty((0, n2)), qdd, A, W, f, B, fb,
+                               u)
     else:
         h = dt / sub
         for j in range(sub):
