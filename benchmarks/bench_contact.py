@@ -14,7 +14,9 @@ the node's default step (10 kHz), integration alone (the compiled kernels), for:
   1.5 s of settling.
 The node keeps real time when the factor is above 1 (its own overhead: see
 benchmarks/bench_simulator_node.py). "RK4 steps per step" (sub-steps included, counted over the
-whole run with its settling) is the machine-independent cost; "rolling switches" counts the
+whole run with its settling) is the machine-independent cost; in a multirate contact step
+(kernels.mis_contact_step: speed-driven spindle, no rolling resistance) it counts the fast
+sub-steps, each O(n), not a solve of the coupled system; "rolling switches" counts the
 stick/slip switches located inside steps (over the whole run). Nothing is asserted (shared, noisy
 machines).
 

@@ -74,6 +74,17 @@ MARGIN_TOL = 1.0e-9
 (the band's margin changes at ~1 / STICK_TIME: ~1e-12 s)."""
 MAX_LOCATE = 60
 """Most regula-falsi iterations per switching instant."""
+MIS_A = np.array([[0.0, 0.0, 0.0], [1.0 / 3.0, 0.0, 0.0], [-3.0 / 16.0, 15.0 / 16.0, 0.0],
+                  [1.0 / 6.0, 3.0 / 10.0, 8.0 / 15.0]])
+"""Knoth & Wolke's third-order three-stage RK (rows 0-2: a_ij, row 3: b_j), the slow method of
+the multirate contact step (:func:`mis_contact_step`; MIS: Wensch, Knoth, Galant 2009)."""
+MIS_C = np.array([0.0, 1.0 / 3.0, 3.0 / 4.0, 1.0])
+"""Its stage times c_i, and 1."""
+MIS_IMPACT_REFINE = 1.5
+"""The multirate step's fast sub-steps per contact sub-step in an impact (rounded up): the
+impact's resolution is its largest error (energy closure of test_beyond_energy's collision
+without rolling: 1.0e-6 with 1, 5.3e-7 with 1.5, 5.2e-7 with 2, 3.9e-7 with 4; RK4 sub-steps
+of the whole system: 1.5e-7, docs/beyond_the_paper.md)."""
 
 
 
@@ -309,19 +320,34 @@ def contact_forces(y, n, P, Qc):
     power = 0.0
     for i in range(n):
         for j in range(i + 1, n):
-            if not near(y[PHI + j] - y[PHI + i], sep):
-                continue
-            delta, rate, lever = pair_state(y, n, P, i, j)
-            if delta > 0.0:
-                elastic = K * delta * math.sqrt(delta)
-                force = elastic * (1.0 + chi * rate)
-                if force < 0.0:
-                    force = 0.0
-                Qc[j] += force * lever
-                Qc[i] -= force * lever
-                energy += 0.4 * elastic * delta
-                power += (elastic - force) * rate
+            e, p = add_pair_force(y, n, P, K, chi, sep, i, j, Qc)
+            energy += e
+            power += p
     return energy, -power
+
+@kernel
+def add_pair_force(y, n, P, K, chi, sep, i, j, Qc):
+    """Adds the Hunt-Crossley force of the pair (i, j) to Qc (:func:`contact_forces`);
+    returns its (potential energy, elastic minus total power)."""
+    if not near(y[PHI + j] - y[PHI + i], sep):
+        return 0.0, 0.0
+    delta, rate, lever = pair_state(y, n, P, i, j)
+    if delta <= 0.0:
+        return 0.0, 0.0
+    force, elastic = hertz_force(K, chi, delta, rate)
+    Qc[j] += force * lever
+    Qc[i] -= force * lever
+    return 0.4 * elastic * delta, (elastic - force) * rate
+
+@kernel
+def hertz_force(K, chi, delta, rate):
+    """(force, its elastic part) of the Hunt-Crossley law F = K delta^1.5 (1 + chi delta')
+    >= 0 at an overlap delta > 0 (:func:`contact_forces`)."""
+    elastic = K * delta * math.sqrt(delta)
+    force = elastic * (1.0 + chi * rate)
+    if force < 0.0:
+        force = 0.0
+    return force, elastic
 
 @kernel
 def contact_substeps(y, n, P, dt):
@@ -330,12 +356,19 @@ def contact_substeps(y, n, P, dt):
     the step (issue 12). omega_c = sqrt(4 k_c / m_b) bounds a chain of balls, with k_c =
     1.5 K sqrt(delta_peak), delta_peak the Hertz peak overlap for the present overlap and
     approach speed; plus the contact damping rate."""
+    return contact_regime(y, n, P, dt)[0]
+
+@kernel
+def contact_regime(y, n, P, dt):
+    """(:func:`contact_substeps`, impact): impact is True when a pair that can touch within
+    the step has more kinetic than static overlap (an impact, not a resting contact)."""
     K = contact_stiffness(P)
     chi = P[I_CONTACT_DAMPING]
     mb = P[6] * (1.0 + SPIN_INERTIA * P[I_BALL_ROTATION])
     sep = 2.0 * math.asin(P[I_R_BALL] / P[3])
     N = PHI + n
     need = 0.0
+    impact = False
     for i in range(n):
         for j in range(i + 1, n):
             reach = sep + 2.0 * abs(y[N + PHI + j] - y[N + PHI + i]) * dt
@@ -352,7 +385,11 @@ def contact_substeps(y, n, P, dt):
                 continue
             kc = 1.5 * K * math.sqrt(peak)
             w = math.sqrt(4.0 * kc / mb) + 2.0 * chi * K * peak * math.sqrt(peak) / mb
-            w /= CONTACT_OMEGA_H if kinetic > static else CONTACT_OMEGA_H_REST
+            if kinetic > static:
+                impact = True
+                w /= CONTACT_OMEGA_H
+            else:
+                w /= CONTACT_OMEGA_H_REST
             if w > need:
                 need = w
     k = int(math.ceil(need * dt))
@@ -360,7 +397,287 @@ def contact_substeps(y, n, P, dt):
         k = 1
     if k > MAX_SUBSTEPS:
         k = MAX_SUBSTEPS
-    return k
+    return k, impact
+
+@kernel
+def mis_substeps(y, n, P, dt):
+    """Fast RK4 sub-steps of :func:`mis_contact_step` for the step of dt from y:
+    :func:`contact_substeps`, times MIS_IMPACT_REFINE in an impact (:func:`contact_regime`)."""
+    sub, impact = contact_regime(y, n, P, dt)
+    return int(math.ceil(sub * MIS_IMPACT_REFINE)) if impact else sub
+
+@kernel
+def neighbour_pairs(y, n):
+    """The pairs of balls next to each other on the race, (n, 2) (one pair for n = 2): the
+    balls sorted by angle, each with the next (cyclically). Balls in contact cannot pass each
+    other, so only these pairs can touch within a step."""
+    angle = np.empty(n)
+    order = np.empty(n, dtype=np.int64)
+    for i in range(n):
+        a = y[PHI + i] - 2.0 * math.pi * math.floor(y[PHI + i] / (2.0 * math.pi))
+        k = i
+        while k > 0 and angle[k - 1] > a:       # insertion sort
+            angle[k] = angle[k - 1]
+            order[k] = order[k - 1]
+            k -= 1
+        angle[k] = a
+        order[k] = i
+    npairs = 1 if n == 2 else n
+    pairs = np.empty((npairs, 2), dtype=np.int64)
+    for k in range(npairs):
+        pairs[k, 0] = order[k]
+        pairs[k, 1] = order[(k + 1) % n]
+    return pairs
+
+@kernel
+def neighbour_reference(y, n, pairs, ref):
+    """ref[k] = [its wrap 2 pi w, half-angle h0, sin h0, cos h0] of neighbour pair k at y
+    (half = (phi_j - phi_i - 2 pi w) / 2 as in :func:`pair_state`), the reference of
+    :func:`mis_fast_solve` within the step."""
+    for k in range(pairs.shape[0]):
+        d = y[PHI + pairs[k, 1]] - y[PHI + pairs[k, 0]]
+        w = 2.0 * math.pi * math.floor(d / (2.0 * math.pi) + 0.5)
+        half = 0.5 * (d - w)
+        ref[k, 0] = w
+        ref[k, 1] = half
+        ref[k, 2] = math.sin(half)
+        ref[k, 3] = math.cos(half)
+
+@kernel
+def sincos_near(h0, s0, c0, e):
+    """(sin, cos) of h0 + e from s0 = sin h0 and c0 = cos h0: the addition theorem with
+    the Taylor series of sin e and cos e (round-off for |e| < 0.1), else math.sin, cos."""
+    if abs(e) >= 0.1:
+        return math.sin(h0 + e), math.cos(h0 + e)
+    e2 = e * e
+    sin_e = e * (1.0 - e2 * (1.0 / 6.0) * (1.0 - e2 * (1.0 / 20.0) * (
+        1.0 - e2 * (1.0 / 42.0) * (1.0 - e2 * (1.0 / 72.0)))))
+    cos_e = 1.0 - e2 * 0.5 * (1.0 - e2 * (1.0 / 12.0) * (1.0 - e2 * (1.0 / 30.0) * (
+        1.0 - e2 * (1.0 / 56.0) * (1.0 - e2 * (1.0 / 90.0)))))
+    return s0 * cos_e + c0 * sin_e, c0 * cos_e - s0 * sin_e
+
+@kernel
+def velocity_coupling(y, n, P, inv, Ainv, W, B, Jv):
+    """Jv[:, b] = d q'' / d phi_b' at y (N x n), of the terms of :func:`assemble` and
+    :func:`add_ball_rotation` in the balls' rates psi_b' = theta' + phi_b' (Eqs. 18-22:
+    Coriolis and centrifugal; the ball's drag D), through the coupled system: Ainv the
+    inverse of the eliminated deck rows, W and B as :func:`accel` leaves them, inv =
+    1 / m R^2."""
+    N = PHI + n
+    R, m, D = P[3], P[6], P[15]
+    mr = m * R
+    mr2 = mr * R
+    JbRr = SPIN_INERTIA * m * R * P[I_R_BALL] if P[I_BALL_ROTATION] != 0.0 else 0.0
+    al, be, ga = y[DECK + 3], y[DECK + 4], y[DECK + 5]
+    ald, bed, gad = y[N + DECK + 3], y[N + DECK + 4], y[N + DECK + 5]
+    df = np.empty(6)
+    du = np.empty(6)
+    for b in range(n):
+        psi = y[THETA] + y[PHI + b]
+        psid = y[N + THETA] + y[N + PHI + b]
+        s = math.sin(psi)
+        co = math.cos(psi)
+        df[0] = mr * (-2.0 * psid * ga * s + 2.0 * (gad + psid) * co)
+        df[1] = mr * (2.0 * psid * ga * co + 2.0 * (gad + psid) * s)
+        df[2] = -2.0 * mr * ((ald + psid * be) * co + (bed - psid * al) * s)
+        df[3] = -2.0 * mr2 * s * (co * ald + s * bed) + JbRr * bed
+        df[4] = 2.0 * mr2 * co * (s * bed + co * ald) - JbRr * ald
+        df[5] = 0.0
+        for row in range(6):
+            df[row] += W[row, b] * D * inv        # the ball row's -D, eliminated
+        for row in range(6):
+            du[row] = 0.0
+            for col in range(6):
+                du[row] += Ainv[row, col] * df[col]
+        Jv[THETA, b] = 0.0
+        for row in range(6):
+            Jv[DECK + row, b] = du[row]
+        for c in range(n):
+            Jv[PHI + c, b] = -inv * (B[c, 0] * du[0] + B[c, 1] * du[1] + B[c, 5] * du[5])
+        Jv[PHI + b, b] -= inv * D
+
+@kernel
+def mis_fast_solve(t0, m, h, y, n, P, reach, inv, pairs, ref, Ainv, psi, Jv, v0, g, Qc, k, yt,
+                   trace, rows):
+    """m RK4 sub-steps of h from (t0, y), y in place, of the fast part of
+    :func:`mis_contact_step`: q' = q-dot, q-dot' = g + C0 Qc + Jv (phi' - v0). Rows of
+    ``trace`` from ``rows`` on; returns the next row. (One function with its right-hand side
+    inline: a sub-step is a few hundred flops, a kernel call per stage would cost as much.)
+
+    Qc: the contact forces of the neighbour pairs (:func:`pair_state`, :func:`hertz_force`;
+    reach = asin(r / R), the half-angle of contact; the half-angles' sines from the step's
+    reference ``ref`` by :func:`sincos_near`). C0 Qc: the accelerations they cause through the
+    coupled system, ``inv`` = 1 / m R^2 (ball elimination), Ainv the inverse of the eliminated
+    deck rows at the step's start: deck u = Ainv (-inv W Qc), ball b (Qc_b - B_b u) inv, with
+    W and B at the present angles psi_b = theta + phi_b (``psi``: rows [phi_b, sin psi_b,
+    cos psi_b] of the step's start and [theta]; the rotor's turn by :func:`sincos_near`, the
+    ball's own, at most ~1e-2 within a step, to third order; R, r, inv include the rolling
+    balls' spin). Jv (phi' - v0): the change of the balls' Coriolis, centrifugal and drag terms
+    with their rates since the step's start (:func:`velocity_coupling`). k (4, 2N), yt (2N):
+    stage buffers; Qc (n) scratch."""
+    N = PHI + n
+    n2 = 2 * N
+    R, r = P[3], P[I_R_BALL]
+    K = contact_stiffness(P)
+    chi = P[I_CONTACT_DAMPING]
+    mr = P[6] * R
+    mr2 = mr * R - (SPIN_INERTIA * P[6] * R * r if P[I_BALL_ROTATION] != 0.0 else 0.0)
+    for s in range(m):
+        for stage in range(4):
+            a = 0.0 if stage == 0 else (h if stage == 3 else 0.5 * h)
+            for i in range(n2):
+                yt[i] = y[i] + a * k[stage - 1, i] if stage > 0 else y[i]
+            dy = k[stage]
+            for i in range(n):
+                Qc[i] = 0.0
+            touching = False
+            for p in range(pairs.shape[0]):
+                i = pairs[p, 0]
+                j = pairs[p, 1]
+                half = 0.5 * (yt[PHI + j] - yt[PHI + i] - ref[p, 0])
+                if abs(half) >= reach:
+                    continue                    # apart
+                sh, ch = sincos_near(ref[p, 1], ref[p, 2], ref[p, 3], half - ref[p, 1])
+                lever = R * ch if half >= 0.0 else -R * ch
+                delta = 2.0 * r - 2.0 * R * abs(sh)
+                if delta <= 0.0:
+                    continue
+                force, _ = hertz_force(K, chi, delta,
+                                       -lever * (yt[N + PHI + j] - yt[N + PHI + i]))
+                Qc[j] += force * lever
+                Qc[i] -= force * lever
+                touching = True
+            for i in range(N):
+                dy[i] = yt[N + i]
+                dy[N + i] = g[i]
+            for b in range(n):
+                dv = yt[N + PHI + b] - v0[b]
+                if dv != 0.0:
+                    for c in range(N):
+                        dy[N + c] += Jv[c, b] * dv
+            if not touching:
+                continue
+            al, be, ga = yt[DECK + 3], yt[DECK + 4], yt[DECK + 5]
+            st, ct = sincos_near(0.0, 0.0, 1.0, yt[THETA] - psi[n, 0])     # the rotor's turn
+            w0 = 0.0
+            w1 = 0.0
+            w2 = 0.0
+            w5 = 0.0
+            for b in range(n):
+                q = -inv * Qc[b]
+                if q != 0.0:                    # -inv W Qc (W of assemble at yt)
+                    sb, cb = ball_sincos(psi, st, ct, b, yt[PHI + b])
+                    w0 -= mr * (sb + ga * cb) * q
+                    w1 += mr * (cb - ga * sb) * q
+                    w2 += mr * (al * cb + be * sb) * q
+                    w5 += mr2 * q
+            w3 = be * w5
+            u0 = 0.0
+            u1 = 0.0
+            u5 = 0.0
+            for row in range(6):
+                ur = (Ainv[row, 0] * w0 + Ainv[row, 1] * w1 + Ainv[row, 2] * w2
+                      + Ainv[row, 3] * w3 + Ainv[row, 5] * w5)
+                dy[N + DECK + row] += ur
+                if row == 0:
+                    u0 = ur
+                elif row == 1:
+                    u1 = ur
+                elif row == 5:
+                    u5 = ur
+            for b in range(n):                  # inv (Qc - B u) (B of assemble at yt)
+                sb, cb = ball_sincos(psi, st, ct, b, yt[PHI + b])
+                dy[N + PHI + b] += inv * (Qc[b] + mr * sb * u0 - mr * cb * u1 - mr2 * u5)
+        for i in range(n2):
+            y[i] = y[i] + h / 6.0 * (k[0, i] + 2.0 * (k[1, i] + k[2, i]) + k[3, i])
+        if rows < trace.shape[0]:
+            trace[rows, 0] = t0 + s * h
+            trace[rows, 1] = h
+            for i in range(n2):
+                trace[rows, 2 + i] = y[i]
+        rows += 1
+    return rows
+
+@kernel
+def ball_sincos(psi, st, ct, b, phi):
+    """(sin, cos) of ball b's psi_b = theta + phi: its step-start values ``psi[b]`` turned by
+    the rotor's (st, ct) and by its own phi - phi_b0 to third order (:func:`mis_fast_solve`)."""
+    sr = psi[b, 1] * ct + psi[b, 2] * st
+    cr = psi[b, 2] * ct - psi[b, 1] * st
+    d = phi - psi[b, 0]
+    d2 = 1.0 - 0.5 * d * d
+    return sr * d2 + cr * d, cr * d2 - sr * d
+
+@kernel
+def mis_contact_step(t, dt, y, n, P, S, sub, trace, qdd, A, W, f, B, fb, u):
+    """One step of dt from (t, y) while balls touch (issue 12), y in place: multirate
+    infinitesimal step (MIS: Wensch, Knoth, Galant 2009) on Knoth & Wolke's three-stage RK
+    (third order, :data:`MIS_A`, :data:`MIS_C`).
+
+    The right-hand side is split into a fast part, the positions' rates, the accelerations
+    C0 Qc that the contact forces of the neighbour pairs cause through the coupled system
+    and the linear change of the rate-dependent terms with the balls' rates since the step's
+    start (an impact changes them within a step; :func:`mis_fast_solve`), and a slow part,
+    the accelerations without contact (:func:`accel`) minus that linear change (so that no
+    contact spike is sampled at a stage). The slow part is evaluated at the three stages
+    only; from stage to stage the fast part is integrated by RK4 sub-steps of at most
+    dt / sub with the slow part's stage combination as a constant forcing: a sub-step costs
+    O(n), not a coupled solve. Row r of ``trace`` (when it has rows) receives sub-step r:
+    [its start time, its length, the state after it]; qdd and the rest: the scratch of
+    :func:`accel`. Returns the number of sub-steps. Speed-driven spindle, no rolling resistance
+    (:func:`rk4_step_located`)."""
+    N = PHI + n
+    inv = 1.0 / ball_inertia(P)
+    reach = math.asin(P[I_R_BALL] / P[3])
+    pairs = neighbour_pairs(y, n)
+    ref = np.empty((pairs.shape[0], 4))
+    neighbour_reference(y, n, pairs, ref)
+    Ainv = np.empty((6, 6))
+    psi = np.empty((n + 1, 3))
+    for b in range(n):
+        psi[b, 0] = y[PHI + b]
+        psi[b, 1] = math.sin(y[THETA] + y[PHI + b])
+        psi[b, 2] = math.cos(y[THETA] + y[PHI + b])
+    psi[n, 0] = y[THETA]
+    Jv = np.empty((N, n))
+    v0 = y[N + PHI:].copy()
+    k = np.empty((4, 2 * N))
+    yt = np.empty(2 * N)
+    F = np.empty((3, N))
+    g = np.zeros(N)
+    Qc = np.empty(n)
+    rows = 0
+    P_slow = P.copy()
+    P_slow[I_CONTACT_E] = 0.0
+    for i in range(3):
+        t_i = t + MIS_C[i] * dt
+        accel(t_i, y, n, P_slow, S, qdd, A, W, f, B, fb, u)
+        if i == 0:
+            # A is now the eliminated deck matrix: its inverse, column by column
+            for col in range(6):
+                for row in range(6):
+                    f[row] = 1.0 if row == col else 0.0
+                solve_deck(A, f, u)
+                for row in range(6):
+                    Ainv[row, col] = u[row]
+            velocity_coupling(y, n, P, inv, Ainv, W, B, Jv)
+        # the slow part at stage i: accel without contact minus Jv (phi' - v0)
+        for c in range(N):
+            F[i, c] = qdd[c]
+        for b in range(n):
+            dv = y[N + PHI + b] - v0[b]
+            for c in range(N):
+                F[i, c] -= Jv[c, b] * dv
+        span = MIS_C[i + 1] - MIS_C[i]
+        for c in range(N):
+            s = 0.0
+            for j in range(i + 1):
+                s += (MIS_A[i + 1, j] - MIS_A[i, j]) * F[j, c]
+            g[c] = s / span
+        m = max(1, int(math.ceil(sub * span - 1e-9)))
+        rows = mis_fast_solve(t_i, m, span * dt / m, y, n, P, reach, inv, pairs, ref, Ainv, psi,
+                              Jv, v0, g, Qc, k, yt, trace, rows)
+    return rows
 
 @kernel
 def solve3(A, f, i0, i1, i2, u):
@@ -972,18 +1289,22 @@ def rk4_step(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B, fb, 
 def rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B, fb, u,
                      cache):
     """One step of dt from (t, y), y updated in place: one classical RK4 step, or, while
-    balls touch (issue 12), as many RK4 sub-steps as :func:`contact_substeps` asks for;
-    with rolling resistance each (sub)step locates its regime switches
+    balls touch (issue 12), sub-steps of dt / :func:`contact_substeps`: the multirate step
+    :func:`mis_contact_step` (only the contact forces sub-stepped, :func:`mis_substeps`
+    times), or, in torque mode and with rolling resistance, RK4 sub-steps of the whole
+    system; with rolling resistance each (sub)step locates its regime switches
     (:func:`rk4_rolling_substep`, ``cache`` (3, 2N) carried from step to step). k1..k4, yt
     and ysave are stage buffers of shape (2N,), the rest the solver scratch of :func:`accel`.
-    Returns (status, sub-steps, switches): the :func:`check_state` status of the new state
-    (when it is not OK, y is put back to its value before the step)."""
+    Returns (status, sub-steps (the multirate step's fast ones), switches): the
+    :func:`check_state` status of the new state (when it is not OK, y is put back to its
+    value before the step)."""
     n2 = y.shape[0]
     for i in range(n2):
         ysave[i] = y[i]
     sub = 1
+    impact = False
     if P[I_CONTACT_E] > 0.0 and n > 1:
-        sub = contact_substeps(y, n, P, dt)
+        sub, impact = contact_regime(y, n, P, dt)
     switches = 0
     if P[I_ROLLING_MU] > 0.0 and n > 0 and S[0] != SPINDLE_TORQUE:
         events = np.empty((MAX_SWITCHES, 1 + n + n2))
@@ -993,6 +1314,10 @@ def rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f,
                                             events, cache, A, W, f, B, fb, u)
     elif sub == 1:
         rk4_substep(t, dt, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u)
+    elif S[0] != SPINDLE_TORQUE:
+        fast = int(math.ceil(sub * MIS_IMPACT_REFINE)) if impact else sub  # mis_substeps
+        sub = mis_contact_step(t, dt, y, n, P, S, fast, np.empty((0, n2)), qdd, A, W, f, B, fb,
+                               u)
     else:
         h = dt / sub
         for j in range(sub):
