@@ -3,6 +3,7 @@ scenarios, ROS parameter descriptors of the simulator and analysis nodes)."""
 
 import json
 
+import numpy as np
 import pytest
 
 from abb_ros.cli import main
@@ -72,3 +73,19 @@ def test_overlapping_start_with_contact_exits_2_naming_phi0(abb_sim):
                            '--set', 'contact_E=2e11', '--duration', '0.1', '--no-progress')
     assert code == 2
     assert "'phi0'" in err and '12.8' in err and len(err.strip().splitlines()) == 1
+
+
+def test_with_contact_the_default_start_puts_the_balls_side_by_side_just_apart():
+    """No start angles given (the simulator node, a scenario without phi_deg): with contact the
+    two groups of Section 5's start are spread by the contact separation + 0.1 deg instead of
+    1 deg, so ten steel balls start without overlap; without contact the start is the paper's."""
+    from abb_ros.model.beyond import with_steel_balls
+    from abb_ros.model.integrate import default_phi0, initial_state
+    paper = DriveParams(n=10)
+    steel = with_steel_balls(paper)
+    phi = np.degrees(initial_state(steel, 500.0)[7:17])
+    gaps = np.diff(np.sort(phi))
+    assert gaps.min() == pytest.approx(np.degrees(steel.contact_separation) + 0.1)
+    assert phi[:2] == pytest.approx([60.0, -60.0])
+    assert np.array_equal(initial_state(paper, 500.0)[7:17], default_phi0(10))
+    assert np.degrees(default_phi0(4)).round(12).tolist() == [60.0, -60.0, 61.0, -61.0]

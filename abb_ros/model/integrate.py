@@ -38,6 +38,8 @@ INITIAL_DECK = (0.3e-3, 0.3e-3, 0.3e-3, 0.0, 0.0, 0.0)
 
 INITIAL_PHI_DEG = 60.0
 """Section 5: phi_1(0) = -phi_2(0) = 60 deg."""
+CONTACT_START_GAP_DEG = 0.1
+"""With contact, neighbouring balls of a default start are this far beyond touching [deg]."""
 
 
 @dataclass(frozen=True)
@@ -143,15 +145,20 @@ class StateError(RuntimeError):
         super().__init__(f'state {what} after t = {t:.6f} s; integration stopped')
 
 
-def default_phi0(n: int) -> np.ndarray:
+def default_phi0(n: int, separation: float = 0.0) -> np.ndarray:
     """Initial ball angles [rad]: Section 5's +-60 deg; for n > 2 the balls alternate
     between the two groups, each group spread by 1 deg steps (identical balls started at the
-    same angle would move as one)."""
+    same angle would move as one), or, with contact (issue 12), by the balls' contact
+    ``separation`` [rad] plus 0.1 deg when that is wider: the balls then start side by side,
+    just apart."""
+    step = 1.0
+    if math.degrees(separation) + CONTACT_START_GAP_DEG > step:
+        step = math.degrees(separation) + CONTACT_START_GAP_DEG
     phi = np.empty(n)
     for i in range(n):
         group, rank = i % 2, i // 2
         sign = 1.0 if group == 0 else -1.0
-        phi[i] = sign * (INITIAL_PHI_DEG + rank)
+        phi[i] = sign * (INITIAL_PHI_DEG + rank * step)
     return np.radians(phi)
 
 
@@ -159,7 +166,10 @@ def initial_state(params: DriveParams, omega: float, phi0=None, deck0=INITIAL_DE
                   theta0: float = 0.0) -> np.ndarray:
     """The state y0 of Section 5 at spindle speed omega [rad/s]; shape (2N,)."""
     n = params.n
-    phi = default_phi0(n) if phi0 is None else np.asarray(phi0, dtype=float)
+    if phi0 is None:
+        phi = default_phi0(n, params.contact_separation if params.contact_E > 0 else 0.0)
+    else:
+        phi = np.asarray(phi0, dtype=float)
     if phi.shape != (n,):
         raise ParamError('phi0', list(np.degrees(phi)), f'{n} ball angles (n = {n})')
     _check_no_overlap(params, phi)
