@@ -92,3 +92,43 @@ def test_a_signal_at_a_random_moment_under_load_exits_0_without_traceback_or_fat
         for bag in (sim_bag, rec_bag):
             if bag.exists():   # not yet created if the signal came before construction
                 bag_consistent(bag)
+
+
+SLOW_CONSTRUCTION = '''
+import sys, time
+from pathlib import Path
+from abb_ros.nodes.entry_point import run_node
+
+def factory():
+    Path(sys.argv[1]).write_text('constructing')
+    end = time.monotonic() + 60.0          # like a first start compiling the kernels
+    while time.monotonic() < end:
+        sum(range(1000))
+    raise AssertionError('not interrupted')
+
+sys.exit(run_node('slow_node', factory))
+'''
+
+
+def test_a_signal_while_the_node_is_constructed_exits_0_at_once(tmp_path):
+    """A node still in its constructor (a first start compiling kernels for a minute) stops
+    on SIGINT within a second, exit 0, no traceback."""
+    marker = tmp_path / 'constructing'
+    proc = subprocess.Popen([sys.executable, '-c', SLOW_CONSTRUCTION, str(marker)],
+                            stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+    try:
+        deadline = time.monotonic() + 60.0
+        while not marker.exists():
+            assert proc.poll() is None and time.monotonic() < deadline, proc.stdout.read()
+            time.sleep(0.05)
+        sent = time.monotonic()
+        proc.send_signal(signal.SIGINT)
+        out, _ = proc.communicate(timeout=30)
+        took = time.monotonic() - sent
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+    assert proc.returncode == 0, out
+    assert 'Traceback' not in out and 'not interrupted' not in out
+    assert took < 5.0, f'stopped {took:.1f} s after SIGINT'
