@@ -191,3 +191,14 @@ def test_the_compiled_imu_and_deck_kernels_equal_their_python_twins_bit_for_bit(
         kern.deck_pose_twist(y, 2, pose)
         outs.append(np.concatenate([bias, out, pose]))
     assert outs[0].tobytes() == outs[1].tobytes()
+
+
+def test_normals_taken_from_blocks_are_the_generators_own_draws_in_order():
+    """NormalStream (IMU noise, FG jitter, speed noise): handing out a block k at a time, across
+    block boundaries and for takes larger than a block, gives what drawing k at a time gives."""
+    from abb_ros.model.normals import NormalStream
+    sizes = [12, 1, 0, 7, 30, 12, 5, 50, 3] * 10
+    stream = NormalStream(np.random.default_rng(9), block=40)
+    direct = np.random.default_rng(9)
+    for k in sizes:
+        assert stream.take(k).tolist() == direct.standard_normal(k).tolist()

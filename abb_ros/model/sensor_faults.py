@@ -25,6 +25,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from abb_ros.model.normals import NormalStream
 from abb_ros.model.sensors import ImuReading
 
 __all__ = ['ImuFaults', 'SpeedFaults', 'NOISE_SEED_STREAM']
@@ -75,11 +76,6 @@ class ImuFaults:
         return reading
 
 
-NOISE_AHEAD = 256
-"""Speed noise normals drawn per call (the same numbers, in the same order, as one draw per
-reading)."""
-
-
 @dataclass
 class SpeedFaults:
     """Active speed-sensor faults (see the module docstring)."""
@@ -94,7 +90,7 @@ class SpeedFaults:
     def reset(self) -> None:
         """Re-seed the noise generator."""
         self.rng = np.random.default_rng([self.seed, NOISE_SEED_STREAM])
-        self._normals = []   # drawn ahead, NOISE_AHEAD at a time, in the generator's order
+        self._normals = NormalStream(self.rng)
 
     def active(self) -> dict[str, object]:
         """{fault name: setting} of the faults now active."""
@@ -107,9 +103,7 @@ class SpeedFaults:
 
     def apply(self, value: float) -> float | None:
         """The reading given out for the sensor's ``value`` [rad/s] (None: nothing)."""
-        if not self._normals:
-            self._normals = self.rng.standard_normal(NOISE_AHEAD).tolist()[::-1]
-        z = self._normals.pop()
+        z = float(self._normals.take(1)[0])
         if self.dropout:
             return None
         return value + z * self.noise if self.noise > 0.0 else value

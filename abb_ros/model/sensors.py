@@ -31,6 +31,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from abb_ros.model.jit import KernelSet
+from abb_ros.model.normals import NormalStream
 from abb_ros.model.state import ALPHA, DECK, PHI
 
 __all__ = ['GRAVITY', 'euler_rotation', 'euler_quaternion', 'deck_angular_velocity',
@@ -253,10 +254,6 @@ class ImuReading:
     gyro: np.ndarray
 
 
-NORMALS_AHEAD = 256
-"""IMU samples' worth of normals drawn from the generator per call."""
-
-
 @dataclass
 class ImuModel:
     """IMU readings with seeded noise and bias (see the module docstring)."""
@@ -276,8 +273,7 @@ class ImuModel:
         self.bias = np.concatenate([self.rng.normal(0.0, 1.0, 3) * c.accel_bias,
                                     self.rng.normal(0.0, 1.0, 3) * c.gyro_bias])
         """[accel (m/s^2), gyro (rad/s)] biases, deck axes"""
-        self._normals = np.empty((0, 12))   # drawn ahead, NORMALS_AHEAD samples at a time
-        self._next = 0
+        self._normals = NormalStream(self.rng)
 
     def reconfigure(self, config: ImuConfig) -> None:
         """New mounting/noise parameters; the generator and the bias state carry on."""
@@ -288,17 +284,6 @@ class ImuModel:
                             math.sqrt(config.accel_variance), math.sqrt(config.gyro_variance)])
         self._position = np.asarray(config.position, dtype=float)
 
-    def _next_normals(self) -> np.ndarray:
-        """The next 12 standard normals of the generator. Drawn NORMALS_AHEAD samples at a
-        time: a Generator's normals come one after another from its bit stream, so a block
-        holds the same numbers as the 12-draws it replaces (a test checks), at a fraction of
-        the per-call cost."""
-        if self._next == len(self._normals):
-            self._normals = self.rng.standard_normal((NORMALS_AHEAD, 12))
-            self._next = 0
-        self._next += 1
-        return self._normals[self._next - 1]
-
     def read(self, q, qd, qdd) -> ImuReading:
         """The reading at the state (q, q', q''); advances the noise generator.
 
@@ -306,7 +291,7 @@ class ImuModel:
         kernel (:func:`imu_reading`)."""
         # One draw of 12 normals per sample whatever the settings, so that the sequence of
         # the generator (and so every later reading) does not depend on which terms are on.
-        z = self._next_normals()
+        z = self._normals.take(12)
         out = np.empty(6)
         JIT.imu_reading(q, qd, qdd, self._position, self.config.gravity, z, self._k,
                         self.bias, out)

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from abb_ros.model.jit import KernelSet
+from abb_ros.model.normals import NormalStream
 
 __all__ = ['SpeedSensorConfig', 'SpeedSensor', 'fg_speed', 'SPEED_SEED_STREAM']
 
@@ -40,12 +41,9 @@ SPEED_SEED_STREAM = 1
 independent of the IMU noise drawn from ``default_rng(seed)``."""
 
 _NEWTON_ITERATIONS = 4
-JITTER_AHEAD = 256
-"""Edge jitter normals drawn from the generator per call (the same numbers, in the same
-order, as one draw per edge)."""
 # FG state vector of the kernel: tick count and time [s] of the last captured edge (valid when
-# HAS_EDGE is 1), the held reading [rad/s], the edge count, the next jitter normal's index.
-EDGE_TICKS, EDGE_T, VALUE, EDGES, HAS_EDGE, NEXT_NORMAL, N_STATE = range(7)
+# HAS_EDGE is 1), the held reading [rad/s], the edge count.
+EDGE_TICKS, EDGE_T, VALUE, EDGES, HAS_EDGE, N_STATE = range(6)
 
 kernel = KernelSet()
 
@@ -115,7 +113,7 @@ class SpeedSensor:
         self.rng = np.random.default_rng([self.seed, SPEED_SEED_STREAM])
         self._last = None          # (t, theta, omega) of the previous sample
         self._state = np.zeros(N_STATE)
-        self._normals = np.empty(0)   # edge jitter normals drawn ahead
+        self._jitter = NormalStream(self.rng)
 
     @property
     def value(self) -> float:
@@ -148,12 +146,10 @@ class SpeedSensor:
         state = self._state
         if last is not None and t > last[0]:
             c = self.config
-            while not JIT.fg_edges(last, self._last, c.pitch, c.timer_hz, c.pulses_per_rev,
-                                   c.edge_jitter, self._normals, state):
-                # the normals not used yet, then a new block: the generator's own order
-                unused = self._normals[int(state[NEXT_NORMAL]):]
-                self._normals = np.concatenate([unused, self.rng.standard_normal(JITTER_AHEAD)])
-                state[NEXT_NORMAL] = 0.0
+            edges = abs(math.floor(theta / c.pitch) - math.floor(last[1] / c.pitch))
+            if edges:
+                JIT.fg_edges(last, self._last, c.pitch, c.timer_hz, c.pulses_per_rev,
+                             c.edge_jitter, self._jitter.take(edges), state)
         if state[HAS_EDGE] and t - state[EDGE_T] > self.config.timeout:
             state[VALUE] = 0.0
         return float(state[VALUE])
@@ -163,14 +159,12 @@ class SpeedSensor:
 def fg_edges(a, b, pitch, timer_hz, pulses_per_rev, edge_jitter, normals, state):
     """Capture every FG edge between the state samples a = (t0, theta0, omega0) and b (a
     later one): each crossing of a multiple of ``pitch`` (in the order the rotor meets them)
-    is found on the Hermite interpolant, jittered by the next of ``normals`` times
-    ``edge_jitter`` and captured by the timer; ``state`` (EDGE_TICKS...) is updated. Returns
-    False, changing nothing, when fewer normals are left than edges to capture."""
+    is found on the Hermite interpolant, jittered by its own of ``normals`` (one per edge, in
+    order) times ``edge_jitter`` and captured by the timer; ``state`` (EDGE_TICKS...) is
+    updated."""
     t0, th0, w0 = a[0], a[1], a[2]
     t1, th1, w1 = b[0], b[1], b[2]
     k0, k1 = math.floor(th0 / pitch), math.floor(th1 / pitch)
-    if state[NEXT_NORMAL] + abs(k1 - k0) > normals.size:
-        return False
     step = 1 if k1 > k0 else -1
     first = k0 + 1 if k1 > k0 else k0
     h = t1 - t0
@@ -178,16 +172,13 @@ def fg_edges(a, b, pitch, timer_hz, pulses_per_rev, edge_jitter, normals, state)
         k = first + step * i
         s = _hermite_crossing(k * pitch, h, th0, w0, th1, w1)
         t_edge = t0 + s
-        j = int(state[NEXT_NORMAL])
-        state[NEXT_NORMAL] = j + 1
-        ticks = math.floor((t_edge + normals[j] * edge_jitter) * timer_hz)
+        ticks = math.floor((t_edge + normals[i] * edge_jitter) * timer_hz)
         if state[HAS_EDGE] != 0.0 and ticks > state[EDGE_TICKS]:
             state[VALUE] = _fg_speed(ticks - state[EDGE_TICKS], timer_hz, pulses_per_rev)
         state[EDGE_TICKS] = ticks
         state[EDGE_T] = t_edge
         state[HAS_EDGE] = 1.0
         state[EDGES] += 1.0
-    return True
 
 
 JIT, PY = kernel.build()
