@@ -127,19 +127,13 @@ def deck_angular_acceleration(alpha, beta, gamma, dalpha, dbeta, dgamma,
 def deck_velocity(q, qd) -> tuple[np.ndarray, np.ndarray]:
     """(velocity of C, angular velocity Eq. 10), both in deck axes [m/s], [rad/s].
 
-    ``q``, ``qd``: generalised coordinates and rates, [theta, X, Y, Z, alpha, beta, gamma, ...].
+    ``q``, ``qd``: generalised coordinates and rates, [theta, X, Y, Z, alpha, beta, gamma, ...]
+    (the twist of :func:`deck_pose_twist`).
     """
-    a, b, g = _floats(q, ALPHA, ALPHA + 3)
-    dX, dY, dZ, da, db, dg = _floats(qd, DECK, ALPHA + 3)
-    v = _mul(_t_matrix(a, b, g), (dX, dY, dZ))
-    return np.array(v), np.array(_omega(a, b, da, db, dg))
-
-
-def _floats(v, start: int, stop: int) -> list[float]:
-    """v[start:stop] as Python floats (one conversion, not one per element)."""
-    if isinstance(v, np.ndarray):
-        return v[start:stop].tolist()
-    return [float(x) for x in v[start:stop]]
+    q = np.asarray(q, dtype=float)
+    out = np.empty(13)
+    JIT.deck_pose_twist(np.concatenate([q, np.asarray(qd, dtype=float)]), q.size - PHI, out)
+    return out[7:10], out[10:13]
 
 
 @kernel
