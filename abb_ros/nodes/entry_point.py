@@ -5,9 +5,7 @@ Stopping: SIGINT and SIGTERM only set a flag that the spin loop checks between c
 callback, where the EventsExecutor would report ``[FATAL] Exception in 'timers' callback``
 with a traceback, and the context is shut down only after the node has been destroyed (its
 ``close()`` first, e.g. the recorder finishing its bag): exit code 0 and no traceback,
-whatever was running when the signal came. While the node is being constructed (the
-simulator compiles its kernels there on a first start without ``warmup``: up to a minute) a
-signal interrupts the construction instead, and the process exits 0 at once.
+whatever was running when the signal came.
 """
 
 from __future__ import annotations
@@ -61,11 +59,7 @@ def run_node(name: str, factory, args=None, usage_errors=(ParamError,)) -> int:
     try:
         rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
         if not stop:   # a signal during the imports: do not start at all
-            stop.interrupting = True    # a signal now cuts the construction short
-            try:
-                node = factory()
-            finally:
-                stop.interrupting = False
+            node = factory()
             spin(node, stop)
         code = getattr(node, 'exit_code', None) or 0
     except usage_errors as err:

@@ -20,20 +20,14 @@ NODE_SCRIPTS = ('simulator', 'analysis', 'recorder')
 
 
 class StopRequest:
-    """A signal handler that records the first stop signal, and raises KeyboardInterrupt
-    while ``interrupting`` (a node being built: nothing runs yet that a stop could leave
-    half done, and the construction may compile kernels for a minute on a first start)."""
+    """A signal handler that records the first stop signal."""
 
     def __init__(self):
         self.signum = None
-        self.interrupting = False
 
     def __call__(self, signum, frame) -> None:
         if self.signum is None:
             self.signum = signum
-        if self.interrupting:
-            self.interrupting = False
-            raise KeyboardInterrupt
 
     def __bool__(self) -> bool:
         return self.signum is not None
