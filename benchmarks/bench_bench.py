@@ -46,6 +46,9 @@ N_BALLS = 10
 PUBLISH_PERIOD_NS = 1_000_000
 RSS_SAMPLE_S = 5.0
 SETTLE_S = 2.0
+OTHER_TOPICS = ('stability/margin', '/diagnostics', 'spindle/speed_cmd', 'spindle/current_cmd')
+"""The bench's topics that other nodes publish: the in-process recording takes them from the
+middleware (record.topics), so that its bag holds every topic of the bench."""
 STATUS_SIM = 'abb_simulator: simulation'
 STATUS_ANALYSIS = 'abb_analysis: stability'
 STATUS_RECORDER = 'abb_recorder: recording'
@@ -88,6 +91,65 @@ def run_subscriber(out: Path) -> int:
             out.write_text(json.dumps(self.stats))
 
     return run_node('bench_subscriber', Subscriber)
+
+
+# ---- the middleware floor (its own process, in place of the simulator) -------------------
+
+def run_floor(record: Path | None) -> int:
+    """The simulator's publishing without its work: the CDR bytes of one real sample of the
+    bench's plant (n = 10, sampled as the node does) published on the simulator's topics with
+    its QoS every publish period from a 1 kHz timer (the EventsExecutor, as the node spins),
+    and written to an in-process bag when ``record`` is given, as the node records. What the
+    bench costs when integration, sampling and encoding cost nothing."""
+    from rclpy.node import Node
+
+    from abb_ros.io import cdr, ros_messages
+    from abb_ros.io.bag_writer import BagWriter
+    from abb_ros.model.integrate import Simulation
+    from abb_ros.model.params import DriveParams
+    from abb_ros.model.sampling import PlantSampler
+    from abb_ros.model.sensors import TYPICAL_IMU, ImuModel
+    from abb_ros.model.speed_sensor import SpeedSensor
+    from abb_ros.nodes.entry_point import run_node
+    from abb_ros.nodes.simulator import PUBLISH_DEPTH
+
+    params = DriveParams().replace(n=N_BALLS)
+    sim = Simulation(params, params.omega0 * 1.5, 1e-4)
+    sampler = PlantSampler(sim, ImuModel(TYPICAL_IMU, 0), 10, 10, speed=SpeedSensor(None, 0))
+    samples = []
+    while not samples:
+        samples = sampler.next_period()
+    _, encoded = cdr.sample_cdr(samples[-1], 100_000, TYPICAL_IMU)
+
+    class Floor(Node):
+        def __init__(self):
+            super().__init__('bench_floor')
+            self.pubs = [(topic, self.create_publisher(ros_messages.TOPIC_TYPES[topic], topic,
+                                                       PUBLISH_DEPTH), data)
+                         for topic, data in encoded]
+            self.bag = None
+            if record is not None:
+                self.bag = BagWriter(record)
+                for topic, _ in encoded:
+                    self.bag.add_topic('/' + topic.lstrip('/'), by_type(topic))
+            self.create_timer(PUBLISH_PERIOD_NS * 1e-9, self.tick)
+
+        def tick(self):
+            now = time.time_ns()
+            for topic, pub, data in self.pubs:
+                pub.publish(data)
+                if self.bag is not None:
+                    self.bag.write('/' + topic.lstrip('/'), data, now)
+
+        def close(self):
+            if self.bag is not None:
+                self.bag.close()
+
+    def by_type(topic):
+        from abb_ros.io.topics import by_name
+        return by_name(topic).type
+
+    return run_node('bench_floor', Floor)
 
 
 # ---- the bench ------------------------------------------------------------------------------
@@ -154,11 +216,20 @@ def main() -> int:
                     help="also record in the simulator (parameter record.path)")
     ap.add_argument('--realtime-priority', type=int, default=0,
                     help="the simulator's realtime_priority (SCHED_FIFO; 0 = normal) [0]")
-    ap.add_argument('--role', choices=['bench', 'subscriber'], default='bench')
+    ap.add_argument('--no-recorder-node', action='store_true',
+                    help='no separate recorder node (with --record-in-process: the plant '
+                         'records itself)')
+    ap.add_argument('--floor', action='store_true',
+                    help="the middleware floor: in place of the simulator, a process that "
+                         "publishes one real sample's CDR bytes on its topics every period "
+                         "(no integration, sampling or encoding)")
+    ap.add_argument('--role', choices=['bench', 'subscriber', 'floor'], default='bench')
     ap.add_argument('--out', type=Path, help=argparse.SUPPRESS)
     args = ap.parse_args()
     if args.role == 'subscriber':
         return run_subscriber(args.out)
+    if args.role == 'floor':
+        return run_floor(args.out)
 
     work = Path(tempfile.mkdtemp(prefix='abb_bench_'))
     sub_out = work / 'subscriber.json'
@@ -166,7 +237,8 @@ def main() -> int:
     if args.realtime_priority:
         sim_params.append(f'realtime_priority:={args.realtime_priority}')
     if args.record_in_process:
-        sim_params.append(f'record.path:={work / "inproc_bag"}')
+        sim_params += [f'record.path:={work / "inproc_bag"}',
+                       f'record.topics:=[{", ".join(OTHER_TOPICS)}]']
     procs = {}
     hog = None
     try:
@@ -174,9 +246,17 @@ def main() -> int:
             hog = start([sys.executable, '-c', 'while True: pass'], work, 'hog', {0})
         procs['subscriber'] = start([sys.executable, __file__, '--role', 'subscriber',
                                      '--out', str(sub_out)], work, 'subscriber')
-        procs['recorder'] = start(node('recorder', f'output:={work / "bag"}'), work, 'recorder')
+        if not args.no_recorder_node:
+            procs['recorder'] = start(node('recorder', f'output:={work / "bag"}'), work,
+                                      'recorder')
         procs['analysis'] = start(node('analysis'), work, 'analysis')
-        procs['simulator'] = start(node('simulator', *sim_params), work, 'simulator')
+        if args.floor:
+            floor = [sys.executable, __file__, '--role', 'floor']
+            if args.record_in_process:
+                floor += ['--out', str(work / 'inproc_bag')]
+            procs['simulator'] = start(floor, work, 'simulator')
+        else:
+            procs['simulator'] = start(node('simulator', *sim_params), work, 'simulator')
         first = wait_for(work / 'subscriber.json.ready', procs, 300.0)
         print(f'first joint_states at the subscriber {first:.2f} s after the simulator started')
         time.sleep(SETTLE_S)
@@ -214,13 +294,18 @@ def main() -> int:
 
 def report(args, work, sub_out, cpu, rss, codes, wall) -> None:
     sub = json.loads(sub_out.read_text())
-    statuses = bag_statuses(work / 'bag')
+    bag = work / ('inproc_bag' if args.no_recorder_node else 'bag')
+    statuses = bag_statuses(bag) if bag.exists() else {}
     sim = statuses.get(STATUS_SIM, {}).get('values', {})
     rec = statuses.get(STATUS_RECORDER, {})
     ana = statuses.get(STATUS_ANALYSIS, {})
-    counts, custom = bag_counts(work / 'bag')
+    counts, custom = bag_counts(bag) if bag.exists() else ({}, {})
     lost = json.loads(custom.get('abb_ros.lost_messages', '{}'))
-    print(f'bench: n = {N_BALLS}, 10 kHz steps, 1 kHz publish, real_time_factor 1, '
+    plant = ('FLOOR (one sample\'s bytes republished, no physics)' if args.floor
+             else f'n = {N_BALLS}, 10 kHz steps')
+    recording = ', '.join((['recorder node'] if not args.no_recorder_node else [])
+                          + (['in-process'] if args.record_in_process else [])) or 'none'
+    print(f'bench: {plant}, 1 kHz publish, real_time_factor 1, recording: {recording}, '
           f'{wall:.1f} s measured, hog on CPU 0: {"yes" if args.hog else "no"}, '
           f'simulator scheduling: {sim.get("scheduling")}, '
           f'{os.cpu_count()} CPUs, load average {os.getloadavg()[0]:.2f} at the end')

@@ -10,6 +10,7 @@
    subscriber received within the recording's span is in the bag.
 """
 
+import json
 import signal
 import subprocess
 import sys
@@ -124,3 +125,78 @@ def test_recording_started_and_stopped_by_service_holds_what_a_subscriber_receiv
     in_span = [s for s in received if stamps[0] <= s <= stamps[-1]]
     assert set(in_span) <= set(stamps), 'the subscriber got a message the bag lacks'
     assert not p.call(Trigger, '/abb_simulator/stop_recording', Trigger.Request()).success
+
+
+@pytest.mark.slow
+def test_recording_in_the_node_takes_the_other_nodes_topics_from_the_graph(plant_factory,
+                                                                          tmp_path):
+    """record.topics: another node's stability/margin, every one with its bytes, and
+    /diagnostics from both nodes, the simulator's own statuses once each (they come through
+    the middleware like the others'); the plant's topics as before, nothing lost."""
+    from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+    from rclpy.serialization import deserialize_message, serialize_message
+    from std_msgs.msg import Float64
+
+    bag = tmp_path / 'bag'
+    p = plant_factory(**{'record.path': '', 'max_stamp_lag': 5.0,
+                         'record.topics': ['stability/margin', '/diagnostics']})
+    margin = p.node.create_publisher(Float64, 'stability/margin', 10)
+    status = p.node.create_publisher(DiagnosticArray, '/diagnostics', 10)
+    p.sim.set_parameters([Parameter('record.path', value=str(bag))])
+    assert p.call(Trigger, '/abb_simulator/start_recording', Trigger.Request()).success
+    p.wait(lambda: p.sim.graph.subscriptions.get('/stability/margin') is not None,
+           'the subscription to stability/margin', timeout=10.0)
+    sent = []
+    for k in range(40):
+        msg = Float64(data=0.01 * k)
+        margin.publish(msg)
+        sent.append(serialize_message(msg))
+        if k % 10 == 0:
+            status.publish(DiagnosticArray(status=[DiagnosticStatus(name='probe',
+                                                                    message=str(k))]))
+        p.spin_for(0.03)
+    p.spin_for(1.5)   # at least one status of the simulator
+    reply = p.call(Trigger, '/abb_simulator/stop_recording', Trigger.Request())
+    assert reply.success, reply.message
+    assert is_finished(bag)
+    recorded = by_topic(bag)
+    assert recorded['/stability/margin'] == sent
+    assert {t: len(m) for t, m in recorded.items()} == metadata_counts(bag)
+    names = {}
+    for data in recorded['/diagnostics']:
+        msg = deserialize_message(data, DiagnosticArray)
+        for s in msg.status:
+            names.setdefault(s.name.split(':')[0], []).append(
+                (msg.header.stamp.sec, msg.header.stamp.nanosec, s.message))
+    assert len(names['probe']) == 4
+    own = names['/abb_simulator']
+    assert own and len(own) == len(set(own)), 'a status of the simulator recorded twice'
+    stamps = [stamp_of(d) for d in recorded['/joint_states']]
+    assert len(stamps) > 300
+    assert all(b - a == PERIOD_NS for a, b in zip(stamps, stamps[1:])), 'a gap in the bag'
+    meta = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    lost = json.loads(meta['custom_data']['abb_ros.lost_messages'])
+    assert lost.get('/stability/margin') == 0, lost
+
+
+def test_an_empty_record_topics_list_in_a_parameter_file_is_no_extra_topic(tmp_path):
+    """rcl reads ``topics: []`` in a parameter file as no value; it means no other topic."""
+    params = tmp_path / 'params.yaml'
+    bag = tmp_path / 'bag'
+    params.write_text(yaml.safe_dump({'/**': {'ros__parameters': {
+        'record': {'path': str(bag), 'topics': []}}}}))
+    proc = subprocess.Popen(
+        [sys.executable, '-m', 'abb_ros.nodes.simulator', '--ros-args', '--params-file',
+         str(params)], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    deadline = time.monotonic() + 60
+    while not (bag / 'metadata.yaml').exists():
+        assert proc.poll() is None and time.monotonic() < deadline, proc.communicate()[0]
+        time.sleep(0.05)
+    time.sleep(1.0)
+    proc.send_signal(signal.SIGINT)
+    out, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 0, out
+    counts = metadata_counts(bag)
+    own = {t.name if t.name.startswith('/') else '/' + t.name
+           for t in topics.TOPICS if 'simulator' in t.publishers}
+    assert '/joint_states' in counts and set(counts) <= own, counts

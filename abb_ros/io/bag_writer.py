@@ -241,6 +241,10 @@ class BagWriter:
         """Topic name -> message type of the topics added so far."""
         return {t.name: t.type for t in self._topics.values()}
 
+    def has_topic(self, name: str) -> bool:
+        """Whether the topic ``name`` (as :meth:`add_topic` was given it) was added."""
+        return name in self._topics or topic_name(name) in self._topics
+
     def add_topic(self, name: str, type_name: str, qos=None, type_hash: str | None = None
                   ) -> None:
         """Add a topic. ``qos``: rclpy QoSProfile(s) or dicts offered by its publishers."""

@@ -336,6 +336,11 @@ SIMULATOR_SPECS = (
     ParamSpec('record.path', '', '', 'bag directory the node records what it publishes to '
               '(must not exist); empty: no recording at start (~/start_recording uses it, or '
               'abb_bag_<date>-<time>)', STRING, applies='at start-up', nodes=_SIM),
+    ParamSpec('record.topics', [], '', "other topics recorded into the node's bag, taken from "
+              'the middleware as the recorder node takes them (e.g. stability/margin, '
+              '/diagnostics, spindle/speed_cmd); a topic this node also publishes is then '
+              "recorded from the middleware with the others' messages", STRING_ARRAY,
+              applies='at start-up', nodes=_SIM),
     ParamSpec('imu.rate_hz', int(TYPICAL_IMU.rate), 'Hz', 'IMU output rate; must divide '
               'integration_rate_hz', INTEGER, 1, 10**6, applies=_AT_STEP, nodes=_SIM,
               commands=_RUN),

@@ -66,10 +66,24 @@ def declare(node, specs: Mapping[str, ParamSpec], defaults: Mapping[str, Any] = 
     defaults = defaults or {}
     overrides = node._parameter_overrides   # rclpy's -p / --params-file values, by name
     for name, spec in specs.items():
+        default = defaults.get(name, spec.default)
+        value = default
         if name in overrides:
-            value = spec.check(overrides[name].value, name, strict=True)
+            value = overrides[name].value
+            if value is None and isinstance(spec.default, list):
+                value = []    # rcl reads an empty YAML list ('[]') as no value
+            value = spec.check(value, name, strict=True)
             overrides[name] = Parameter(name, value=value)
-        node.declare_parameter(name, defaults.get(name, spec.default), descriptor(spec))
+        if default == [] or value == []:
+            # rclpy types an empty list as a byte array: declare the type, then set the value
+            kind = Parameter.Type[spec.type.upper()]
+            if value == []:
+                overrides.pop(name, None)
+            node.declare_parameter(name, kind, descriptor(spec))   # an override sets it
+            if value == []:
+                node.set_parameters([Parameter(name, kind, [])])
+        else:
+            node.declare_parameter(name, default, descriptor(spec))
 
 
 def coerce_on_set(node, specs: Mapping[str, ParamSpec]) -> None:

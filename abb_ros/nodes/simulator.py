@@ -48,11 +48,14 @@ from abb_ros.model.sensors import ImuModel
 from abb_ros.nodes import ros_params
 from abb_ros.nodes.bench import BenchIO
 from abb_ros.nodes.entry_point import make_executor, run_node, spin
+from abb_ros.nodes.graph_recording import GraphRecording
 from abb_ros.nodes.realtime import FifoScheduling
-from abb_ros.nodes.recorder import default_output
+from abb_ros.nodes.recorder import DRAIN_PERIOD_S, default_output
 
 NODE_NAME = 'abb_simulator'
 QOS_DEPTH = 10
+RECORD_DISCOVERY_S = 0.5
+"""How often the graph is searched for the record.topics while recording [s]."""
 PUBLISH_DEPTH = 1000
 """History of each published topic: a reliable subscriber (a recorder) that falls behind by up
 to this many messages (1 s at 1 kHz) still gets every one."""
@@ -98,6 +101,8 @@ class SimulatorNode(Node):
         self.scheduling = FifoScheduling()   # of the thread that integrates (its timer's)
         self.published = dict.fromkeys(ros_messages.TOPIC_TYPES, 0)
         self.bag = None
+        self.graph = None             # the other nodes' topics of the recording (record.topics)
+        self._graph_timers = []       # its discovery and drain, made at its first start
         self.recording_error = ''
         self.speed_cmd = s.initial_speed
         self.current_cmd = 0.0
@@ -107,6 +112,7 @@ class SimulatorNode(Node):
 
         self._pubs = {topic: self.create_publisher(kind, topic, PUBLISH_DEPTH)
                       for topic, kind in ros_messages.TOPIC_TYPES.items()}
+        self._names = {topic: pub.topic_name for topic, pub in self._pubs.items()}
         self.bench = BenchIO(self, QOS_DEPTH)   # FG, faults, disturbances, markers
         self.create_subscription(Float64, 'spindle/speed_cmd', self._on_speed_cmd, QOS_DEPTH)
         self.create_subscription(Float64, 'spindle/current_cmd', self._on_current_cmd,
@@ -299,14 +305,44 @@ class SimulatorNode(Node):
         except (BagError, OSError) as exc:
             return str(exc)
         self.bag, self.recording_error = bag, ''
-        self.get_logger().info(f'recording what this node publishes to {bag.path}')
+        topics = self.get_parameter('record.topics').value
+        if topics:
+            self.graph = GraphRecording(self, bag, topics, PUBLISH_DEPTH, own_only=True)
+            self.graph.discover()
+            if not self._graph_timers:
+                self._graph_timers = [self.create_timer(RECORD_DISCOVERY_S, self._discover),
+                                      self.create_timer(DRAIN_PERIOD_S, self._drain_graph)]
+        self.get_logger().info(f'recording what this node publishes to {bag.path}'
+                               + (f' with {", ".join(topics)}' if topics else ''))
         return ''
+
+    def _discover(self) -> None:
+        if self.graph is not None:
+            self.graph.discover()
+
+    def _drain_graph(self) -> None:
+        """The queued messages of record.topics into the bag."""
+        if self.graph is None:
+            return
+        try:
+            self.graph.drain()
+        except BagWriteError as exc:
+            self._recording_failed(exc)
 
     def stop_recording(self) -> str:
         """Finish the bag (summary, metadata.yaml); returns a one-line account."""
         bag, self.bag = self.bag, None
         if bag is None:
             return 'not recording'
+        graph, self.graph = self.graph, None
+        if graph is not None:
+            try:
+                if not self.recording_error and self.context.ok():
+                    graph.drain()      # what arrived since the last drain
+                graph.write_losses()
+            except BagWriteError as exc:
+                self.recording_error = exc.strerror
+            graph.destroy()
         try:
             bag.close()
         except BagWriteError as exc:
@@ -317,16 +353,21 @@ class SimulatorNode(Node):
         return text
 
     def _record(self, topic: str, data: bytes, stamp_ns: int) -> None:
-        name = self._pubs[topic].topic_name
+        name = self._names[topic]
+        if self.graph is not None and self.graph.subscriptions.get(name) is not None:
+            return      # a record.topics topic: this node's messages come from the graph too
         try:
-            if name not in self.bag.topics:
+            if not self.bag.has_topic(name):
                 self.bag.add_topic(name, _type_name(ros_messages.TOPIC_TYPES[topic]),
                                    qos=self._pubs[topic].qos_profile)
             self.bag.write(name, data, stamp_ns)
         except BagWriteError as exc:
-            self.recording_error = exc.strerror
-            self.get_logger().error(f'recording stopped: {exc.strerror}')
-            self.stop_recording()
+            self._recording_failed(exc)
+
+    def _recording_failed(self, exc: BagWriteError) -> None:
+        self.recording_error = exc.strerror
+        self.get_logger().error(f'recording stopped: {exc.strerror}')
+        self.stop_recording()
 
     def _on_start_recording(self, request, response):
         path = self.get_parameter('record.path').value or default_output()
@@ -523,6 +564,7 @@ class SimulatorNode(Node):
                       rolling_switches=self.sim.rolling_switches,
                       recording=str(self.bag.path) if self.bag is not None else '',
                       recorded=self.bag.message_count if self.bag is not None else 0,
+                      recording_lost=sum(self.graph.lost.values()) if self.graph else 0,
                       **{f'published {t}': count for t, count in self.published.items()})
         if self.settings.spindle_mode == 'torque':
             values.update(current_cmd=self.current_cmd, motor_current=self.sim.motor_current,
