@@ -4,7 +4,7 @@ Separate processes, as a user runs them: the simulator (n = 10, 10 kHz steps, 1 
 real_time_factor 1), the analysis node, the recorder of every topic, and one external
 subscriber of ``joint_states`` (a typed rclpy subscription, depth 10, as a user's controller
 would have; this script in ``--role subscriber``), optionally a CPU hog pinned to one core
-(``--hog``) and the simulator's in-process recording (``--record-in-process``). After
+(``--hog``) and the options below. After
 ``--duration`` seconds (from the first joint_states received) every process is stopped with
 SIGINT, simulator first, and this prints: the real-time factor achieved (simulator
 diagnostics, since start and over the last window), the largest stamp lag (simulator's own
@@ -15,7 +15,15 @@ each process's exit code and whether its output holds 'Traceback' or 'FATAL'. Th
 last statuses are read from the recorded bag (no extra /diagnostics subscription: the
 measurement adds nothing to the bench).
 
+``--record-in-process`` makes the simulator record every topic of the bench itself
+(``record.path`` with ``record.topics`` = the other nodes' topics), ``--no-recorder-node``
+leaves the separate recorder out (the statuses then come from the in-process bag), and
+``--floor`` measures the middleware floor: the simulator replaced by a process that only
+republishes one real sample's CDR bytes on its topics every period (docs/time_under_load.md,
+'The middleware floor').
+
     .venv/bin/python benchmarks/bench_bench.py [--duration 60] [--hog] [--record-in-process]
+        [--no-recorder-node] [--floor] [--realtime-priority 50]
 """
 
 from __future__ import annotations

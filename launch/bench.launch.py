@@ -35,6 +35,10 @@ BENCH_TOPICS = ['joint_states', 'deck/pose', 'deck/twist', 'deck/imu', 'spindle/
                 'spindle/current_cmd', 'stability/margin']
 """Every topic of the bench (relative names: in the namespace); /clock exists with
 real_time_factor other than 1."""
+OTHER_NODES_TOPICS = ['stability/margin', '/diagnostics', 'spindle/speed_cmd',
+                      'spindle/current_cmd']
+"""The bench topics other nodes publish: the simulator's in-process recording (its service
+~/start_recording) takes them into its bag too (record.topics), so that it holds the bench."""
 SHUTDOWN_S = '30'
 """Seconds a node gets to end after SIGINT before launch escalates to SIGTERM (launch's default,
 5 s, is short for a loaded machine and for the recorder closing its bag)."""
@@ -50,7 +54,8 @@ def generate_launch_description():
                  'real_time_factor': ParameterValue(LaunchConfiguration('real_time_factor'),
                                                     value_type=float),
                  'realtime_priority': ParameterValue(LaunchConfiguration('realtime_priority'),
-                                                     value_type=int)}]),
+                                                     value_type=int),
+                 'record.topics': OTHER_NODES_TOPICS}]),
         Node(package='abb_ros', executable='analysis', name='abb_analysis',
              output='screen', sigterm_timeout=SHUTDOWN_S, parameters=[params_file],
              condition=IfCondition(LaunchConfiguration('analysis'))),

@@ -78,3 +78,11 @@ def test_every_node_in_the_launch_file_is_a_console_script_of_this_package():
         source = (ROOT / (module.replace('.', '/') + '.py')).read_text()
         # The launch name is the node's own, so parameter files and docs stay valid.
         assert f"'{call['name']}'" in source, (call['name'], module)
+
+
+def test_the_simulators_own_recording_takes_the_other_nodes_topics_of_the_bench():
+    from abb_ros.io.topics import TOPICS
+    (topics,) = [n.value for n in tree().body if isinstance(n, ast.Assign)
+                 and n.targets[0].id == 'OTHER_NODES_TOPICS']
+    others = {t.name for t in TOPICS if set(t.publishers) != {'simulator'}}
+    assert set(ast.literal_eval(topics)) == others
