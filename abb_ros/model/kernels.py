@@ -80,6 +80,10 @@ MIS_A = np.array([[0.0, 0.0, 0.0], [1.0 / 3.0, 0.0, 0.0], [-3.0 / 16.0, 15.0 / 1
 the multirate contact step (:func:`mis_contact_step`; MIS: Wensch, Knoth, Galant 2009)."""
 MIS_C = np.array([0.0, 1.0 / 3.0, 3.0 / 4.0, 1.0])
 """Its stage times c_i, and 1."""
+MIS_APART_MARGIN = 2.0
+"""The multirate step's fast sub-steps are merged into one only while every pair of balls
+stays apart for this many times their length at its present closing rate
+(:func:`apart_substeps`)."""
 MIS_IMPACT_REFINE = 1.5
 """The multirate step's fast sub-steps per contact sub-step in an impact (rounded up): the
 impact's resolution is its largest error (energy closure of test_beyond_energy's collision
@@ -500,8 +504,10 @@ def velocity_coupling(y, n, P, inv, Ainv, W, B, Jv):
 def mis_fast_solve(t0, m, h, y, n, P, reach, inv, pairs, ref, Ainv, psi, Jv, v0, g, Qc, k, yt,
                    trace, rows):
     """m RK4 sub-steps of h from (t0, y), y in place, of the fast part of
-    :func:`mis_contact_step`: q' = q-dot, q-dot' = g + C0 Qc + Jv (phi' - v0). Rows of
-    ``trace`` from ``rows`` on; returns the next row. (One function with its right-hand side
+    :func:`mis_contact_step`: q' = q-dot, q-dot' = g + C0 Qc + Jv (phi' - v0); while no pair
+    of balls touches or can touch soon, several of them as one (:func:`apart_substeps`: the
+    fast part is then free of contact forces). Rows of ``trace`` from ``rows`` on, one per
+    (merged) sub-step; returns the next row. (One function with its right-hand side
     inline: a sub-step is a few hundred flops, a kernel call per stage would cost as much.)
 
     Qc: the contact forces of the neighbour pairs (:func:`pair_state`, :func:`hertz_force`;
@@ -522,9 +528,12 @@ def mis_fast_solve(t0, m, h, y, n, P, reach, inv, pairs, ref, Ainv, psi, Jv, v0,
     chi = P[I_CONTACT_DAMPING]
     mr = P[6] * R
     mr2 = mr * R - (SPIN_INERTIA * P[6] * R * r if P[I_BALL_ROTATION] != 0.0 else 0.0)
-    for s in range(m):
+    s = 0
+    while s < m:
+        merged = apart_substeps(y, n, reach, pairs, ref, h, m - s)
+        hs = merged * h
         for stage in range(4):
-            a = 0.0 if stage == 0 else (h if stage == 3 else 0.5 * h)
+            a = 0.0 if stage == 0 else (hs if stage == 3 else 0.5 * hs)
             for i in range(n2):
                 yt[i] = y[i] + a * k[stage - 1, i] if stage > 0 else y[i]
             dy = k[stage]
@@ -589,14 +598,41 @@ def mis_fast_solve(t0, m, h, y, n, P, reach, inv, pairs, ref, Ainv, psi, Jv, v0,
                 sb, cb = ball_sincos(psi, st, ct, b, yt[PHI + b])
                 dy[N + PHI + b] += inv * (Qc[b] + mr * sb * u0 - mr * cb * u1 - mr2 * u5)
         for i in range(n2):
-            y[i] = y[i] + h / 6.0 * (k[0, i] + 2.0 * (k[1, i] + k[2, i]) + k[3, i])
+            y[i] = y[i] + hs / 6.0 * (k[0, i] + 2.0 * (k[1, i] + k[2, i]) + k[3, i])
         if rows < trace.shape[0]:
             trace[rows, 0] = t0 + s * h
-            trace[rows, 1] = h
+            trace[rows, 1] = hs
             for i in range(n2):
                 trace[rows, 2 + i] = y[i]
         rows += 1
+        s += merged
     return rows
+
+@kernel
+def apart_substeps(y, n, reach, pairs, ref, h, left):
+    """How many of the ``left`` fast sub-steps of h from y :func:`mis_fast_solve` may take
+    as one RK4 step: 1 while a neighbour pair touches, else as many as keep every pair apart
+    by MIS_APART_MARGIN times its closing at its present rate (no contact force can act
+    within them; the fast part is then as smooth as the slow one)."""
+    N = PHI + n
+    soonest = left * h * MIS_APART_MARGIN
+    for p in range(pairs.shape[0]):
+        i = pairs[p, 0]
+        j = pairs[p, 1]
+        half = 0.5 * (y[PHI + j] - y[PHI + i] - ref[p, 0])
+        ah = abs(half)
+        if ah < reach:
+            return 1                            # touching (the reach of the Hertz law)
+        # the half-angle closes at |d half/dt| towards reach; contact when it gets there
+        closing = -0.5 * (y[N + PHI + j] - y[N + PHI + i]) * (1.0 if half >= 0.0 else -1.0)
+        if closing > 0.0:
+            time = (ah - reach) / closing
+            if time < soonest:
+                soonest = time
+    merged = int(soonest / (h * MIS_APART_MARGIN))
+    if merged < 1:
+        return 1
+    return merged if merged < left else left
 
 @kernel
 def ball_sincos(psi, st, ct, b, phi):
