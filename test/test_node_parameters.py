@@ -43,6 +43,10 @@ def _start_fails(node, *params):
     ('simulator', 'drive.k:=-5.0', "'drive.k' = -5.0"),
     ('analysis', 'drive.k:=abc', "'drive.k' = 'abc' is invalid: valid range is (0, inf) N/m"),
     ('analysis', 'table_points:=300.0', "'table_points' = 300.0"),
+    ('simulator', "record.topics:=['bad name']", "'record.topics' = 'bad name' is invalid"),
+    ('simulator', "record.topics:=[x//y]", "'record.topics' = 'x//y'"),
+    ('simulator', 'record.topics:=[1, 2]', "'record.topics' = [1, 2]"),
+    ('recorder', "topics:=['bad name']", "'topics' = 'bad name' is invalid"),
 ])
 def test_wrong_start_up_type_or_value_exits_2_with_one_line_naming_it(node, param, needle):
     code, err = _start_fails(node, param)
@@ -50,6 +54,17 @@ def test_wrong_start_up_type_or_value_exits_2_with_one_line_naming_it(node, para
     lines = err.strip().splitlines()
     assert len(lines) == 1, err
     assert needle in lines[0] and 'Traceback' not in err
+
+
+@pytest.mark.parametrize('node', ['simulator', 'analysis', 'recorder', 'spin_controller'])
+def test_unparsable_ros_args_exit_2_naming_them_without_a_traceback(node):
+    """rcl cannot parse the override (its own error line comes first, from rcl's logger)."""
+    code, err = _start_fails(node, 'record.topics:=[unclosed')
+    assert code == 2, err
+    assert 'Traceback' not in err
+    assert err.strip().splitlines()[-1].endswith(
+        "invalid --ros-args: failed to initialize rcl: Couldn't parse parameter override "
+        "rule: '-p record.topics:=[unclosed'. Error: Error parsing an event")
 
 
 class _Client:

@@ -15,6 +15,7 @@ import signal
 import sys
 
 import rclpy
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.signals import SignalHandlerOptions
 
@@ -57,7 +58,11 @@ def run_node(name: str, factory, args=None, usage_errors=(ParamError,)) -> int:
     node = None
     code = 0
     try:
-        rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+        try:
+            rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
+        except RCLError as err:   # rcl could not parse --ros-args (e.g. -p 'x:=[1')
+            print(f'{name}: invalid --ros-args: {str(err).split(", at ")[0]}', file=sys.stderr)
+            return 2
         if not stop:   # a signal during the imports: do not start at all
             node = factory()
             spin(node, stop)

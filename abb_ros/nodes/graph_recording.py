@@ -19,14 +19,17 @@ from __future__ import annotations
 
 import json
 
+from rclpy._rclpy_pybind11 import RCLError
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from abb_ros.io import msgdefs
 from abb_ros.io.bag_writer import BagWriter
+from abb_ros.model.param_spec import ParamError
 from abb_ros.nodes.taps import Taps
 
-__all__ = ['GraphRecording', 'LossCounter', 'request_qos', 'SEQUENCE_UNSUPPORTED']
+__all__ = ['GraphRecording', 'LossCounter', 'request_qos', 'resolve_topics',
+           'SEQUENCE_UNSUPPORTED']
 
 SEQUENCE_UNSUPPORTED = 0
 """rmw's RMW_MESSAGE_INFO_SEQUENCE_NUMBER_UNSUPPORTED."""
@@ -57,9 +60,23 @@ def request_qos(offered, depth: int) -> QoSProfile:
         durability=DurabilityPolicy.TRANSIENT_LOCAL if latched else DurabilityPolicy.VOLATILE)
 
 
+def resolve_topics(node: Node, topics, param: str) -> set[str]:
+    """The full names of ``topics`` in ``node``'s namespace; raises ParamError naming the
+    parameter ``param`` for a name that is not a valid ROS topic name."""
+    out = set()
+    for topic in topics:
+        try:
+            out.add(node.resolve_topic_name(topic))
+        except RCLError as exc:
+            why = str(exc).split(', at ')[0]
+            raise ParamError(param, topic, "ROS topic names ('stability/margin', "
+                             "'/diagnostics', '~/x')", why) from None
+    return out
+
+
 class GraphRecording:
     """Record the topics ``topics`` (names; relative ones resolve in ``node``'s namespace) of
-    the graph into ``bag``.
+    the graph into ``bag`` (an invalid name: ParamError naming the parameter ``param``).
 
     own_only : bool
         Whether a topic that only ``node`` itself publishes is recorded (the recorder: no,
@@ -67,10 +84,11 @@ class GraphRecording:
         own messages on a recorded topic then come through the middleware like the others').
     """
 
-    def __init__(self, node: Node, bag: BagWriter, topics, depth: int, own_only: bool = False):
+    def __init__(self, node: Node, bag: BagWriter, topics, depth: int, own_only: bool = False,
+                 param: str = 'topics'):
         self.node = node
         self.bag = bag
-        self.wanted = {node.resolve_topic_name(t) for t in topics}
+        self.wanted = resolve_topics(node, topics, param)
         self.subscriptions: dict[str, object] = {}   # None: not recordable
         self.losses: dict[str, LossCounter] = {}
         self.unchecked: set[str] = set()

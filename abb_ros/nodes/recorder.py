@@ -32,7 +32,7 @@ from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
 from abb_ros.model.param_spec import ParamError, specs_for
 from abb_ros.nodes import ros_params
 from abb_ros.nodes.entry_point import run_node
-from abb_ros.nodes.graph_recording import GraphRecording, LossCounter
+from abb_ros.nodes.graph_recording import GraphRecording, LossCounter, resolve_topics
 
 __all__ = ['Recorder', 'LossCounter', 'default_output', 'main']
 
@@ -56,6 +56,7 @@ class Recorder(Node):
         ros_params.declare(self, PARAMS)
         topics, output, chunk_size, compression, self._depth, period = (
             self.get_parameter(name).value for name in PARAMS)
+        resolve_topics(self, topics, 'topics')     # before the bag: refused, nothing made
         self.bag = BagWriter(output or default_output(), chunk_size=chunk_size,
                              compression=compression)
         self.exit_code = None

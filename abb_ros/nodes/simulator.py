@@ -48,7 +48,7 @@ from abb_ros.model.sensors import ImuModel
 from abb_ros.nodes import ros_params
 from abb_ros.nodes.bench import BenchIO
 from abb_ros.nodes.entry_point import make_executor, run_node, spin
-from abb_ros.nodes.graph_recording import GraphRecording
+from abb_ros.nodes.graph_recording import GraphRecording, resolve_topics
 from abb_ros.nodes.realtime import FifoScheduling
 from abb_ros.nodes.recorder import DRAIN_PERIOD_S, default_output
 
@@ -125,6 +125,7 @@ class SimulatorNode(Node):
         self.add_on_set_parameters_callback(lambda ps: ros_params.validate_change(self, ps))
         self.add_post_set_parameters_callback(self._on_parameters_set)
 
+        resolve_topics(self, self.get_parameter('record.topics').value, 'record.topics')
         path = self.get_parameter('record.path').value
         if path:
             error = self.start_recording(path)
@@ -307,7 +308,8 @@ class SimulatorNode(Node):
         self.bag, self.recording_error = bag, ''
         topics = self.get_parameter('record.topics').value
         if topics:
-            self.graph = GraphRecording(self, bag, topics, PUBLISH_DEPTH, own_only=True)
+            self.graph = GraphRecording(self, bag, topics, PUBLISH_DEPTH, own_only=True,
+                                        param='record.topics')
             self.graph.discover()
             if not self._graph_timers:
                 self._graph_timers = [self.create_timer(RECORD_DISCOVERY_S, self._discover),
