@@ -320,8 +320,11 @@ def report(args, work, sub_out, cpu, rss, codes, wall) -> None:
     print(f'real_time_factor achieved: since start {sim.get("real_time_factor_since_start")}, '
           f'last window {sim.get("real_time_factor")}; slips {sim.get("slips")} '
           f'({sim.get("slipped_time")} s dropped), overruns {sim.get("overruns")}')
-    print(f'max stamp lag: simulator (publish time - stamp) {sim.get("stamp_lag_max")} s; '
-          f'subscriber (receive time - stamp) {sub["max_lag_ms"]:.3f} ms')
+    if args.floor:
+        print('max stamp lag: n/a (the floor republishes one sample, one stamp)')
+    else:
+        print(f'max stamp lag: simulator (publish time - stamp) {sim.get("stamp_lag_max")} s; '
+              f'subscriber (receive time - stamp) {sub["max_lag_ms"]:.3f} ms')
     print(f'{"topic":<22}{"published*":>12}{"received":>10}{"recorded":>10}{"lost(seq)":>10}')
     for topic in ('joint_states', 'deck/pose', 'deck/twist', 'deck/imu', '/diagnostics',
                   'stability/margin'):
