@@ -501,8 +501,8 @@ def velocity_coupling(y, n, P, inv, Ainv, W, B, Jv):
         Jv[PHI + b, b] -= inv * D
 
 @kernel
-def mis_fast_solve(t0, m, h, y, n, P, reach, inv, pairs, ref, Ainv, psi, Jv, v0, g, Qc, k, yt,
-                   trace, rows):
+def mis_fast_solve(t0, m, h, y, n, P, reach, inv, pairs, ref, Ainv, psi, Jv, Bs, v0, g, Qc, k,
+                   yt, trace, rows):
     """m RK4 sub-steps of h from (t0, y), y in place, of the fast part of
     :func:`mis_contact_step`: q' = q-dot, q-dot' = g + C0 Qc + Jv (phi' - v0); while no pair
     of balls touches or can touch soon, several of them as one (:func:`apart_substeps`: the
@@ -519,8 +519,10 @@ def mis_fast_solve(t0, m, h, y, n, P, reach, inv, pairs, ref, Ainv, psi, Jv, v0,
     cos psi_b] of the step's start and [theta]; the rotor's turn by :func:`sincos_near`, the
     ball's own, at most ~1e-2 within a step, to third order; R, r, inv include the rolling
     balls' spin). Jv (phi' - v0): the change of the balls' Coriolis, centrifugal and drag terms
-    with their rates since the step's start (:func:`velocity_coupling`). k (4, 2N), yt (2N):
-    stage buffers; Qc (n) scratch."""
+    with their rates since the step's start (:func:`velocity_coupling`), applied in its
+    factored form: the deck rows of Jv, then the ball rows as -inv (B s) through ``Bs``
+    (n, 3; columns 0, 1, 5 of the step's start's B) plus the balls' own drag. k (4, 2N), yt
+    (2N): stage buffers; Qc (n) scratch."""
     N = PHI + n
     n2 = 2 * N
     R, r = P[3], P[I_R_BALL]
@@ -528,6 +530,7 @@ def mis_fast_solve(t0, m, h, y, n, P, reach, inv, pairs, ref, Ainv, psi, Jv, v0,
     chi = P[I_CONTACT_DAMPING]
     mr = P[6] * R
     mr2 = mr * R - (SPIN_INERTIA * P[6] * R * r if P[I_BALL_ROTATION] != 0.0 else 0.0)
+    inv_d = inv * P[15]
     s = 0
     while s < m:
         merged = apart_substeps(y, n, reach, pairs, ref, h, m - s)
@@ -559,11 +562,31 @@ def mis_fast_solve(t0, m, h, y, n, P, reach, inv, pairs, ref, Ainv, psi, Jv, v0,
             for i in range(N):
                 dy[i] = yt[N + i]
                 dy[N + i] = g[i]
+            # Jv (phi' - v0), Jv of rank 3 in the ball rows (velocity_coupling): the deck's
+            # part s, the balls' -inv (B s) and their own drag -inv D (phi' - v0)
+            s0 = 0.0
+            s1 = 0.0
+            s2 = 0.0
+            s3 = 0.0
+            s4 = 0.0
+            s5 = 0.0
             for b in range(n):
                 dv = yt[N + PHI + b] - v0[b]
-                if dv != 0.0:
-                    for c in range(N):
-                        dy[N + c] += Jv[c, b] * dv
+                s0 += Jv[DECK, b] * dv
+                s1 += Jv[DECK + 1, b] * dv
+                s2 += Jv[DECK + 2, b] * dv
+                s3 += Jv[DECK + 3, b] * dv
+                s4 += Jv[DECK + 4, b] * dv
+                s5 += Jv[DECK + 5, b] * dv
+                dy[N + PHI + b] -= inv_d * dv
+            dy[N + DECK] += s0
+            dy[N + DECK + 1] += s1
+            dy[N + DECK + 2] += s2
+            dy[N + DECK + 3] += s3
+            dy[N + DECK + 4] += s4
+            dy[N + DECK + 5] += s5
+            for c in range(n):
+                dy[N + PHI + c] -= inv * (Bs[c, 0] * s0 + Bs[c, 1] * s1 + Bs[c, 2] * s5)
             if not touching:
                 continue
             al, be, ga = yt[DECK + 3], yt[DECK + 4], yt[DECK + 5]
@@ -676,6 +699,7 @@ def mis_contact_step(t, dt, y, n, P, S, sub, trace, qdd, A, W, f, B, fb, u):
         psi[b, 2] = math.cos(y[THETA] + y[PHI + b])
     psi[n, 0] = y[THETA]
     Jv = np.empty((N, n))
+    Bs = np.empty((n, 3))
     v0 = y[N + PHI:].copy()
     k = np.empty((4, 2 * N))
     yt = np.empty(2 * N)
@@ -697,6 +721,10 @@ def mis_contact_step(t, dt, y, n, P, S, sub, trace, qdd, A, W, f, B, fb, u):
                 for row in range(6):
                     Ainv[row, col] = u[row]
             velocity_coupling(y, n, P, inv, Ainv, W, B, Jv)
+            for b in range(n):      # B's columns of Jv's ball rows, at the step's start
+                Bs[b, 0] = B[b, 0]
+                Bs[b, 1] = B[b, 1]
+                Bs[b, 2] = B[b, 5]
         # the slow part at stage i: accel without contact minus Jv (phi' - v0)
         for c in range(N):
             F[i, c] = qdd[c]
@@ -712,7 +740,7 @@ def mis_contact_step(t, dt, y, n, P, S, sub, trace, qdd, A, W, f, B, fb, u):
             g[c] = s / span
         m = max(1, int(math.ceil(sub * span - 1e-9)))
         rows = mis_fast_solve(t_i, m, span * dt / m, y, n, P, reach, inv, pairs, ref, Ainv, psi,
-                              Jv, v0, g, Qc, k, yt, trace, rows)
+                              Jv, Bs, v0, g, Qc, k, yt, trace, rows)
     return rows
 
 @kernel
