@@ -65,9 +65,19 @@ class Recorder(Node):
         self.graph = GraphRecording(self, self.bag, topics, self._depth)
         self.get_logger().info(f'recording {len(self.graph.wanted)} topics to {self.bag.path}')
         self.graph.discover()
-        self.create_timer(float(period), self.graph.discover)
+        self.create_timer(float(period), self._discover)
         self.create_timer(DRAIN_PERIOD_S, self.drain)
         self.create_timer(DIAGNOSTICS_PERIOD_S, self.publish_diagnostics)
+
+    def _discover(self) -> None:
+        """Subscribe to the wanted topics that have appeared (adding one to the bag writes its
+        metadata: the disk may refuse)."""
+        if self.exit_code is not None:
+            return
+        try:
+            self.graph.discover()
+        except BagWriteError as exc:
+            self._failed(exc)
 
     def drain(self) -> None:
         """Write every message waiting in the subscriptions' queues to the bag."""
@@ -76,9 +86,12 @@ class Recorder(Node):
         try:
             self.graph.drain()
         except BagWriteError as exc:
-            self.failure = f'recording stopped: {exc.strerror}'
-            self.get_logger().error(self.failure)
-            self.exit_code = 1   # the spin loop ends; close() reports
+            self._failed(exc)
+
+    def _failed(self, exc: BagWriteError) -> None:
+        self.failure = f'recording stopped: {exc.strerror}'
+        self.get_logger().error(self.failure)
+        self.exit_code = 1   # the spin loop ends; close() reports
 
     @property
     def lost(self) -> dict[str, int]:

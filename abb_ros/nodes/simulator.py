@@ -310,7 +310,9 @@ class SimulatorNode(Node):
         if topics:
             self.graph = GraphRecording(self, bag, topics, PUBLISH_DEPTH, own_only=True,
                                         param='record.topics')
-            self.graph.discover()
+            self._discover()
+            if self.bag is None:
+                return self.recording_error
             if not self._graph_timers:
                 self._graph_timers = [self.create_timer(RECORD_DISCOVERY_S, self._discover),
                                       self.create_timer(DRAIN_PERIOD_S, self._drain_graph)]
@@ -319,8 +321,14 @@ class SimulatorNode(Node):
         return ''
 
     def _discover(self) -> None:
-        if self.graph is not None:
+        """Subscribe to the record.topics that have appeared (a topic added to the bag writes
+        its metadata: the disk may refuse)."""
+        if self.graph is None:
+            return
+        try:
             self.graph.discover()
+        except BagWriteError as exc:
+            self._recording_failed(exc)
 
     def _drain_graph(self) -> None:
         """The queued messages of record.topics into the bag."""
