@@ -72,26 +72,22 @@ class Recorder(Node):
     def _discover(self) -> None:
         """Subscribe to the wanted topics that have appeared (adding one to the bag writes its
         metadata: the disk may refuse)."""
-        if self.exit_code is not None:
-            return
-        try:
-            self.graph.discover()
-        except BagWriteError as exc:
-            self._failed(exc)
+        self._until_failure(self.graph.discover)
 
     def drain(self) -> None:
         """Write every message waiting in the subscriptions' queues to the bag."""
+        self._until_failure(self.graph.drain)
+
+    def _until_failure(self, work) -> None:
+        """Run ``work`` unless the bag failed; a write failure ends the node (exit code 1)."""
         if self.exit_code is not None:
             return
         try:
-            self.graph.drain()
+            work()
         except BagWriteError as exc:
-            self._failed(exc)
-
-    def _failed(self, exc: BagWriteError) -> None:
-        self.failure = f'recording stopped: {exc.strerror}'
-        self.get_logger().error(self.failure)
-        self.exit_code = 1   # the spin loop ends; close() reports
+            self.failure = f'recording stopped: {exc.strerror}'
+            self.get_logger().error(self.failure)
+            self.exit_code = 1   # the spin loop ends; close() reports
 
     @property
     def lost(self) -> dict[str, int]:
