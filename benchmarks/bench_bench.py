@@ -46,6 +46,7 @@ os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 import numpy as np  # noqa: E402
 import yaml  # noqa: E402
 
+from abb_ros.io.topics import TOPICS, by_name  # noqa: E402
 from abb_ros.testing.procstat import cpu_seconds, rss_bytes  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -54,7 +55,7 @@ N_BALLS = 10
 PUBLISH_PERIOD_NS = 1_000_000
 RSS_SAMPLE_S = 5.0
 SETTLE_S = 2.0
-OTHER_TOPICS = ('stability/margin', '/diagnostics', 'spindle/speed_cmd', 'spindle/current_cmd')
+OTHER_TOPICS = tuple(t.name for t in TOPICS if set(t.publishers) != {'simulator'})
 """The bench's topics that other nodes publish: the in-process recording takes them from the
 middleware (record.topics), so that its bag holds every topic of the bench."""
 STATUS_SIM = 'abb_simulator: simulation'
@@ -132,30 +133,26 @@ def run_floor(record: Path | None) -> int:
     class Floor(Node):
         def __init__(self):
             super().__init__('bench_floor')
-            self.pubs = [(topic, self.create_publisher(ros_messages.TOPIC_TYPES[topic], topic,
-                                                       PUBLISH_DEPTH), data)
-                         for topic, data in encoded]
+            self.pubs = [(pub.topic_name, pub, data) for pub, data in (
+                (self.create_publisher(ros_messages.TOPIC_TYPES[topic], topic, PUBLISH_DEPTH),
+                 data) for topic, data in encoded)]
             self.bag = None
             if record is not None:
                 self.bag = BagWriter(record)
-                for topic, _ in encoded:
-                    self.bag.add_topic('/' + topic.lstrip('/'), by_type(topic))
+                for (topic, _), (name, _, _) in zip(encoded, self.pubs):
+                    self.bag.add_topic(name, by_name(topic).type)
             self.create_timer(PUBLISH_PERIOD_NS * 1e-9, self.tick)
 
         def tick(self):
             now = time.time_ns()
-            for topic, pub, data in self.pubs:
+            for name, pub, data in self.pubs:
                 pub.publish(data)
                 if self.bag is not None:
-                    self.bag.write('/' + topic.lstrip('/'), data, now)
+                    self.bag.write(name, data, now)
 
         def close(self):
             if self.bag is not None:
                 self.bag.close()
-
-    def by_type(topic):
-        from abb_ros.io.topics import by_name
-        return by_name(topic).type
 
     return run_node('bench_floor', Floor)
 

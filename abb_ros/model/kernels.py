@@ -501,8 +501,8 @@ def velocity_coupling(y, n, P, inv, Ainv, W, B, Jv):
         Jv[PHI + b, b] -= inv * D
 
 @kernel
-def mis_fast_solve(t0, m, h, y, n, P, reach, inv, pairs, ref, Ainv, psi, Jv, Bs, v0, g, Qc, k,
-                   yt, trace, rows):
+def mis_fast_solve(t0, m, h, y, n, P, reach, inv, pairs, ref, Ainv, psi, Jv, Bs, v0, g, Qc, sc,
+                   k, yt, trace, rows):
     """m RK4 sub-steps of h from (t0, y), y in place, of the fast part of
     :func:`mis_contact_step`: q' = q-dot, q-dot' = g + C0 Qc + Jv (phi' - v0); while no pair
     of balls touches or can touch soon, several of them as one (:func:`apart_substeps`: the
@@ -522,7 +522,7 @@ def mis_fast_solve(t0, m, h, y, n, P, reach, inv, pairs, ref, Ainv, psi, Jv, Bs,
     with their rates since the step's start (:func:`velocity_coupling`), applied in its
     factored form: the deck rows of Jv, then the ball rows as -inv (B s) through ``Bs``
     (n, 3; columns 0, 1, 5 of the step's start's B) plus the balls' own drag. k (4, 2N), yt
-    (2N): stage buffers; Qc (n) scratch."""
+    (2N): stage buffers; Qc (n), sc (2, n: the balls' sin, cos psi_b at a stage) scratch."""
     N = PHI + n
     n2 = 2 * N
     R, r = P[3], P[I_R_BALL]
@@ -596,9 +596,11 @@ def mis_fast_solve(t0, m, h, y, n, P, reach, inv, pairs, ref, Ainv, psi, Jv, Bs,
             w2 = 0.0
             w5 = 0.0
             for b in range(n):
+                sb, cb = ball_sincos(psi, st, ct, b, yt[PHI + b])
+                sc[0, b] = sb
+                sc[1, b] = cb
                 q = -inv * Qc[b]
                 if q != 0.0:                    # -inv W Qc (W of assemble at yt)
-                    sb, cb = ball_sincos(psi, st, ct, b, yt[PHI + b])
                     w0 -= mr * (sb + ga * cb) * q
                     w1 += mr * (cb - ga * sb) * q
                     w2 += mr * (al * cb + be * sb) * q
@@ -618,8 +620,8 @@ def mis_fast_solve(t0, m, h, y, n, P, reach, inv, pairs, ref, Ainv, psi, Jv, Bs,
                 elif row == 5:
                     u5 = ur
             for b in range(n):                  # inv (Qc - B u) (B of assemble at yt)
-                sb, cb = ball_sincos(psi, st, ct, b, yt[PHI + b])
-                dy[N + PHI + b] += inv * (Qc[b] + mr * sb * u0 - mr * cb * u1 - mr2 * u5)
+                dy[N + PHI + b] += inv * (Qc[b] + mr * sc[0, b] * u0 - mr * sc[1, b] * u1
+                                          - mr2 * u5)
         for i in range(n2):
             y[i] = y[i] + hs / 6.0 * (k[0, i] + 2.0 * (k[1, i] + k[2, i]) + k[3, i])
         if rows < trace.shape[0]:
@@ -706,6 +708,7 @@ def mis_contact_step(t, dt, y, n, P, S, sub, trace, qdd, A, W, f, B, fb, u):
     F = np.empty((3, N))
     g = np.zeros(N)
     Qc = np.empty(n)
+    sc = np.empty((2, n))
     rows = 0
     P_slow = P.copy()
     P_slow[I_CONTACT_E] = 0.0
@@ -740,7 +743,7 @@ def mis_contact_step(t, dt, y, n, P, S, sub, trace, qdd, A, W, f, B, fb, u):
             g[c] = s / span
         m = max(1, int(math.ceil(sub * span - 1e-9)))
         rows = mis_fast_solve(t_i, m, span * dt / m, y, n, P, reach, inv, pairs, ref, Ainv, psi,
-                              Jv, Bs, v0, g, Qc, k, yt, trace, rows)
+                              Jv, Bs, v0, g, Qc, sc, k, yt, trace, rows)
     return rows
 
 @kernel

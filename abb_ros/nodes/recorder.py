@@ -32,9 +32,9 @@ from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
 from abb_ros.model.param_spec import ParamError, specs_for
 from abb_ros.nodes import ros_params
 from abb_ros.nodes.entry_point import run_node
-from abb_ros.nodes.graph_recording import GraphRecording, LossCounter, resolve_topics
+from abb_ros.nodes.graph_recording import GraphRecording, resolve_topics
 
-__all__ = ['Recorder', 'LossCounter', 'default_output', 'main']
+__all__ = ['Recorder', 'default_output', 'main']
 
 PARAMS = specs_for('recorder')
 """{ROS name: spec} of the recorder's parameters (abb_ros/model/param_spec.py)."""

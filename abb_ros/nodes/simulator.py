@@ -323,19 +323,19 @@ class SimulatorNode(Node):
     def _discover(self) -> None:
         """Subscribe to the record.topics that have appeared (a topic added to the bag writes
         its metadata: the disk may refuse)."""
-        if self.graph is None:
-            return
-        try:
-            self.graph.discover()
-        except BagWriteError as exc:
-            self._recording_failed(exc)
+        self._graph_step(GraphRecording.discover)
 
     def _drain_graph(self) -> None:
         """The queued messages of record.topics into the bag."""
+        self._graph_step(GraphRecording.drain)
+
+    def _graph_step(self, step) -> None:
+        """``step(self.graph)`` while recording record.topics; a write failure stops the
+        recording as one of this node's own messages would."""
         if self.graph is None:
             return
         try:
-            self.graph.drain()
+            step(self.graph)
         except BagWriteError as exc:
             self._recording_failed(exc)
 
