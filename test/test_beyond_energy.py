@@ -50,15 +50,15 @@ def replay(params, y0, omega, dt, nsteps):
     cache = np.zeros((3, N2))
     qdd, Qf, bufs = np.empty(N2 // 2), np.empty(n), solver_buffers(n)
     rolling = params.rolling_mu > 0
+    trace = np.empty((2 * kernels.MAX_SUBSTEPS, 2 + N2))
     y = np.array(y0, dtype=float)
     pieces = []
     for s in range(nsteps):
-        sub = K.contact_substeps(y, n, P, dt) if params.contact_E > 0 else 1
+        sub, impact = K.contact_regime(y, n, P, dt) if params.contact_E > 0 else (1, False)
         if sub > 1 and not rolling:
-            fast = K.mis_substeps(y, n, P, dt)
-            trace = np.empty((fast + 3, 2 + N2))
             start = y.copy()
-            rows = K.mis_contact_step(s * dt, dt, y, n, P, S, fast, trace, qdd, *bufs)
+            rows = K.contact_step(s * dt, dt, y, n, P, S, sub, impact, trace, qdd, *bufs)
+            assert rows <= len(trace)
             for t, h, *end in trace[:rows]:
                 pieces.append((t, h, None, start, np.array(end)))
                 start = pieces[-1][-1]

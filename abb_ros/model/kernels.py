@@ -377,6 +377,12 @@ def contact_substeps(y, n, P, dt):
 def contact_regime(y, n, P, dt):
     """(:func:`contact_substeps`, impact): impact is True when a pair that can touch within
     the step has more kinetic than static overlap (an impact, not a resting contact)."""
+    return contact_regime_as(y, n, P, dt, False)
+
+@kernel
+def contact_regime_as(y, n, P, dt, every_impact):
+    """:func:`contact_regime`, with every pair that can touch within the step resolved as an
+    impact when ``every_impact`` (a step retaken after :func:`resting_misjudged`)."""
     K = contact_stiffness(P)
     chi = P[I_CONTACT_DAMPING]
     mb = P[6] * (1.0 + SPIN_INERTIA * P[I_BALL_ROTATION])
@@ -400,7 +406,7 @@ def contact_regime(y, n, P, dt):
                 continue
             kc = 1.5 * K * math.sqrt(peak)
             w = math.sqrt(4.0 * kc / mb) + 2.0 * chi * K * peak * math.sqrt(peak) / mb
-            if kinetic > static:
+            if kinetic > static or every_impact:
                 impact = True
                 w /= CONTACT_OMEGA_H * impact_relaxation(static + kinetic, K, mb)
             else:
@@ -413,6 +419,48 @@ def contact_regime(y, n, P, dt):
     if k > MAX_SUBSTEPS:
         k = MAX_SUBSTEPS
     return k, impact
+
+@kernel
+def resting_misjudged(y0, y1, n, P):
+    """True when a pair of balls that :func:`contact_regime` took for a resting contact at
+    y0 (touching, its overlap's energy at least its rate's) did not rest over the step to
+    y1: its overlap there is under half or over twice that at y0, or its rate's energy
+    exceeds its overlap's. From the state alone an impact caught near its peak looks like a
+    resting contact; resolved as one (CONTACT_OMEGA_H_REST), its rebound would be wrong by
+    about 1 % of the impact's speed."""
+    K = contact_stiffness(P)
+    mb = P[6] * (1.0 + SPIN_INERTIA * P[I_BALL_ROTATION])
+    sep = 2.0 * math.asin(P[I_R_BALL] / P[3])
+    for i in range(n):
+        for j in range(i + 1, n):
+            if not near(y0[PHI + j] - y0[PHI + i], sep):
+                continue
+            delta, rate, lever = pair_state(y0, n, P, i, j)
+            if delta <= 0.0 or 0.625 * mb * rate * rate / K > delta * delta * math.sqrt(delta):
+                continue                        # apart, or an impact (resolved as one)
+            d1, r1, lever = pair_state(y1, n, P, i, j)
+            if d1 < 0.5 * delta or d1 > 2.0 * delta:
+                return True
+            if 0.625 * mb * r1 * r1 / K > d1 * d1 * math.sqrt(d1):
+                return True
+    return False
+
+@kernel
+def contact_step(t, dt, y, n, P, S, sub, impact, trace, qdd, A, W, f, B, fb, u):
+    """The multirate step of dt from (t, y), y in place, with the fast sub-steps of
+    :func:`contact_regime`'s (``sub``, ``impact``) (:func:`mis_substeps`), taken again from
+    the start with every contact resolved as an impact when :func:`resting_misjudged` and
+    that needs more sub-steps. Returns the fast sub-steps (``trace``'s rows, of the step
+    kept), as :func:`mis_contact_step`."""
+    start = y.copy()
+    fast = int(math.ceil(sub * MIS_IMPACT_REFINE)) if impact else sub
+    rows = mis_contact_step(t, dt, y, n, P, S, fast, trace, qdd, A, W, f, B, fb, u)
+    if not impact and resting_misjudged(start, y, n, P):
+        forced = int(math.ceil(contact_regime_as(start, n, P, dt, True)[0] * MIS_IMPACT_REFINE))
+        if forced > fast:
+            y[:] = start
+            rows = mis_contact_step(t, dt, y, n, P, S, forced, trace, qdd, A, W, f, B, fb, u)
+    return rows
 
 @kernel
 def impact_relaxation(energy, K, mb):
@@ -1365,6 +1413,13 @@ def rk4_rolling_substep(t, h, y, n, P, S, k1, k2, k3, k4, yt, events, cache,
             locate = False      # the state past the crossing keeps its regimes: finish with them
 
 @kernel
+def rk4_substeps(t, dt, sub, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u):
+    """``sub`` RK4 sub-steps of dt / sub of the whole system from (t, y), y in place."""
+    h = dt / sub
+    for j in range(sub):
+        rk4_substep(t + j * h, h, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u)
+
+@kernel
 def rk4_step(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B, fb, u):
     """:func:`rk4_step_located` without the count of rolling switches and without a cache
     from the previous step: (status, sub-steps)."""
@@ -1383,8 +1438,10 @@ def rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f,
     """One step of dt from (t, y), y updated in place: one classical RK4 step, or, while
     balls touch (issue 12), sub-steps of dt / :func:`contact_substeps`: the multirate step
     :func:`mis_contact_step` (only the contact forces sub-stepped, :func:`mis_substeps`
-    times), or, in torque mode and with rolling resistance, RK4 sub-steps of the whole
-    system; with rolling resistance each (sub)step locates its regime switches
+    times; :func:`contact_step`), or, in torque mode and with rolling resistance, RK4
+    sub-steps of the whole system (in torque mode taken again like :func:`contact_step` when
+    :func:`resting_misjudged`); with rolling resistance each (sub)step locates its regime
+    switches
     (:func:`rk4_rolling_substep`, ``cache`` (3, 2N) carried from step to step). k1..k4, yt
     and ysave are stage buffers of shape (2N,), the rest the solver scratch of :func:`accel`.
     Returns (status, sub-steps (the multirate step's fast ones), switches): the
@@ -1407,13 +1464,18 @@ def rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f,
     elif sub == 1:
         rk4_substep(t, dt, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u)
     elif S[0] != SPINDLE_TORQUE:
-        fast = int(math.ceil(sub * MIS_IMPACT_REFINE)) if impact else sub  # mis_substeps
-        sub = mis_contact_step(t, dt, y, n, P, S, fast, np.empty((0, n2)), qdd, A, W, f, B, fb,
-                               u)
+        sub = contact_step(t, dt, y, n, P, S, sub, impact, np.empty((0, n2)), qdd, A, W, f, B,
+                           fb, u)
     else:
-        h = dt / sub
-        for j in range(sub):
-            rk4_substep(t + j * h, h, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u)
+        rk4_substeps(t, dt, sub, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u)
+        if resting_misjudged(ysave, y, n, P):           # as contact_step does
+            forced = contact_regime_as(ysave, n, P, dt, True)[0]
+            if forced > sub:
+                for i in range(n2):
+                    y[i] = ysave[i]
+                sub = forced
+                rk4_substeps(t, dt, sub, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb,
+                             u)
     status = check_state(y, n)
     if status != OK:
         for i in range(n2):
