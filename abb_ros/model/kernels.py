@@ -1468,7 +1468,7 @@ def rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f,
                            fb, u)
     else:
         rk4_substeps(t, dt, sub, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u)
-        if resting_misjudged(ysave, y, n, P):           # as contact_step does
+        if not impact and resting_misjudged(ysave, y, n, P):       # as contact_step does
             forced = contact_regime_as(ysave, n, P, dt, True)[0]
             if forced > sub:
                 for i in range(n2):
