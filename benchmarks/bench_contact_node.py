@@ -13,7 +13,8 @@ steps, 1 kHz publish) for ``--duration`` s. From its ``/diagnostics`` this print
 - the real-time factor since its start;
 - the steps refined by contact.
 
-It also prints the CPU of the node process. The integration alone, measured in this process
+It also prints the CPU of the node process, averaged over the whole run, its start-up
+included. The integration alone, measured in this process
 over the same first 2 s (Simulation.advance in 1 ms periods), is printed next to it as the
 node's budget.
 
