@@ -25,7 +25,7 @@ import argparse
 import os
 import time
 
-from bench_simulator_node import Probe, cpu_seconds, start_node, stop_node
+from bench_simulator_node import STEPS_PER_MS, Probe, cpu_seconds, start_node, stop_node
 
 from abb_ros.model.beyond import with_steel_balls
 from abb_ros.model.integrate import DEFAULT_DT, Simulation
@@ -65,10 +65,9 @@ def integration_alone(params: DriveParams, seconds: float = 2.0) -> float:
     """Real-time factor of Simulation.advance over the first ``seconds`` of simulated time."""
     sim = Simulation(params, OMEGA, DEFAULT_DT)
     sim.advance(1)                                  # load the compiled kernels
-    steps = int(round(1e-3 / DEFAULT_DT))
     wall0 = time.perf_counter()
     for _ in range(int(round(seconds / 1e-3))):
-        sim.advance(steps)
+        sim.advance(STEPS_PER_MS)
     return (sim.t - DEFAULT_DT) / (time.perf_counter() - wall0)
 
 

@@ -57,7 +57,7 @@ def replay(params, y0, omega, dt, nsteps):
         sub, impact = K.contact_regime(y, n, P, dt) if params.contact_E > 0 else (1, False)
         if sub > 1 and not rolling:
             start = y.copy()
-            rows = K.contact_step(s * dt, dt, y, n, P, S, sub, impact, trace, qdd, *bufs)
+            rows = K.contact_step(s * dt, dt, y, start, n, P, S, sub, impact, trace, qdd, *bufs)
             assert rows <= len(trace)
             for t, h, *end in trace[:rows]:
                 pieces.append((t, h, None, start, np.array(end)))

@@ -198,7 +198,7 @@ def test_an_impact_caught_near_its_peak_is_not_taken_for_a_resting_contact():
     K.mis_contact_step(1e-4, 1e-4, rest, n, P, S, sub, np.empty((0, 2 * N)), np.empty(N), *bufs)
     assert K.resting_misjudged(start, rest, n, P)
     kept = start.copy()
-    rows = K.contact_step(1e-4, 1e-4, kept, n, P, S, sub, impact, np.empty((0, 2 * N)),
+    rows = K.contact_step(1e-4, 1e-4, kept, start, n, P, S, sub, impact, np.empty((0, 2 * N)),
                           np.empty(N), *bufs)
     forced = K.contact_regime_as(start, n, P, 1e-4, True)[0]
     print(f'contact sub-steps as resting {sub}, as an impact {forced}; the step kept: {rows} '
@@ -229,18 +229,26 @@ def test_in_torque_mode_an_impact_near_its_peak_is_taken_again_too(onset):
 
 def test_a_resting_chain_is_never_taken_again():
     """Ten steel balls gathered into a chain at P1 (the node's n = 10 drive, after 1.2 s):
-    over the next 0.1 s every step is refined (touching) and no pair's contact stops resting
-    (resting_misjudged is False after every step), so no step is taken twice."""
+    over the next 0.1 s every step is refined (touching) and none is taken again: its first
+    multirate step, at mis_substeps, leaves retake_substeps at 0 (as contact_step decides)."""
     params = with_steel_balls(DriveParams().replace(m=1.56e-4, D=1e-6, n=10, c=0.66))
     sim = Simulation(params, 0.8 * params.omega0)
     sim.advance(12000)
-    n = params.n
+    n, N = params.n, 7 + params.n
     P = kernels.pack_params(params)
+    S = sim.spindle.pack(sim.omega_cmd)
+    bufs = solver_buffers(n)
     retaken = 0
     for _ in range(1000):
         start = sim.y.copy()
-        sim.advance(1)
         sub, impact = K.contact_regime(start, n, P, sim.dt)
-        retaken += (not impact) and K.resting_misjudged(start, sim.y, n, P)
+        fast = K.mis_substeps(start, n, P, sim.dt)
+        first = start.copy()
+        K.mis_contact_step(sim.t, sim.dt, first, n, P, S, fast, np.empty((0, 2 * N)),
+                           np.empty(N), *bufs)
+        retaken += K.retake_substeps(start, first, n, P, sim.dt, impact, fast,
+                                     kernels.MIS_IMPACT_REFINE) > 0
+        sim.advance(1)
+        np.testing.assert_array_equal(first, sim.y)     # the step the simulation kept
     print(f'refined steps {sim.refined_steps}, retaken {retaken}')
     assert sim.refined_steps >= 1000 and retaken == 0

@@ -383,10 +383,8 @@ def contact_regime(y, n, P, dt):
 def contact_regime_as(y, n, P, dt, every_impact):
     """:func:`contact_regime`, with every pair that can touch within the step resolved as an
     impact when ``every_impact`` (a step retaken after :func:`resting_misjudged`)."""
-    K = contact_stiffness(P)
+    K, mb, sep = contact_scales(P)
     chi = P[I_CONTACT_DAMPING]
-    mb = P[6] * (1.0 + SPIN_INERTIA * P[I_BALL_ROTATION])
-    sep = 2.0 * math.asin(P[I_R_BALL] / P[3])
     N = PHI + n
     need = 0.0
     impact = False
@@ -398,9 +396,7 @@ def contact_regime_as(y, n, P, dt, every_impact):
             delta, rate, lever = pair_state(y, n, P, i, j)
             if delta + 2.0 * max(rate, 0.0) * dt <= 0.0:
                 continue
-            d0 = max(delta, 0.0)
-            static = d0 * d0 * math.sqrt(d0)
-            kinetic = 0.625 * mb * rate * rate / K
+            static, kinetic = pair_energies(delta, rate, K, mb)
             peak = (static + kinetic) ** 0.4
             if peak <= 0.0:
                 continue
@@ -421,6 +417,22 @@ def contact_regime_as(y, n, P, dt, every_impact):
     return k, impact
 
 @kernel
+def contact_scales(P):
+    """(K of :func:`contact_stiffness`, a ball's mass m_b (7/5 m for rolling balls), the
+    angle 2 asin(r / R) at which two balls touch) of :func:`contact_regime_as`."""
+    mb = P[6] * (1.0 + SPIN_INERTIA * P[I_BALL_ROTATION])
+    return contact_stiffness(P), mb, 2.0 * math.asin(P[I_R_BALL] / P[3])
+
+@kernel
+def pair_energies(delta, rate, K, mb):
+    """(static, kinetic) overlap 'energies' of a pair at overlap delta and its rate, in
+    delta^2.5: the present overlap's, max(delta, 0)^2.5, and the Hertz peak overlap's of the
+    rate, 5/8 m_b rate^2 / K (:func:`contact_regime_as`). More kinetic than static: an impact,
+    else a resting contact."""
+    d0 = max(delta, 0.0)
+    return d0 * d0 * math.sqrt(d0), 0.625 * mb * rate * rate / K
+
+@kernel
 def resting_misjudged(y0, y1, n, P):
     """True when a pair of balls that :func:`contact_regime` took for a resting contact at
     y0 (touching, its overlap's energy at least its rate's) did not rest over the step to
@@ -428,38 +440,47 @@ def resting_misjudged(y0, y1, n, P):
     exceeds its overlap's. From the state alone an impact caught near its peak looks like a
     resting contact; resolved as one (CONTACT_OMEGA_H_REST), its rebound would be wrong by
     about 1 % of the impact's speed."""
-    K = contact_stiffness(P)
-    mb = P[6] * (1.0 + SPIN_INERTIA * P[I_BALL_ROTATION])
-    sep = 2.0 * math.asin(P[I_R_BALL] / P[3])
+    K, mb, sep = contact_scales(P)
     for i in range(n):
         for j in range(i + 1, n):
             if not near(y0[PHI + j] - y0[PHI + i], sep):
                 continue
             delta, rate, lever = pair_state(y0, n, P, i, j)
-            if delta <= 0.0 or 0.625 * mb * rate * rate / K > delta * delta * math.sqrt(delta):
+            static, kinetic = pair_energies(delta, rate, K, mb)
+            if delta <= 0.0 or kinetic > static:
                 continue                        # apart, or an impact (resolved as one)
             d1, r1, lever = pair_state(y1, n, P, i, j)
             if d1 < 0.5 * delta or d1 > 2.0 * delta:
                 return True
-            if 0.625 * mb * r1 * r1 / K > d1 * d1 * math.sqrt(d1):
+            static, kinetic = pair_energies(d1, r1, K, mb)
+            if kinetic > static:
                 return True
     return False
 
 @kernel
-def contact_step(t, dt, y, n, P, S, sub, impact, trace, qdd, A, W, f, B, fb, u):
-    """The multirate step of dt from (t, y), y in place, with the fast sub-steps of
-    :func:`contact_regime`'s (``sub``, ``impact``) (:func:`mis_substeps`), taken again from
-    the start with every contact resolved as an impact when :func:`resting_misjudged` and
-    that needs more sub-steps. Returns the fast sub-steps (``trace``'s rows, of the step
-    kept), as :func:`mis_contact_step`."""
-    start = y.copy()
+def retake_substeps(start, y, n, P, dt, impact, used, refine):
+    """Sub-steps to take the step of dt from ``start`` (which gave y in ``used`` sub-steps)
+    again with every contact resolved as an impact (:func:`contact_regime_as`, times
+    ``refine``), or 0: only a step resolved as resting (not ``impact``) whose resting contact
+    did not rest (:func:`resting_misjudged`) and when that needs more sub-steps."""
+    if impact or not resting_misjudged(start, y, n, P):
+        return 0
+    forced = int(math.ceil(contact_regime_as(start, n, P, dt, True)[0] * refine))
+    return forced if forced > used else 0
+
+@kernel
+def contact_step(t, dt, y, start, n, P, S, sub, impact, trace, qdd, A, W, f, B, fb, u):
+    """The multirate step of dt from (t, y), y in place (``start``: a copy of y, kept), with
+    the fast sub-steps of :func:`contact_regime`'s (``sub``, ``impact``)
+    (:func:`mis_substeps`), taken again from ``start`` when :func:`retake_substeps` says so.
+    Returns the fast sub-steps (``trace``'s rows, of the step kept), as
+    :func:`mis_contact_step`."""
     fast = int(math.ceil(sub * MIS_IMPACT_REFINE)) if impact else sub
     rows = mis_contact_step(t, dt, y, n, P, S, fast, trace, qdd, A, W, f, B, fb, u)
-    if not impact and resting_misjudged(start, y, n, P):
-        forced = int(math.ceil(contact_regime_as(start, n, P, dt, True)[0] * MIS_IMPACT_REFINE))
-        if forced > fast:
-            y[:] = start
-            rows = mis_contact_step(t, dt, y, n, P, S, forced, trace, qdd, A, W, f, B, fb, u)
+    forced = retake_substeps(start, y, n, P, dt, impact, fast, MIS_IMPACT_REFINE)
+    if forced > 0:
+        y[:] = start
+        rows = mis_contact_step(t, dt, y, n, P, S, forced, trace, qdd, A, W, f, B, fb, u)
     return rows
 
 @kernel
@@ -1439,8 +1460,8 @@ def rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f,
     balls touch (issue 12), sub-steps of dt / :func:`contact_substeps`: the multirate step
     :func:`mis_contact_step` (only the contact forces sub-stepped, :func:`mis_substeps`
     times; :func:`contact_step`), or, in torque mode and with rolling resistance, RK4
-    sub-steps of the whole system (in torque mode taken again like :func:`contact_step` when
-    :func:`resting_misjudged`); with rolling resistance each (sub)step locates its regime
+    sub-steps of the whole system (in torque mode taken again when :func:`retake_substeps`
+    says so); with rolling resistance each (sub)step locates its regime
     switches
     (:func:`rk4_rolling_substep`, ``cache`` (3, 2N) carried from step to step). k1..k4, yt
     and ysave are stage buffers of shape (2N,), the rest the solver scratch of :func:`accel`.
@@ -1464,18 +1485,16 @@ def rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f,
     elif sub == 1:
         rk4_substep(t, dt, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u)
     elif S[0] != SPINDLE_TORQUE:
-        sub = contact_step(t, dt, y, n, P, S, sub, impact, np.empty((0, n2)), qdd, A, W, f, B,
-                           fb, u)
+        sub = contact_step(t, dt, y, ysave, n, P, S, sub, impact, np.empty((0, n2)), qdd, A, W,
+                           f, B, fb, u)
     else:
         rk4_substeps(t, dt, sub, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u)
-        if not impact and resting_misjudged(ysave, y, n, P):       # as contact_step does
-            forced = contact_regime_as(ysave, n, P, dt, True)[0]
-            if forced > sub:
-                for i in range(n2):
-                    y[i] = ysave[i]
-                sub = forced
-                rk4_substeps(t, dt, sub, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb,
-                             u)
+        forced = retake_substeps(ysave, y, n, P, dt, impact, sub, 1.0)
+        if forced > 0:
+            for i in range(n2):
+                y[i] = ysave[i]
+            sub = forced
+            rk4_substeps(t, dt, sub, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u)
     status = check_state(y, n)
     if status != OK:
         for i in range(n2):
