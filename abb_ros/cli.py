@@ -66,6 +66,12 @@ def _state_error():
     return module.StateError if module is not None else _NotRaised
 
 
+def _family_error():
+    """floquet.FamilyInvarianceError if a command imported the Floquet module."""
+    module = sys.modules.get('abb_ros.model.floquet')
+    return module.FamilyInvarianceError if module is not None else _NotRaised
+
+
 def _print_human(summary: dict) -> None:
     for key, value in summary.items():
         print(f'{key}: {value}')
@@ -87,7 +93,7 @@ def main(argv=None) -> int:
         print(f'abb-sim {args.command}: simulation stopped: {exc} (check the parameters: '
               'a very stiff or undamped drive may need a smaller step)', file=sys.stderr)
         return 1
-    except CommandFailed as exc:
+    except (CommandFailed, _family_error()) as exc:
         print(f'abb-sim {args.command}: error: {exc}', file=sys.stderr)
         return 1
     except OSError as exc:      # refused by the system where no command expected it

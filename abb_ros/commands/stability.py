@@ -16,8 +16,9 @@ def add_arguments(parser) -> None:
     parser.add_argument('--set', action='append', default=[], metavar='KEY=VALUE',
                         help='parameter (SI name, omega, or wbar/zeta/Dbar/epsbar/mbar/n)')
     parser.add_argument('--config', help='ROS 2 parameter file with drive.* parameters')
-    parser.add_argument('--phi-star', help='explicit ball angles phi_i* in degrees, comma '
-                        'separated (must satisfy Eq. 26); default: symmetric fan')
+    parser.add_argument('--phi-star', help='the member of the balanced family to evaluate: ball '
+                        'angles phi_i* in degrees, comma separated (must satisfy Eq. 26); '
+                        'default: the symmetric fan')
 
 
 def operating_point(args):
@@ -44,7 +45,7 @@ def run(args) -> dict:
     out = {'omega_rad_s': omega, 'wbar': params.wbar(omega), **params.dimensionless(),
            'verdict': res.verdict, 'balanced': res.balanced,
            'balanced_equilibrium_exists': res.exists,
-           'phi_star_deg': [math.degrees(v) for v in res.phi_star]}
+           'phi_star_deg': [math.degrees(v) for v in res.phi_star], 'member': res.member}
     if params.beyond_paper:
         out['note'] = ('linear analysis of the paper\'s model: it ignores '
                        + ', '.join(params.beyond_paper)
@@ -52,6 +53,8 @@ def run(args) -> dict:
     if res.exists:
         out['lam_max_in_plane'] = res.lam_in
         out['lam_max_out_of_plane'] = res.lam_out
+        out['neutral_modes_removed'] = res.neutral
+        out['family_invariance'] = res.invariance
     else:
         out['reason'] = res.reason
     return out

@@ -1,7 +1,8 @@
 """The spindle speed of a ``sensor_msgs/JointState``, read straight from its CDR bytes.
 
-The analysis node needs one number of each ``joint_states`` message: omega, the velocity of
-joint ``spindle`` (else the first velocity). Deserialising the whole message into rclpy
+The analysis node needs few numbers of each ``joint_states`` message: omega, the velocity of
+joint ``spindle`` (else the first velocity), and the ball angles phi_i (positions of the joints
+``ball_*``, in name order). Deserialising the whole message into rclpy
 objects at 1 kHz costs far more than the analysis itself; this reads the stamp, the joint
 names and one double. The layout (XCDR1, little-endian; see :mod:`abb_ros.io.cdr`) is parsed
 once per distinct header + names and cached, so a message of the same layout costs one bytes
@@ -25,12 +26,14 @@ _HEADER = 4   # encapsulation bytes; alignment counts from the byte after them
 @dataclass(frozen=True)
 class JointSpeed:
     """omega [rad/s] (nan when the message has no velocity), the ball count (joints named
-    ``ball_*``), whether any name was given, and the header stamp [ns]."""
+    ``ball_*``), whether any name was given, the header stamp [ns] and the ball angles phi
+    [rad] (empty when the message has no position for every ball)."""
 
     omega: float
     n: int
     named: bool
     stamp_ns: int
+    phi: tuple = ()
 
 
 class JointSpeedReader:
@@ -50,9 +53,13 @@ class JointSpeedReader:
         if key != self._key:
             self._layout = self._parse(data, names_end)
             self._key = key
-        offset, n, named = self._layout
+        offset, n, named, positions = self._layout
         omega = _F64.unpack_from(data, offset)[0] if offset is not None else math.nan
-        return JointSpeed(omega, n, named, sec * 1_000_000_000 + nanosec)
+        phi = ()
+        if positions is not None:
+            values = positions[0].unpack_from(data, positions[1])
+            phi = tuple(values[i] for i in positions[2])
+        return JointSpeed(omega, n, named, sec * 1_000_000_000 + nanosec, phi)
 
     def _names_end(self, data: bytes, pos: int) -> int:
         """Byte after the frame_id and the name sequence (a cheap walk over lengths)."""
@@ -75,16 +82,22 @@ class JointSpeedReader:
             names.append(data[pos:pos + length - 1].decode('utf-8', 'replace'))
             pos += length
         positions, pos = _u32(data, names_end)
+        balls = [i for i, name in enumerate(names) if name.startswith('ball_')]
+        ball_positions = None
         if positions:
-            pos = _align(pos, 8) + 8 * positions
+            pos = _align(pos, 8)
+            if pos + 8 * positions > len(data):
+                raise ValueError('JointState position sequence runs past the message')
+            if balls and balls[-1] < positions:
+                ball_positions = (struct.Struct(f'<{positions}d'), pos, balls)
+            pos += 8 * positions
         velocities, pos = _u32(data, pos)
         pos = _align(pos, 8)
         if velocities and pos + 8 * velocities > len(data):
             raise ValueError('JointState velocity sequence runs past the message')
         index = names.index('spindle') if 'spindle' in names else 0
         offset = pos + 8 * index if index < velocities else None
-        n = sum(1 for name in names if name.startswith('ball_'))
-        return offset, n, bool(names)
+        return offset, len(balls), bool(names), ball_positions
 
 
 def _align(pos: int, size: int) -> int:

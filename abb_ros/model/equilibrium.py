@@ -21,15 +21,22 @@ Dirichlet kernel, monotone on that interval). For n = 2 this is exactly the corr
 with the paper's sign convention phi_1* = -phi_2* < 0.
 Any other configuration may be passed explicitly as ``phi_star`` and is checked against Eq. (26).
 
-With eps = 0 the balanced equilibria form a continuous family (any rotation of a balanced
-configuration), so the linearisation has a neutral mode and |lambda|max = 1 exactly; the maps
-then show the bottom row of Fig. 6 (epsbar = 0) as not 'balanced and stable', although the
-drive stays balanced. For small eps > 0 the restoring effect is weak (|lambda|max ~ 1 - 1e-5 at
-epsbar = 1e-4).
+The fan is one member of a family: Eq. (26) is two conditions on n angles, so for n >= 3 its
+solutions form a manifold of dimension n - 2, and for n = 2 at eps = 0 the rotations of the
+opposite pair. The stability analysis removes the family's neutral directions
+(:mod:`abb_ros.model.family`, :mod:`abb_ros.model.floquet`) and can evaluate any member.
+No balanced equilibrium exists when the imbalance exceeds the balls' capacity C m R < M eps
+(the balls cannot cancel it) or when n = 1 and m R != M eps; the result then says so
+(``exists = False`` and a reason), never NaN. Point masses (the paper's model) have the
+capacity C = n. Balls with a size that touch (``r_ball`` > 0 and ``contact_E`` > 0) cannot come
+closer than the contact separation s = 2 asin(r_ball / R); the largest resultant n such balls
+give is that of the packed chain, each next to the other at s (:func:`ball_capacity`)::
 
-No balanced equilibrium exists when n m R < M eps (the balls cannot cancel the imbalance) or
-when n = 1 and m R != M eps; the result then says so (``exists = False`` and a reason),
-never NaN.
+    C = sin(n s / 2) / sin(s / 2)      (< n; ten 0.156 g steel balls on R = 14.9 mm: 8.05).
+
+The symmetric fan's spacing delta falls from 2 pi / n to s as the imbalance grows to C m R, so
+the fan is a valid equilibrium (balls apart) exactly where one exists, and at the capacity it
+is the packed chain. A given ``phi_star`` must keep its balls s apart.
 """
 
 from __future__ import annotations
@@ -39,14 +46,37 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from abb_ros.model.family import min_spacing
 from abb_ros.model.params import DriveParams, ParamError
 from abb_ros.model.state import wrap_angle
 
 __all__ = ['BalancedEquilibrium', 'balanced_equilibrium', 'phi_star_two_balls', 'fan_phi_star',
-           'eq26_residual', 'epsbar_lim', 'mbar_lim', 'EQ26_TOL']
+           'eq26_residual', 'epsbar_lim', 'mbar_lim', 'EQ26_TOL', 'ball_capacity',
+           'balls_touch', 'SPACING_TOL', 'no_equilibrium_reason']
 
 EQ26_TOL = 1e-9
 """Largest |Eq. (26) residual| (dimensionless, relative to n) accepted for a given phi_star."""
+
+SPACING_TOL = 1e-9
+"""A given phi_star's balls may be this much [rad] closer than the contact separation (the
+packed chain at the capacity, computed in floating point)."""
+
+
+def balls_touch(params: DriveParams) -> bool:
+    """True when the balls have a size and touch (contact on): their spacing is bounded."""
+    return params.n > 1 and params.r_ball > 0.0 and params.contact_E > 0.0
+
+
+def ball_capacity(params: DriveParams) -> float:
+    """The largest |sum_i exp(i phi_i)| the balls can make, C (the imbalance C m R they cancel).
+
+    n for point masses or without contact; sin(n s / 2) / sin(s / 2) for balls that touch at
+    the contact separation s = 2 asin(r_ball / R) (the packed chain, module docstring).
+    """
+    if not balls_touch(params):
+        return float(params.n)
+    half = 0.5 * params.contact_separation
+    return math.sin(params.n * half) / math.sin(half)
 
 
 @dataclass(frozen=True)
@@ -90,7 +120,9 @@ def phi_star_two_balls(ratio: float) -> tuple[float, float]:
 def fan_phi_star(n: int, ratio):
     """Symmetric-fan solution of Eq. (26) for n >= 2 balls and ratio = M eps / (m R) <= n.
 
-    ``ratio`` may be an array of shape (B,); the result then has shape (B, n) [rad].
+    ``ratio`` may be an array of shape (B,); the result then has shape (B, n) [rad]. Its
+    spacing falls monotonically with ratio (module docstring), so balls that touch are apart
+    in it whenever ratio is within their :func:`ball_capacity`.
     """
     ratio = np.asarray(ratio, dtype=float)
     if np.any(ratio > n):
@@ -126,6 +158,11 @@ def balanced_equilibrium(params: DriveParams, phi_star=None) -> BalancedEquilibr
         if res > EQ26_TOL * max(n, 1):
             raise ParamError('phi_star', _deg(phi), 'a solution of Eq. (26)',
                              f'residual {res:.3g}')
+        if balls_touch(params) and min_spacing(phi) < params.contact_separation - SPACING_TOL:
+            raise ParamError('phi_star', _deg(phi), 'balls at least the contact separation '
+                             f'2 asin(r_ball / R) = {math.degrees(params.contact_separation):.4g}'
+                             ' deg apart', f'two are {math.degrees(min_spacing(phi)):.4g} deg '
+                             'apart')
         return BalancedEquilibrium(True, phi)
     if n == 0:
         if params.eps == 0.0:
@@ -136,24 +173,38 @@ def balanced_equilibrium(params: DriveParams, phi_star=None) -> BalancedEquilibr
             return BalancedEquilibrium(True, np.array([math.pi]))
         return BalancedEquilibrium(False, np.zeros(0),
                                    'one ball balances only when m R = M eps exactly')
-    if ratio > n:
-        return BalancedEquilibrium(
-            False, np.zeros(0),
-            f'imbalance beyond the balls\' capacity: n m R = {n * params.m * params.R:.4g} '
-            f'< M eps = {params.M * params.eps:.4g} kg m')
+    capacity = ball_capacity(params)
+    if ratio > capacity:
+        return BalancedEquilibrium(False, np.zeros(0), no_equilibrium_reason(params))
     return BalancedEquilibrium(True, fan_phi_star(n, ratio))
 
 
+def no_equilibrium_reason(params: DriveParams) -> str:
+    """Why n >= 2 balls cannot balance the drive (its imbalance exceeds their capacity)."""
+    mR = params.m * params.R
+    if balls_touch(params):
+        return ("no balanced equilibrium: the balls touch before they cancel the imbalance "
+                f"(packed {math.degrees(params.contact_separation):.4g} deg apart they cancel "
+                f"at most {ball_capacity(params):.4g} m R = {ball_capacity(params) * mR:.4g} "
+                f"< M eps = {params.M * params.eps:.4g} kg m)")
+    return (f"imbalance beyond the balls' capacity: n m R = {params.n * mR:.4g} "
+            f"< M eps = {params.M * params.eps:.4g} kg m")
+
+
 def epsbar_lim(params: DriveParams) -> float:
-    """Largest balanceable eccentricity eps/R = n m / M (Fig. 6; n = 2: 2 m R = M eps)."""
-    return params.n * params.m / params.M
+    """Largest balanceable eccentricity eps/R = C m / M (Fig. 6; n = 2: 2 m R = M eps).
+
+    C is the :func:`ball_capacity` (n for point masses)."""
+    return ball_capacity(params) * params.m / params.M
 
 
 def mbar_lim(params: DriveParams) -> float:
-    """Smallest ball mass m/M that can balance: eps / (n R) (Fig. 7; n = 2: 2 m R = M eps)."""
+    """Smallest ball mass m/M that can balance: eps / (C R) (Fig. 7; n = 2: 2 m R = M eps).
+
+    C is the :func:`ball_capacity` at the drive's r_ball (n for point masses)."""
     if params.n == 0:
         return math.inf
-    return params.eps / (params.n * params.R)
+    return params.eps / (ball_capacity(params) * params.R)
 
 
 def _deg(phi) -> str:

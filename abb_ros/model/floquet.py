@@ -13,6 +13,18 @@ The kernel is built twice from one source (:mod:`abb_ros.model.jit`; ``JIT``: nu
 over the points of the batch; ``PY``: the same statements in plain Python), and a test checks
 the two agree. The multipliers are the eigenvalues of the monodromy matrix Phi(T); the point is
 balanced and stable when the largest modulus is < 1 (Section 4).
+
+Neutral directions of the balanced family. Where the balanced equilibria of Eq. (26) form a
+family (n >= 3, or n = 2 at eps = 0; :mod:`abb_ros.model.family`), each of its k tangent
+directions V (ball angles in null J, deck and rates zero) is an equilibrium of the in-plane
+linearisation, so Phi V = V: k multipliers exactly 1 whose rounding would decide
+``|lambda|max < 1``. They are removed exactly: in the orthonormal basis T = [W V] (W the
+complement of V) the monodromy is block triangular, T^T Phi T = [[C, 0], [B, I_k]], and the
+*transverse* multipliers are the eigenvalues of C = W^T Phi W. The number removed (``neutral``)
+and the self-check ``invariance`` = max over V's columns of ||Phi V - V|| (round-off, 1e-15,
+when V is truly invariant) come with every result; above :data:`INVARIANCE_TOL` it is an
+error (:class:`FamilyInvarianceError`), not a verdict. Where k = 0 (n = 2 with eps > 0, and
+the out-of-plane equations, which have no ball coordinates) nothing changes.
 """
 
 from __future__ import annotations
@@ -22,8 +34,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from abb_ros.model.equilibrium import (EQ26_TOL, balanced_equilibrium, epsbar_lim, fan_phi_star,
-                                       mbar_lim)
+from abb_ros.model.equilibrium import (EQ26_TOL, ball_capacity, balanced_equilibrium, epsbar_lim,
+                                       fan_phi_star, mbar_lim)
+from abb_ros.model.family import tangent_frame
 from abb_ros.model.jit import Kernels, KernelSet, prange
 from abb_ros.model.linear import in_plane_harmonics, out_of_plane_harmonics, stack_params
 from abb_ros.model.params import ParamError
@@ -32,7 +45,8 @@ __all__ = ['STEPS_PER_RADIAN', 'MIN_STEPS', 'JIT', 'PY', 'SERIAL', 'monodromy_ba
            'monodromy', 'monodromy_reference', 'multipliers', 'max_multiplier', 'PLANES',
            'equilibria', 'max_multiplier_batch', 'sweep_speed', 'PointStability',
            'point_stability', 'StabilityMap', 'stability_map', 'MAP_AXES', 'BALANCED', 'UNSTABLE',
-           'NO_EQUILIBRIUM']
+           'NO_EQUILIBRIUM', 'INVARIANCE_TOL', 'FamilyInvarianceError', 'MultiplierBatch',
+           'multipliers_batch', 'transverse_max_multiplier']
 
 STEPS_PER_RADIAN = 8.0
 """RK4 steps per radian of the fastest phase advance in tau (chosen in test_floquet's accuracy
@@ -238,6 +252,37 @@ def max_multiplier(Phi) -> np.ndarray:
     return np.abs(multipliers(Phi)).max(axis=-1)
 
 
+INVARIANCE_TOL = 1e-9
+"""Largest ||Phi V - V|| (V the family's orthonormal tangent directions) accepted as neutral.
+Measured 2e-16 to 8e-16 (n = 2..10, wbar 0.7..2.7): it is the monodromy's round-off, so any
+larger value means V is not an equilibrium direction of the linearisation (a wrong phi* or
+a broken integration), which must not be read as a verdict."""
+
+
+class FamilyInvarianceError(RuntimeError):
+    """The family's tangent directions are not invariant under the monodromy (self-check)."""
+
+
+def transverse_max_multiplier(Phi, U, k: int):
+    """Largest |transverse multiplier| and the invariance residual of each monodromy.
+
+    Phi : (B, 2 nq, 2 nq) in-plane monodromies (state [X, Y, gamma, phi_1..phi_n, rates]);
+    U, k : the ball-angle frames of :func:`abb_ros.model.family.tangent_frame` (U (B, n, n),
+    its last k columns the tangent directions), the same k for the batch. Returns
+    (lam (B,), invariance (B,)); see the module docstring.
+    """
+    B, m = Phi.shape[0], Phi.shape[-1]
+    n = U.shape[-1]
+    T = np.broadcast_to(np.eye(m), (B, m, m)).copy()
+    T[:, 3:3 + n, 3:3 + n] = U
+    tangent = np.arange(3 + n - k, 3 + n)
+    keep = np.setdiff1d(np.arange(m), tangent)
+    V = T[:, :, tangent]
+    invariance = np.linalg.norm(Phi @ V - V, axis=-2).max(axis=-1)
+    C = (np.swapaxes(T, -1, -2) @ Phi @ T)[:, keep][:, :, keep]
+    return max_multiplier(C), invariance
+
+
 def _to_physical(Phi_tau, omega):
     """Phi for [x, dx/dt] from Phi for [x, dx/dtau] (similarity S Phi S^-1, S = diag(1, omega))."""
     nq = Phi_tau.shape[-1] // 2
@@ -300,28 +345,46 @@ def _rate_estimate(Mh, Ch, Kh, omega):
 
 
 def equilibria(params_list):
-    """Balanced equilibria of a batch of DriveParams (same n): (exists (B,), phi_star (B, n))."""
+    """Balanced equilibria of a batch of DriveParams (same n): (exists (B,), phi_star (B, n)).
+
+    The symmetric fan where the imbalance is within the balls' capacity (equilibrium.py)."""
     n = params_list[0].n
     p = stack_params(params_list)
     B = len(params_list)
     if n == 0:
         return p.eps == 0.0, np.zeros((B, 0))
     ratio = p.M * p.eps / (p.m * p.R)
-    exists = ratio <= n if n > 1 else np.abs(ratio - 1.0) <= EQ26_TOL
+    capacity = np.array([ball_capacity(q) for q in params_list])
+    exists = ratio <= capacity if n > 1 else np.abs(ratio - 1.0) <= EQ26_TOL
     phi = np.zeros((B, n))
     if exists.any():
         phi[exists] = fan_phi_star(n, ratio[exists]) if n > 1 else math.pi
     return exists, phi
 
 
-def max_multiplier_batch(params_list, omegas, plane='in', phi_star=None, progress=None,
-                         kern=None):
-    """Largest |Floquet multiplier| at the balanced equilibrium for each point of a batch.
+@dataclass(frozen=True)
+class MultiplierBatch:
+    """Largest |multiplier| of a batch of operating points (arrays of shape (B,)).
+
+    ``lam``: the largest |transverse multiplier| (+inf where no balanced equilibrium exists);
+    ``exists``; ``neutral``: the family's neutral multipliers removed (0 out-of-plane and for
+    n = 2 with eps > 0); ``invariance``: ||Phi V - V|| of those directions (0 where none).
+    """
+
+    lam: np.ndarray
+    exists: np.ndarray
+    neutral: np.ndarray
+    invariance: np.ndarray
+
+
+def multipliers_batch(params_list, omegas, plane='in', phi_star=None, progress=None,
+                      kern=None) -> MultiplierBatch:
+    """Largest |transverse Floquet multiplier| at the balanced equilibrium, for a batch.
 
     params_list : sequence of DriveParams with the same n; omegas : (B,) [rad/s] > 0;
-    phi_star : optional (B, n) or (n,) [rad], else the symmetric fan (equilibrium.py).
-    Returns (lam (B,), exists (B,) bool); lam is +inf where no balanced equilibrium exists.
-    ``progress(k)`` is called with the number of points done after each chunk.
+    phi_star : optional (B, n) or (n,) [rad] members of the family, else the symmetric fan
+    (equilibrium.py). ``progress(k)`` is called with the number of points done after each
+    chunk. Raises :class:`FamilyInvarianceError` when a point fails the self-check.
     """
     builder, tau_end = PLANES[plane]
     omegas = np.asarray(omegas, dtype=float)
@@ -334,6 +397,8 @@ def max_multiplier_batch(params_list, omegas, plane='in', phi_star=None, progres
         exists = np.ones(B, dtype=bool)
         phi = np.broadcast_to(np.asarray(phi_star, dtype=float), (B, params_list[0].n))
     lam = np.full(B, np.inf)
+    neutral = np.zeros(B, dtype=np.int64)
+    invariance = np.zeros(B)
     p = stack_params(params_list)
     idx = np.flatnonzero(exists)
     for start in range(0, idx.size, CHUNK):
@@ -342,12 +407,37 @@ def max_multiplier_batch(params_list, omegas, plane='in', phi_star=None, progres
                          for f, v in vars(p).items()})
         Mh, Ch, Kh = builder(sub, omegas[sel], phi[sel])
         steps = steps_for(_rate_estimate(Mh, Ch, Kh, omegas[sel]), tau_end)
-        lam[sel] = max_multiplier(monodromy_batch(Mh, Ch, Kh, omegas[sel], tau_end, steps, kern))
+        Phi = monodromy_batch(Mh, Ch, Kh, omegas[sel], tau_end, steps, kern)
+        if plane == 'in' and phi.shape[1] > 1:
+            U, k = tangent_frame(phi[sel])
+        else:
+            U, k = None, np.zeros(sel.size, dtype=np.int64)
+        lam[sel] = max_multiplier(Phi)
+        for count in np.unique(k[k > 0]):
+            group = np.flatnonzero(k == count)
+            lam[sel[group]], invariance[sel[group]] = transverse_max_multiplier(
+                Phi[group], U[group], int(count))
+        neutral[sel] = k
         if progress is not None:
             progress(sel.size)
     if progress is not None and idx.size < B:
         progress(B - idx.size)
-    return lam, exists
+    bad = np.flatnonzero(invariance > INVARIANCE_TOL)
+    if bad.size:
+        i = int(bad[np.argmax(invariance[bad])])
+        raise FamilyInvarianceError(
+            f'the balanced family\'s tangent directions are not neutral at omega = '
+            f'{omegas[i]:.6g} rad/s (||Phi V - V|| = {invariance[i]:.3g} > {INVARIANCE_TOL:g}): '
+            'no stability verdict')
+    return MultiplierBatch(lam, exists, neutral, invariance)
+
+
+def max_multiplier_batch(params_list, omegas, plane='in', phi_star=None, progress=None,
+                         kern=None):
+    """(lam (B,), exists (B,) bool) of :func:`multipliers_batch`: the largest |transverse
+    Floquet multiplier| at the balanced equilibrium (+inf where none exists)."""
+    res = multipliers_batch(params_list, omegas, plane, phi_star, progress, kern)
+    return res.lam, res.exists
 
 
 def sweep_speed(params, omegas, plane='in', phi_star=None) -> np.ndarray:
@@ -374,7 +464,12 @@ no balanced equilibrium (n m R < M eps). Both of the last two are 'unbalanced'."
 
 @dataclass(frozen=True)
 class PointStability:
-    """Stability of the balanced equilibrium at one operating point (Section 4)."""
+    """Stability of the balanced equilibrium at one operating point (Section 4).
+
+    ``lam_in``/``lam_out``: largest |transverse multiplier| per plane; ``neutral``: the
+    family's neutral in-plane multipliers removed; ``invariance``: their self-check
+    ||Phi V - V||; ``member``: which equilibrium of the family was evaluated.
+    """
 
     omega: float
     exists: bool
@@ -382,6 +477,9 @@ class PointStability:
     lam_in: float
     lam_out: float
     reason: str = ''
+    neutral: int = 0
+    invariance: float = 0.0
+    member: str = 'symmetric fan'
 
     @property
     def balanced(self) -> bool:
@@ -399,14 +497,22 @@ class PointStability:
         return 'unbalanced (' + ' and '.join(planes) + ' unstable)'
 
 
-def point_stability(params, omega, phi_star=None) -> PointStability:
-    """In-plane and out-of-plane |lambda|max at the balanced equilibrium (omega [rad/s] > 0)."""
+def point_stability(params, omega, phi_star=None, member=None) -> PointStability:
+    """In-plane and out-of-plane |lambda|max at the balanced equilibrium (omega [rad/s] > 0).
+
+    ``phi_star`` : a member of the family [rad] (checked against Eq. 26), default the
+    symmetric fan; ``member`` names it in the result (default 'symmetric fan' or 'given').
+    """
     eq = balanced_equilibrium(params, phi_star)
+    name = member or ('symmetric fan' if phi_star is None else 'given')
     if not eq.exists:
-        return PointStability(float(omega), False, eq.phi_star, math.inf, math.inf, eq.reason)
-    lam = [float(max_multiplier_batch([params], [omega], plane, eq.phi_star)[0][0])
-           for plane in ('in', 'out')]
-    return PointStability(float(omega), True, eq.phi_star, lam[0], lam[1])
+        return PointStability(float(omega), False, eq.phi_star, math.inf, math.inf, eq.reason,
+                              member=name)
+    res = {plane: multipliers_batch([params], [omega], plane, eq.phi_star)
+           for plane in ('in', 'out')}
+    return PointStability(float(omega), True, eq.phi_star, float(res['in'].lam[0]),
+                          float(res['out'].lam[0]), neutral=int(res['in'].neutral[0]),
+                          invariance=float(res['in'].invariance[0]), member=name)
 
 
 @dataclass

@@ -30,13 +30,15 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from abb_ros.model.equilibrium import balanced_equilibrium
+from abb_ros.model.family import neutral_count
 from abb_ros.model.floquet import point_stability, sweep_speed
 from abb_ros.model.linear import natural_frequencies
 from abb_ros.model.params import DriveParams, ParamError
 
 __all__ = ['OK', 'WARN', 'ERROR', 'STALE', 'TABLE_POINTS', 'MARGIN_WARN', 'BAND_GUARD_WBAR',
            'TRANSLATIONAL', 'ROTATIONAL', 'Band', 'SpeedTable', 'Assessment', 'speed_table',
-           'unbalanced_bands', 'assess', 'refine', 'rpm']
+           'unbalanced_bands', 'assess', 'refine', 'rpm', 'NEAR_BALANCE', 'MEMBER_NEAR_BALLS',
+           'member_near_balls']
 
 OK, WARN, ERROR, STALE = 0, 1, 2, 3
 """Verdict levels, the byte values of diagnostic_msgs/DiagnosticStatus."""
@@ -90,7 +92,8 @@ class SpeedTable:
     """|lambda|max against speed for one set of parameters (arrays shape (K,), omegas rad/s).
 
     ``lam_in``/``lam_out`` are +inf everywhere when no balanced equilibrium exists
-    (``exists`` False, ``reason`` says why). ``compute_s`` is the wall time it took.
+    (``exists`` False, ``reason`` says why). ``compute_s`` is the wall time it took;
+    ``neutral`` the family's neutral in-plane multipliers removed (floquet.py).
     """
 
     params: DriveParams
@@ -104,6 +107,7 @@ class SpeedTable:
     natural: dict
     bands: tuple
     compute_s: float = 0.0
+    neutral: int = 0
 
     def at(self, omega: float) -> tuple[float, float]:
         """(lam_in, lam_out) at omega [rad/s] by linear interpolation (clamped to the table)."""
@@ -132,9 +136,10 @@ def speed_table(params: DriveParams, omega_max: float, points: int = TABLE_POINT
     else:
         lam_in = lam_out = np.full(points, math.inf)
         bands = ()
+    neutral = int(neutral_count(eq.phi_star)) if eq.exists and params.n > 1 else 0
     return SpeedTable(params, float(omega_max), omegas, lam_in, lam_out, eq.exists,
                       eq.phi_star, _capacity_text(params) if 'capacity' in eq.reason
-                      else eq.reason, natural, bands, time.perf_counter() - start)
+                      else eq.reason, natural, bands, time.perf_counter() - start, neutral)
 
 
 def _capacity_text(p: DriveParams) -> str:
@@ -206,6 +211,9 @@ def assess(table: SpeedTable, omega: float, exact=None) -> Assessment:
         return Assessment(ERROR, table.reason + '; no balanced equilibrium', -math.inf, values)
     if exact is not None:
         lam_in, lam_out, source = exact.lam_in, exact.lam_out, f'exact at {exact.omega:.2f} rad/s'
+        values.update(family_member=exact.member, neutral_modes_removed=exact.neutral,
+                      family_invariance=exact.invariance,
+                      phi_star_deg=', '.join(f'{math.degrees(x):.2f}' for x in exact.phi_star))
     else:
         lam_in, lam_out = table.at(omega)
         source = 'table (interpolated)'
@@ -256,6 +264,8 @@ def _base_values(table: SpeedTable, omega) -> dict:
               'lambda_in': math.inf, 'lambda_out': math.inf, 'margin': -math.inf,
               'balanced_equilibrium_exists': table.exists,
               'phi_star_deg': ', '.join(f'{math.degrees(x):.2f}' for x in table.phi_star),
+              'family_member': 'symmetric fan',
+              'neutral_modes_removed': table.neutral,
               'omega0': p.omega0}
     for name, w in table.natural.items():
         values[f'natural_frequency_{name}'] = w
@@ -271,9 +281,41 @@ def _base_values(table: SpeedTable, omega) -> dict:
     return values
 
 
-def refine(table: SpeedTable, omega: float):
+def refine(table: SpeedTable, omega: float, member=None):
     """Exact multipliers at omega [rad/s] (about 2 ms), or None when the table has no
-    balanced equilibrium or omega <= 0."""
+    balanced equilibrium or omega <= 0.
+
+    ``member`` : a member of the balanced family [rad] (:func:`member_near_balls`), default
+    the table's symmetric fan.
+    """
     if not table.exists or not (math.isfinite(omega) and omega > 0):
         return None
-    return point_stability(table.params, omega, table.phi_star)
+    if member is None:
+        return point_stability(table.params, omega, table.phi_star)
+    return point_stability(table.params, omega, member, member=MEMBER_NEAR_BALLS)
+
+
+NEAR_BALANCE = 0.05
+"""The balls are near balance when the residual of Eq. (26) at their angles is below this
+(in units of one ball's m R: they cancel the imbalance to within 5 % of one ball)."""
+
+MEMBER_NEAR_BALLS = 'nearest the balls'
+"""``PointStability.member`` of the member projected from the balls' present angles."""
+
+
+def member_near_balls(params: DriveParams, phi):
+    """The member of the balanced family nearest the balls' present angles phi [rad], once
+    they are near balance (:data:`NEAR_BALANCE`); None before, or for fewer than 3 balls
+    (n = 2 with eps > 0 has one member up to the balls' order: the fan)."""
+    from abb_ros.model.equilibrium import SPACING_TOL, balls_touch, eq26_residual
+    from abb_ros.model.family import min_spacing, nearest_member
+    phi = np.asarray(phi, dtype=float)
+    if phi.size != params.n or params.n < 3 or not np.all(np.isfinite(phi)):
+        return None
+    if eq26_residual(params, phi) > NEAR_BALANCE:
+        return None
+    member, _ = nearest_member(params.M * params.eps / (params.m * params.R), phi)
+    if member is None or (balls_touch(params) and min_spacing(member)
+                          < params.contact_separation - SPACING_TOL):
+        return None
+    return member

@@ -4,6 +4,7 @@ drive configuration and, when idle, the exact multipliers at the current speed."
 
 from __future__ import annotations
 
+import math
 import threading
 import time
 
@@ -12,6 +13,9 @@ from abb_ros.model import speed_bands
 REFINE_TOL_RAD_S = 0.5
 """An exact point computed within this speed [rad/s] of the current one replaces the
 interpolated multipliers."""
+MEMBER_TOL_RAD = 1e-3
+"""An exact point of a family member within this [rad] (every ball) of the wanted member
+stands for it; the balls creep along the family, and a new point per creep would be waste."""
 REFINE_SETTLE_S = 0.2
 """The exact point is computed once the speed has stayed within REFINE_TOL_RAD_S for this long
 [s]: during a ramp the table alone answers (an exact point per update would compete with the
@@ -29,11 +33,13 @@ class TableWorker:
         self._config = None
         self._config_id = 0
         self._omega = None
+        self._member = None
         self._moved_at = 0.0
         self._stop = False
         self.table = None
         self.table_id = 0
         self.exact = None
+        self.exact_member = None
         self.error = ''
         self.error_point = ''
         self.busy = False
@@ -46,12 +52,21 @@ class TableWorker:
             self._config_id += 1
             self._cv.notify()
 
-    def want(self, omega: float) -> None:
-        """The current speed [rad/s]: refined once it has been steady for REFINE_SETTLE_S."""
+    def want(self, omega: float, member=None) -> None:
+        """The current speed [rad/s]: refined once it has been steady for REFINE_SETTLE_S.
+
+        ``member``: the family member to evaluate [rad] (speed_bands.member_near_balls),
+        None for the table's symmetric fan.
+        """
         with self._cv:
-            if self._omega is None or abs(omega - self._omega) > REFINE_TOL_RAD_S:
+            moved = self._omega is None or abs(omega - self._omega) > REFINE_TOL_RAD_S
+            if moved:
                 self._omega = omega
                 self._moved_at = time.monotonic()
+            if not _same_member(member, self._member):
+                self._member = member
+                moved = True
+            if moved:
                 self._cv.notify()
 
     def stop(self) -> None:
@@ -63,7 +78,8 @@ class TableWorker:
     def _needs_point(self) -> bool:
         if self._omega is None or self.table is None or self.table_id != self._config_id:
             return False
-        return self.exact is None or abs(self.exact.omega - self._omega) > REFINE_TOL_RAD_S
+        return (self.exact is None or abs(self.exact.omega - self._omega) > REFINE_TOL_RAD_S
+                or not _same_member(self._member, self.exact_member))
 
     def _next_job(self):
         """Under the lock: wait until there is a table to compute or a steady speed to refine;
@@ -75,7 +91,7 @@ class TableWorker:
             if self._needs_point():
                 remaining = self._moved_at + REFINE_SETTLE_S - time.monotonic()
                 if remaining <= 0:
-                    return self._config_id, self._config, self._omega
+                    return self._config_id, self._config, (self._omega, self._member)
                 self._cv.wait(remaining)
             else:
                 self._cv.wait()
@@ -87,15 +103,17 @@ class TableWorker:
                 job = self._next_job()
             if job is None:
                 return
-            config_id, config, omega = job
-            if omega is None:
+            config_id, config, point = job
+            if point is None:
                 self._compute_table(config_id, config)
                 continue
+            omega, member = point
             try:
-                self.exact = speed_bands.refine(self.table, omega)
+                self.exact = speed_bands.refine(self.table, omega, member)
             except Exception as err:  # noqa: BLE001 - keep the interpolated value
                 self.exact = None
                 self.error_point = f'{type(err).__name__}: {err}'
+            self.exact_member = member
             if self.exact is None:  # nothing to refine here: wait for another speed
                 with self._cv:
                     if self._omega == omega:
@@ -112,3 +130,11 @@ class TableWorker:
         self.exact = None
         self.table, self.table_id = table, config_id
         self.busy = False
+
+
+def _same_member(a, b) -> bool:
+    """Both None (the fan), or members within MEMBER_TOL_RAD of each other."""
+    if a is None or b is None:
+        return a is None and b is None
+    return len(a) == len(b) and all(abs(math.remainder(x - y, 2 * math.pi)) <= MEMBER_TOL_RAD
+                                    for x, y in zip(a, b))

@@ -20,8 +20,12 @@ balanced. A thin rclpy adapter over :mod:`abb_ros.model.speed_bands`:
   The verdict is published at most at ``publish_rate_hz`` and at least every ``heartbeat_s``:
   ``stability/margin`` (Float64, 1 - max of the in- and out-of-plane |lambda|max; -inf while
   no balanced equilibrium exists) and ``/diagnostics`` (status ``<node>: stability``). The
-  level rule is in speed_bands. Until the first verdict the status is STALE and says why
-  (table being computed, kernels compiled on a first start, no joint_states yet);
+  level rule is in speed_bands. For n >= 3 balls the balanced equilibria form a family: the
+  table is that of the symmetric fan, and once the balls are near balance (the residual of
+  Eq. 26 at their ``joint_states`` angles below ``speed_bands.NEAR_BALANCE``) the exact point
+  evaluates the member nearest them; ``/diagnostics`` says which (``family_member``,
+  ``phi_star_deg``, ``neutral_modes_removed``). Until the first verdict the status is STALE
+  and says why (table being computed, kernels compiled on a first start, no joint_states yet);
   ``stability/margin`` is published from the first verdict on.
 """
 
@@ -209,7 +213,8 @@ class AnalysisNode(Node):
         self.speed = (omega, js.stamp_ns)
         self._dirty = True
         if math.isfinite(omega) and omega > 0:
-            self.worker.want(omega)
+            self.worker.want(omega, speed_bands.member_near_balls(self._effective_drive(),
+                                                                  js.phi))
 
     def _on_timer(self) -> None:
         latest = None
