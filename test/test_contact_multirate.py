@@ -196,7 +196,7 @@ def test_an_impact_caught_near_its_peak_is_not_taken_for_a_resting_contact():
     bufs = solver_buffers(n)
     S = ConstantSpeed().pack(0.0)
     K.mis_contact_step(1e-4, 1e-4, rest, n, P, S, sub, np.empty((0, 2 * N)), np.empty(N), *bufs)
-    assert K.resting_misjudged(start, rest, n, P)
+    assert K.resting_misjudged(start, rest, n, P, 1e-4)
     kept = start.copy()
     rows = K.contact_step(1e-4, 1e-4, kept, start, n, P, S, sub, impact, np.empty((0, 2 * N)),
                           np.empty(N), *bufs)

@@ -74,6 +74,11 @@ CONTACT_OMEGA_H_REST = 2.0
 """Largest omega_c h of a resting contact (its present overlap exceeds the impact overlap of
 its approach speed): below RK4's stability limit 2.78, its unresolved contact vibration is
 damped numerically, the static compression is exact."""
+CONTACT_REST_IMBALANCE = 0.25
+"""A pair taken for resting did not rest over a step when its rate changed by more than this
+fraction of what its contact force alone, unbalanced, would change it by over the step
+(:func:`resting_misjudged`): a resting contact's force is carried by the load that presses the
+balls together (~0), an impact's by nothing (~1)."""
 MAX_SUBSTEPS = 4096
 MAX_SWITCHES = 16
 """Most rolling-regime switches located within one RK4 (sub)step (the rest of the step then
@@ -433,13 +438,16 @@ def pair_energies(delta, rate, K, mb):
     return d0 * d0 * math.sqrt(d0), 0.625 * mb * rate * rate / K
 
 @kernel
-def resting_misjudged(y0, y1, n, P):
+def resting_misjudged(y0, y1, n, P, dt):
     """True when a pair of balls that :func:`contact_regime` took for a resting contact at
-    y0 (touching, its overlap's energy at least its rate's) did not rest over the step to
-    y1: its overlap there is under half or over twice that at y0, or its rate's energy
-    exceeds its overlap's. From the state alone an impact caught near its peak looks like a
+    y0 (touching, its overlap's energy at least its rate's) did not rest over the step of dt
+    to y1: its overlap there is under half or over twice that at y0, its rate's energy
+    exceeds its overlap's, or its force was not carried: its rate changed by more than
+    CONTACT_REST_IMBALANCE of 2 K delta^1.5 dt / m_b, what the contact force at y0 alone
+    would change it by. From the state alone an impact caught near its peak looks like a
     resting contact; resolved as one (CONTACT_OMEGA_H_REST), its rebound would be wrong by
-    about 1 % of the impact's speed."""
+    up to a few % of the impact's speed (the step across the peak changes neither the
+    overlap nor the energies much, but it turns the rate round)."""
     K, mb, sep = contact_scales(P)
     for i in range(n):
         for j in range(i + 1, n):
@@ -452,6 +460,8 @@ def resting_misjudged(y0, y1, n, P):
             d1, r1, lever = pair_state(y1, n, P, i, j)
             if d1 < 0.5 * delta or d1 > 2.0 * delta:
                 return True
+            if abs(r1 - rate) * mb > CONTACT_REST_IMBALANCE * 2.0 * K * static / delta * dt:
+                return True                     # (K delta^1.5 = K static / delta)
             static, kinetic = pair_energies(d1, r1, K, mb)
             if kinetic > static:
                 return True
@@ -462,11 +472,12 @@ def retake_substeps(start, y, n, P, dt, impact, used, refine):
     """Sub-steps to take the step of dt from ``start`` (which gave y in ``used`` sub-steps)
     again with every contact resolved as an impact (:func:`contact_regime_as`, times
     ``refine``), or 0: only a step resolved as resting (not ``impact``) whose resting contact
-    did not rest (:func:`resting_misjudged`) and when that needs more sub-steps."""
-    if impact or not resting_misjudged(start, y, n, P):
+    did not rest (:func:`resting_misjudged`) and when an impact needs more sub-steps than
+    ``used`` (a step that an impact would take whole is not taken again)."""
+    if impact or not resting_misjudged(start, y, n, P, dt):
         return 0
-    forced = int(math.ceil(contact_regime_as(start, n, P, dt, True)[0] * refine))
-    return forced if forced > used else 0
+    forced = contact_regime_as(start, n, P, dt, True)[0]
+    return int(math.ceil(forced * refine)) if forced > used else 0
 
 @kernel
 def contact_step(t, dt, y, start, n, P, S, sub, impact, trace, qdd, A, W, f, B, fb, u):
@@ -1473,7 +1484,8 @@ def rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f,
         ysave[i] = y[i]
     sub = 1
     impact = False
-    if P[I_CONTACT_E] > 0.0 and n > 1:
+    contact = P[I_CONTACT_E] > 0.0 and n > 1
+    if contact:
         sub, impact = contact_regime(y, n, P, dt)
     switches = 0
     if P[I_ROLLING_MU] > 0.0 and n > 0 and S[0] != SPINDLE_TORQUE:
@@ -1482,19 +1494,28 @@ def rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f,
         for j in range(sub):
             switches += rk4_rolling_substep(t + j * h, h, y, n, P, S, k1, k2, k3, k4, yt,
                                             events, cache, A, W, f, B, fb, u)
-    elif sub == 1:
+    elif sub == 1 and not contact:
         rk4_substep(t, dt, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u)
-    elif S[0] != SPINDLE_TORQUE:
+    elif sub > 1 and S[0] != SPINDLE_TORQUE:
         sub = contact_step(t, dt, y, ysave, n, P, S, sub, impact, np.empty((0, n2)), qdd, A, W,
                            f, B, fb, u)
     else:
+        # whole-system RK4 sub-steps (torque mode), or one RK4 step (a contact resolved in
+        # one step); both taken again when a resting contact did not rest
+        if impact:
+            sub = int(math.ceil(sub * MIS_IMPACT_REFINE))
         rk4_substeps(t, dt, sub, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u)
-        forced = retake_substeps(ysave, y, n, P, dt, impact, sub, 1.0)
+        forced = retake_substeps(ysave, y, n, P, dt, impact, sub, MIS_IMPACT_REFINE)
         if forced > 0:
             for i in range(n2):
                 y[i] = ysave[i]
-            sub = forced
-            rk4_substeps(t, dt, sub, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u)
+            if S[0] == SPINDLE_TORQUE:
+                sub = forced
+                rk4_substeps(t, dt, sub, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb,
+                             u)
+            else:
+                sub = mis_contact_step(t, dt, y, n, P, S, forced, np.empty((0, n2)), qdd, A,
+                                       W, f, B, fb, u)
     status = check_state(y, n)
     if status != OK:
         for i in range(n2):
