@@ -2,8 +2,10 @@
 
 Run: ``.venv/bin/python benchmarks/bench_floquet.py [--res 200]``. Prints:
 
-1. wall time of a res x res in-plane wbar-mbar map (n = 2, zeta = 0.025, Fig. 7b ranges),
-   everything included (parameter conversion, equilibria, harmonics, kernel, eigenvalues)
+1. wall time of a res x res in-plane wbar-mbar map for each ball count of ``--balls``
+   (default 2 and 10; zeta = 0.025, Fig. 7b ranges; for n >= 3 with the balanced family's
+   neutral multipliers removed, floquet.py), everything included (parameter conversion,
+   equilibria, harmonics, kernel, eigenvalues)
    except the one-off numba compilation (cached on disk, timed separately);
 2. the per-point time of the map against DOP853 at the loosest tolerance that still meets
    the 1e-6 accuracy in |lambda|max on a sample (the 'same accuracy' baseline), and
@@ -37,6 +39,7 @@ def main():
     ap = argparse.ArgumentParser()
     ap.add_argument('--res', type=int, default=200)
     ap.add_argument('--sample', type=int, default=12)
+    ap.add_argument('--balls', default='2,10', help='ball counts of the maps, comma separated')
     args = ap.parse_args()
     base = DriveParams()
     import numba
@@ -49,14 +52,18 @@ def main():
 
     xs = np.linspace(0.2, 3.5, args.res)
     ys = np.linspace(0.001, 0.12, args.res)
-    t0 = time.perf_counter()
-    smap = F.stability_map(base, 'wbar', xs, 'mbar', ys, {'zeta': 0.025})
-    wall = time.perf_counter() - t0
-    npts = smap.lam.size
-    n_eq = int((smap.status != F.NO_EQUILIBRIUM).sum())
-    per_point = wall / n_eq
-    print(f'{args.res}x{args.res} in-plane wbar-mbar map: {wall:.2f} s wall '
-          f'({npts} points, {n_eq} with a balanced equilibrium, {per_point * 1e6:.0f} us/point)')
+    per_point = None
+    for n in (int(v) for v in args.balls.split(',')):
+        t0 = time.perf_counter()
+        smap = F.stability_map(base, 'wbar', xs, 'mbar', ys, {'zeta': 0.025, 'n': n})
+        wall = time.perf_counter() - t0
+        npts = smap.lam.size
+        n_eq = int((smap.status != F.NO_EQUILIBRIUM).sum())
+        if per_point is None:
+            per_point = wall / n_eq
+        print(f'{args.res}x{args.res} in-plane wbar-mbar map, n = {n}: {wall:.2f} s wall '
+              f'({npts} points, {n_eq} with a balanced equilibrium, '
+              f'{wall / n_eq * 1e6:.0f} us/point), load {os.getloadavg()[0]:.2f}')
 
     # accuracy-matched DOP853 baseline
     pts = _sample(args.sample)
@@ -79,7 +86,8 @@ def main():
     for p, w in pts:
         F.sweep_speed(p, [w])
     single = (time.perf_counter() - t0) / len(pts)
-    print(f'per-point ratio, map (batched) vs DOP853 rtol={tol:.0e}: {dt / per_point:.0f}x')
+    print(f'per-point ratio, map (batched, first n) vs DOP853 rtol={tol:.0e}: '
+          f'{dt / per_point:.0f}x')
     print(f'per-point ratio, one point per call vs DOP853: {dt / single:.0f}x '
           f'({single * 1e3:.2f} ms/call)')
 

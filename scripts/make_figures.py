@@ -46,8 +46,14 @@ MAPS = {
     # mbar from below mbar_lim (0.0083) to the heavy balls of the parametric resonance.
     'fig8': ('Fig. 8', ['--x', 'wbar', '--y', 'mbar', '--set', 'zeta=0.025', '--plane', 'out',
                         '--range-x', '0.2:4', '--range-y', '0.005:2.5']),
+    # ten balls (each of mbar): the balanced family's neutral modes removed (floquet.py)
+    'fig7b_n10': ('Fig. 7(b) with n = 10', ['--x', 'wbar', '--y', 'mbar', '--set', 'zeta=0.025',
+                                             '--set', 'n=10']),
 }
 """Map name -> (paper figure, ``abb-sim map`` arguments)."""
+
+CURVES = {'lambda_vs_speed_n2_n10': (2, 10)}
+"""PNG name -> ball counts of |lambda|max(wbar) panels (mbar 0.03 / n per ball, zeta 0.025)."""
 SAME_MAP = {'fig4a': 'fig4b'}
 """Fig. 4(a) is the map of Fig. 4(b) drawn as a surface: drawn from its data when made too."""
 
@@ -114,6 +120,27 @@ def make_maps(names, res, replot) -> None:
         smap = load_map(png.with_suffix('.npz'))
         kind = 'surface' if '--surface' in args else 'regions'
         plot_map(smap, png, title=f'{figure}. {map_title(smap)}', kind=kind)
+
+
+def make_speed_curves() -> None:
+    """|lambda|max against wbar for two and ten balls of the same total mass (P3's drive)."""
+    from abb_ros.model.floquet import sweep_speed
+    from abb_ros.model.params import DriveParams, apply_settings
+    from abb_ros.plots.maps import plot_speed_curves
+    wbar = np.linspace(0.2, 3.5, 400)
+    for name, counts in CURVES.items():
+        curves = []
+        for n in counts:
+            params, _ = apply_settings(DriveParams(), {'n': n, 'mbar': 0.06 / n,
+                                                       'zeta': 0.025})
+            omegas = wbar * params.omega0
+            curves.append((f'n = {n} (mbar {0.06 / n:.3g} each, {max(n - 2, 0)} neutral '
+                           'modes removed)', wbar, sweep_speed(params, omegas, 'in'),
+                           sweep_speed(params, omegas, 'out')))
+        print(f'[curves] {name}', file=sys.stderr, flush=True)
+        plot_speed_curves(curves, FIGURES_DIR / f'{name}.png',
+                          title='Largest |Floquet multiplier| against speed, zeta = 0.025, '
+                                'total ball mass 0.06 M')
 
 
 def _title(head, scenario_name, sets):
@@ -194,6 +221,8 @@ def main() -> int:
              if f in TIME_FIGURES and args.only in (None, 'time')]
     t0 = time.perf_counter()
     make_maps(maps, args.res, args.replot)
+    if not args.figures and args.only in (None, 'maps'):
+        make_speed_curves()
     if args.bags:
         Path(args.bags).mkdir(parents=True, exist_ok=True)
         make_time_responses(times, Path(args.bags))

@@ -222,3 +222,22 @@ def test_ten_balls_from_a_perturbed_member_settle_where_called_balanced(wbar, se
         assert end < 1e-3 * start
     else:
         assert end > 10 * start
+
+
+def test_map_gives_the_best_and_worst_member_around_the_fan(tmp_path):
+    """``abb-sim map --members 4``: per point the fan's |lambda|max lies between the best and
+    the worst of the members sampled (the fan is one of them), written to the data file."""
+    from abb_ros.cli import main as abb_sim
+    out = tmp_path / 'map.png'
+    code = abb_sim(['map', '--x', 'wbar', '--y', 'zeta', '--set', 'n=4', '--res', '6x4',
+                    '--range-x', '0.5:3', '--range-y', '0.02:0.1', '--members', '4',
+                    '--no-progress', '--out', str(out)])
+    assert code == 0
+    with np.load(out.with_suffix('.npz')) as data:
+        lam, best, worst = data['lam_max'], data['lam_max_best_member'], \
+            data['lam_max_worst_member']
+        assert int(data['members']) == 4
+    assert np.all(best <= lam) and np.all(lam <= worst)
+    assert np.any(worst > best)
+    assert abb_sim(['map', '--x', 'wbar', '--y', 'zeta', '--members', '65', '--out',
+                    str(out)]) == 2

@@ -22,6 +22,8 @@ are the axes a map may vary (floquet.MAP_AXES, not imported here: the parser sta
 OUT_OF_PLANE_MBAR = (0.01, 2.5)
 """Fig. 8 needs heavy balls to show the parametric-resonance zone."""
 MAX_POINTS = 1_000_000
+MAX_MEMBERS = 64
+"""Most sampled family members per point (floquet.MAX_MEMBERS)."""
 DATA_SUFFIXES = ('.npz', '.csv')
 IMAGE_SUFFIXES = ('.png', '.pdf', '.svg')
 
@@ -42,6 +44,10 @@ def add_arguments(parser) -> None:
                         help='draw |lambda|max as a 3-D surface (Fig. 4a) instead of regions')
     parser.add_argument('--data', help='data file (.npz or .csv); default: --out with .npz')
     parser.add_argument('--out', required=True, help='PNG (or .pdf, .svg) file to write')
+    parser.add_argument('--members', type=int, default=0, metavar='K',
+                        help='also the best and worst |lambda|max over K sampled members of '
+                        'the balanced family per point (n >= 3: can these balls balance here '
+                        'at all); default 0: the symmetric fan only')
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
 
 
@@ -82,12 +88,15 @@ def run(args) -> dict:
     data = check_output('--data', args.data or out.with_suffix('.npz'), DATA_SUFFIXES)
     xs = np.linspace(*_range(args.range_x, args.x, args.plane), nx)
     ys = np.linspace(*_range(args.range_y, args.y, args.plane), ny)
+    if not 0 <= args.members <= MAX_MEMBERS:
+        raise ParamError('members', args.members, f'[0, {MAX_MEMBERS}]')
     base = drive_params(args.config)
     settings = parse_settings(args.set, 'map')
     t0 = time.perf_counter()
-    with tqdm(total=nx * ny, unit='pt', file=sys.stderr, disable=args.no_progress,
-              desc=f'{args.plane}-plane map') as bar:
-        smap = stability_map(base, args.x, xs, args.y, ys, settings, args.plane, bar.update)
+    with tqdm(total=nx * ny * (2 if args.members else 1), unit='pt', file=sys.stderr,
+              disable=args.no_progress, desc=f'{args.plane}-plane map') as bar:
+        smap = stability_map(base, args.x, xs, args.y, ys, settings, args.plane, bar.update,
+                             args.members)
     wall = time.perf_counter() - t0
     try:
         with output_files(data, out) as (data_tmp, out_tmp):

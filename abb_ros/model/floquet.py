@@ -46,7 +46,7 @@ __all__ = ['STEPS_PER_RADIAN', 'MIN_STEPS', 'JIT', 'PY', 'SERIAL', 'monodromy_ba
            'equilibria', 'max_multiplier_batch', 'sweep_speed', 'PointStability',
            'point_stability', 'StabilityMap', 'stability_map', 'MAP_AXES', 'BALANCED', 'UNSTABLE',
            'NO_EQUILIBRIUM', 'INVARIANCE_TOL', 'FamilyInvarianceError', 'MultiplierBatch',
-           'multipliers_batch', 'transverse_max_multiplier']
+           'multipliers_batch', 'transverse_max_multiplier', 'member_extremes', 'MAX_MEMBERS']
 
 STEPS_PER_RADIAN = 8.0
 """RK4 steps per radian of the fastest phase advance in tau (chosen in test_floquet's accuracy
@@ -440,6 +440,61 @@ def max_multiplier_batch(params_list, omegas, plane='in', phi_star=None, progres
     return res.lam, res.exists
 
 
+MAX_MEMBERS = 64
+"""Most members of the family sampled per point by :func:`member_extremes`."""
+
+
+def member_extremes(params_list, omegas, plane='in', count=8, progress=None, kern=None):
+    """Best and worst |lambda|max over sampled members of each point's balanced family.
+
+    For n >= 3 the balanced equilibria form a family, and stability may differ along it:
+    this answers "can these balls balance here at all" (best) and "do they balance wherever
+    they settle" (worst). Each point's members are its symmetric fan and count - 1 random
+    members (:func:`abb_ros.model.family.sample_members`, seeded, balls kept the contact
+    separation apart when they touch); points sharing M eps / (m R) share members. n <= 2
+    has the fan only (its mirror image has the same multipliers). Returns (best (B,),
+    worst (B,), sampled (B,) int: members evaluated per point); +inf where no balanced
+    equilibrium exists.
+    """
+    from abb_ros.model.equilibrium import balls_touch
+    from abb_ros.model.family import sample_members
+    if not 1 <= count <= MAX_MEMBERS:
+        raise ParamError('members', count, f'[1, {MAX_MEMBERS}]')
+    omegas = np.asarray(omegas, dtype=float)
+    B = len(params_list)
+    n = params_list[0].n
+    exists, fan = equilibria(params_list)
+    cache, rows, owner = {}, [], []
+    sampled = np.zeros(B, dtype=np.int64)
+    for i in np.flatnonzero(exists):
+        p = params_list[i]
+        ratio = p.M * p.eps / (p.m * p.R)
+        spacing = p.contact_separation if balls_touch(p) else 0.0
+        key = (ratio, spacing)
+        if key not in cache:
+            cache[key] = (sample_members(ratio, n, count, fan[i], spacing) if n >= 3
+                          else fan[i][None])
+        members = cache[key]
+        rows.append(members)
+        owner.append(np.full(len(members), i))
+        sampled[i] = len(members)
+    best = np.full(B, np.inf)
+    worst = np.full(B, np.inf)
+    if rows:
+        phi = np.concatenate(rows)
+        who = np.concatenate(owner)
+        per = max(float(sampled[exists].mean()), 1.0)
+        res = multipliers_batch([params_list[i] for i in who], omegas[who], plane, phi,
+                                None if progress is None else (lambda k: progress(k / per)),
+                                kern)
+        worst[exists] = -np.inf
+        np.minimum.at(best, who, res.lam)
+        np.maximum.at(worst, who, res.lam)
+    if progress is not None and not exists.all():
+        progress(int((~exists).sum()))
+    return best, worst, sampled
+
+
 def sweep_speed(params, omegas, plane='in', phi_star=None) -> np.ndarray:
     """|lambda|max against spindle speed omegas [rad/s] for fixed parameters (1-D sweep).
 
@@ -522,7 +577,10 @@ class StabilityMap:
     ``lam`` is +inf where no balanced equilibrium exists (status NO_EQUILIBRIUM).
     ``fixed`` holds the settings applied to every point and the resulting dimensionless and SI
     parameters (at the first grid point's non-axis values); ``limits`` the horizontal limit
-    lines of Figs. 6 and 7 (epsbar_lim, mbar_lim) that apply to the y axis.
+    lines of Figs. 6 and 7 (epsbar_lim, mbar_lim) that apply to the y axis. ``lam`` and
+    ``status`` are the symmetric fan's; with ``members`` > 0, ``lam_best``/``lam_worst`` are
+    the best and worst over that many sampled members of the family (:func:`member_extremes`;
+    ``members`` is the fewest found at a point).
     """
 
     x: str
@@ -534,14 +592,22 @@ class StabilityMap:
     plane: str
     fixed: dict
     limits: dict
+    lam_best: np.ndarray | None = None
+    lam_worst: np.ndarray | None = None
+    members: int = 0
 
     def summary(self) -> dict:
         n = self.status.size
-        return {'x': self.x, 'y': self.y, 'plane': self.plane, 'points': int(n),
-                'balanced_fraction': float((self.status == BALANCED).mean()),
-                'no_equilibrium_fraction': float((self.status == NO_EQUILIBRIUM).mean()),
-                'lam_max_finite_range': _finite_range(self.lam), 'limits': self.limits,
-                'fixed': self.fixed}
+        out = {'x': self.x, 'y': self.y, 'plane': self.plane, 'points': int(n),
+               'balanced_fraction': float((self.status == BALANCED).mean()),
+               'no_equilibrium_fraction': float((self.status == NO_EQUILIBRIUM).mean()),
+               'lam_max_finite_range': _finite_range(self.lam), 'limits': self.limits,
+               'fixed': self.fixed}
+        if self.lam_best is not None:
+            out.update(members_sampled=self.members,
+                       balanced_fraction_best_member=float((self.lam_best < 1.0).mean()),
+                       balanced_fraction_worst_member=float((self.lam_worst < 1.0).mean()))
+        return out
 
 
 def _finite_range(lam):
@@ -550,7 +616,7 @@ def _finite_range(lam):
 
 
 def stability_map(base, x, x_values, y, y_values, settings=None, plane='in',
-                  progress=None) -> StabilityMap:
+                  progress=None, members=0) -> StabilityMap:
     """|lambda|max over the grid x_values x y_values of two Eq. (39) parameters.
 
     base : DriveParams; settings : further fixed settings for apply_settings (e.g. zeta, wbar);
@@ -596,5 +662,11 @@ def stability_map(base, x, x_values, y, y_values, settings=None, plane='in',
     if y == 'epsbar' or x == 'epsbar':
         limits['epsbar_lim'] = epsbar_lim(first)
     shape = (ys.size, xs.size)
-    return StabilityMap(x, y, xs, ys, lam.reshape(shape), status.reshape(shape), plane, fixed,
+    smap = StabilityMap(x, y, xs, ys, lam.reshape(shape), status.reshape(shape), plane, fixed,
                         limits)
+    if members:
+        best, worst, sampled = member_extremes(plist, np.maximum(omegas, 1e-9), plane, members,
+                                               progress)
+        smap.lam_best, smap.lam_worst = best.reshape(shape), worst.reshape(shape)
+        smap.members = int(sampled[exists].min()) if exists.any() else 0
+    return smap

@@ -84,3 +84,30 @@ def map_title(smap) -> str:
     wbar = smap.fixed['settings'].get('wbar')
     plane = 'In-plane' if smap.plane == 'in' else 'Out-of-plane'
     return f'{plane} stability: ' + parameter_text(params, wbar, omit=(smap.x, smap.y))
+
+
+def plot_speed_curves(curves, path, title=None) -> None:
+    """|lambda|max against wbar for several drives side by side, one panel each.
+
+    ``curves`` : list of (label, wbar (K,), lam_in (K,), lam_out (K,)); the line
+    |lambda| = 1 separates balanced from unbalanced speeds.
+    """
+    import numpy as np
+    plt = _pyplot()
+    fig, axes = plt.subplots(1, len(curves), figsize=(5.2 * len(curves), 4.0), sharey=True,
+                             squeeze=False)
+    for ax, (label, wbar, lam_in, lam_out) in zip(axes[0], curves):
+        ax.plot(wbar, np.minimum(lam_in, SURFACE_CLIP), label='in-plane (transverse)')
+        ax.plot(wbar, np.minimum(lam_out, SURFACE_CLIP), '--', label='out-of-plane')
+        ax.axhline(1.0, color='k', lw=0.8)
+        ax.set_title(label)
+        ax.set_xlabel(LABELS['wbar'])
+        ax.set_ylim(0.8, 1.25)
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel(r'$|\lambda|_{max}$')
+    axes[0][0].legend(loc='upper right')
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+    plt.close(fig)
