@@ -241,3 +241,24 @@ def test_map_gives_the_best_and_worst_member_around_the_fan(tmp_path):
     assert np.any(worst > best)
     assert abb_sim(['map', '--x', 'wbar', '--y', 'zeta', '--members', '65', '--out',
                     str(out)]) == 2
+
+
+def test_sweep_verdicts_of_two_three_and_ten_balls_agree_with_the_point_analysis():
+    """A sweep over n in {2, 3, 10} (P3 balls, metal washers) reports, per drive, the transverse
+    verdict of point_stability (the issue's sweep called 8 of 10 three-ball drives unbalanced
+    whose balls all balanced), and its neutral-mode count."""
+    from abb_ros.sweep.compute import compute_partition, partition_params
+    from abb_ros.sweep.spec import draw_samples, parse_spec
+    doc = {'parameters': {'n': {'dist': 'grid', 'values': [2, 3, 10]}},
+           'compute': {'stability': {'wbar': [1.5, 2.7]}}, 'operating_wbar': 2.7,
+           'base': {'c': 0.66}}
+    spec = parse_spec(doc)
+    samples = draw_samples(spec)
+    out = compute_partition(spec, 0, samples)
+    plist = partition_params(spec, samples)
+    assert [p.n for p in plist] == [2, 3, 10]
+    assert out['neutral_modes'].tolist() == [0, 1, 8]
+    for i, p in enumerate(plist):
+        res = F.point_stability(p, spec.operating_omega)
+        assert out['lam_in_op'][i] == pytest.approx(res.lam_in, abs=1e-12)
+        assert bool(out['balanced_op'][i]) is res.balanced is True

@@ -5,8 +5,9 @@ in-process): a block of samples, all computed by a few kernel calls, never one t
 sample. Drives are grouped by ball count n (a kernel batch shares n):
 
 - ``stability``: the in-plane and out-of-plane |lambda|max at the balanced equilibrium
-  (symmetric fan, Eq. 26) at every speed of the spec, by
-  :func:`abb_ros.model.floquet.max_multiplier_batch` over all (drive, speed) pairs at once
+  (symmetric fan, Eq. 26; for n >= 3 the transverse multipliers, ``neutral_modes`` the
+  family's neutral ones removed) at every speed of the spec, by
+  :func:`abb_ros.model.floquet.multipliers_batch` over all (drive, speed) pairs at once
   (its one-thread build, ``floquet.SERIAL``: a worker is one process with one thread);
 - ``run``: the nonlinear equations integrated from the scenario's initial state with its
   speed profile by :class:`abb_ros.model.batch.BatchRun`, which reduces each trajectory to
@@ -83,23 +84,27 @@ def compute_partition(spec, index: int, columns: dict) -> dict:
 
 
 def _stability(spec, params, groups) -> dict:
-    from abb_ros.model.floquet import SERIAL, max_multiplier_batch
+    from abb_ros.model.floquet import SERIAL, multipliers_batch
     speeds = spec.speeds
     count = len(params)
     S = speeds.size
     lam = {plane: np.empty((count, S)) for plane in ('in', 'out')}
     exists = np.empty(count, dtype=bool)
+    neutral = np.zeros(count, dtype=np.int64)
     for idx in groups.values():
         plist = [params[i] for i in idx for _ in range(S)]
         omegas = np.tile(speeds, idx.size)
         for plane in ('in', 'out'):
-            values, ex = max_multiplier_batch(plist, omegas, plane, kern=SERIAL)
-            lam[plane][idx] = values.reshape(idx.size, S)
-        exists[idx] = ex.reshape(idx.size, S)[:, 0]
+            res = multipliers_batch(plist, omegas, plane, kern=SERIAL)
+            lam[plane][idx] = res.lam.reshape(idx.size, S)
+            if plane == 'in':
+                neutral[idx] = res.neutral.reshape(idx.size, S)[:, 0]
+        exists[idx] = res.exists.reshape(idx.size, S)[:, 0]
     op = int(np.searchsorted(speeds, spec.operating_omega))
     worst = np.maximum(lam['in'], lam['out'])
     return {
         'balanced_equilibrium_exists': exists,
+        'neutral_modes': neutral,
         'lam_in_op': lam['in'][:, op],
         'lam_out_op': lam['out'][:, op],
         'balanced_op': exists & (lam['in'][:, op] < 1.0) & (lam['out'][:, op] < 1.0),
