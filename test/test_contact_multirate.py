@@ -4,6 +4,8 @@ Its energy closure over a collision is in test_beyond_energy; its momentum along
 test_beyond_contact (the head-on collision runs through it).
 """
 
+import functools
+
 import numpy as np
 import pytest
 
@@ -117,11 +119,11 @@ def test_multirate_steps_of_the_python_twin_agree_with_the_compiled_kernels():
     np.testing.assert_allclose(out[1][0], out[0][0], rtol=1e-12, atol=1e-15)
 
 
-def _head_on(speed, onset):
+def head_on(speed, onset, dt=1e-4):
     """The clamped race's head-on collision at ``speed`` [m/s] whose contact begins at the
-    fraction ``onset`` of the first 10 kHz step (test_beyond_contact.clamped)."""
+    fraction ``onset`` of the first step of dt (10 kHz: test_beyond_contact.clamped)."""
     params = clamped_race(2, 0.78e-3)
-    return params, collision_state(params, 0.0, gap=speed * 1e-4 * onset, speed=speed)
+    return params, collision_state(params, 0.0, gap=speed * dt * onset, speed=speed)
 
 
 @pytest.mark.parametrize('speed', [0.01, 0.02, 0.05, 0.5])
@@ -137,7 +139,7 @@ def test_impacts_rebound_to_an_absolute_or_relative_tolerance_whichever_is_loose
     at 0.05 m/s)."""
     errors = []
     for k in range(16):
-        params, y0 = _head_on(speed, (k + 0.5) / 16)
+        params, y0 = head_on(speed, (k + 0.5) / 16)
         sim = Simulation(params, 0.0, spindle=ConstantSpeed(), y0=y0)
         sim.advance(20)
         ref = Simulation(params, 0.0, spindle=ConstantSpeed(), y0=y0, dt=1e-4 / 200)
@@ -154,7 +156,7 @@ def test_slow_impacts_take_fewer_sub_steps_than_fast_ones_would_at_their_speed(m
     (the Python twin with CONTACT_RELAX_MAX = 1, i.e. no relaxation); at 0.5 m/s the same."""
     counts = {}
     for speed in (0.01, 0.5):
-        params, y0 = _head_on(speed, 0.25)
+        params, y0 = head_on(speed, 0.25)
         P = kernels.pack_params(params)
         counts[speed] = [K.mis_substeps(y0, 2, P, 1e-4)]
         with monkeypatch.context() as patch:
@@ -184,7 +186,7 @@ def test_an_impact_caught_near_its_peak_is_not_taken_for_a_resting_contact():
     contact_regime takes it for a resting contact (few sub-steps); resting_misjudged sees the
     rebound at the step's end and contact_step takes the step again with the contact
     resolved as an impact (the rebound then right to 3.4e-6 m/s: the test above)."""
-    params, y0 = _head_on(0.05, 13.5 / 16)
+    params, y0 = head_on(0.05, 13.5 / 16)
     n, N = 2, 9
     P = kernels.pack_params(params)
     sim = Simulation(params, 0.0, spindle=ConstantSpeed(), y0=y0)
@@ -215,7 +217,7 @@ def test_in_torque_mode_an_impact_near_its_peak_is_taken_again_too(onset):
     an impact at omega_c h = 0.3, not 0.2 (relative error 1.9e-4, 2.5 times the multirate
     step's), so 2.5e-5 m/s. Measured: 6.2e-6 and 1.4e-5 m/s; 3.3e-6 and 7.7e-4 m/s before
     (79fd21c: the late one resolved as resting)."""
-    params, y0 = _head_on(0.05, onset)
+    params, y0 = head_on(0.05, onset)
     runs = []
     for dt, steps in ((1e-4, 20), (1e-4 / 200, 4000)):
         sim = Simulation(params, 0.0, dt=dt, spindle=TorqueMotor(), y0=y0)
@@ -227,28 +229,45 @@ def test_in_torque_mode_an_impact_near_its_peak_is_taken_again_too(onset):
     assert error < 2.5 * kernels.CONTACT_IMPACT_SPEED * 7.8e-5
 
 
-def test_a_resting_chain_is_never_taken_again():
-    """Ten steel balls gathered into a chain at P1 (the node's n = 10 drive, after 1.2 s):
-    over the next 0.1 s every step is refined (touching) and none is taken again: its first
-    multirate step, at mis_substeps, leaves retake_substeps at 0 (as contact_step decides)."""
+@functools.cache
+def gathered_chain():
+    """(params, t, state): ten steel balls gathered into a chain at P1 (the node's n = 10
+    drive, after 1.2 s at 10 kHz)."""
     params = with_steel_balls(DriveParams().replace(m=1.56e-4, D=1e-6, n=10, c=0.66))
     sim = Simulation(params, 0.8 * params.omega0)
     sim.advance(12000)
+    return params, sim.t, sim.y.copy()
+
+
+@pytest.mark.parametrize('dt', [1e-5, 3e-5, 1e-4, 2e-4])
+def test_a_resting_chain_is_never_taken_again(dt):
+    """The gathered chain, continued at steps of dt: over the next 1000 steps every step has
+    contacts resolved as resting (in sub-steps, or in one RK4 step at 1e-5 s: omega_c dt ~
+    0.5) and none is taken again: its first multirate step at mis_substeps, or its one RK4
+    step, leaves retake_substeps at 0 (as rk4_step_located decides)."""
+    params, t0, y0 = gathered_chain()
+    sim = Simulation(params, 0.8 * params.omega0, dt=dt, y0=y0, t0=t0)
     n, N = params.n, 7 + params.n
     P = kernels.pack_params(params)
     S = sim.spindle.pack(sim.omega_cmd)
     bufs = solver_buffers(n)
-    retaken = 0
+    stages = [np.empty(2 * N) for _ in range(5)]
+    retaken = resting = 0
     for _ in range(1000):
         start = sim.y.copy()
-        sub, impact = K.contact_regime(start, n, P, sim.dt)
-        fast = K.mis_substeps(start, n, P, sim.dt)
+        sub, impact, rests = K.contact_regimes(start, n, P, dt, False)
         first = start.copy()
-        K.mis_contact_step(sim.t, sim.dt, first, n, P, S, fast, np.empty((0, 2 * N)),
-                           np.empty(N), *bufs)
-        retaken += K.retake_substeps(start, first, n, P, sim.dt, impact, fast,
+        if sub == 1:
+            K.rk4_substep(sim.t, dt, first, n, P, S, *stages, np.empty(N), *bufs)
+        else:
+            sub = K.mis_substeps(start, n, P, dt)
+            K.mis_contact_step(sim.t, dt, first, n, P, S, sub, np.empty((0, 2 * N)),
+                               np.empty(N), *bufs)
+        retaken += K.retake_substeps(start, first, n, P, dt, impact, sub,
                                      kernels.MIS_IMPACT_REFINE) > 0
+        resting += rests and not impact
         sim.advance(1)
         np.testing.assert_array_equal(first, sim.y)     # the step the simulation kept
-    print(f'refined steps {sim.refined_steps}, retaken {retaken}')
-    assert sim.refined_steps >= 1000 and retaken == 0
+    print(f'dt {dt:g} s: resting steps {resting}, refined {sim.refined_steps}, '
+          f'retaken {retaken}')
+    assert resting == 1000 and retaken == 0

@@ -388,11 +388,19 @@ def contact_regime(y, n, P, dt):
 def contact_regime_as(y, n, P, dt, every_impact):
     """:func:`contact_regime`, with every pair that can touch within the step resolved as an
     impact when ``every_impact`` (a step retaken after :func:`resting_misjudged`)."""
+    k, impact, resting = contact_regimes(y, n, P, dt, every_impact)
+    return k, impact
+
+@kernel
+def contact_regimes(y, n, P, dt, every_impact):
+    """(:func:`contact_regime_as`, resting): resting is True when a pair was resolved as a
+    resting contact (the step may have to be taken again, :func:`retake_substeps`)."""
     K, mb, sep = contact_scales(P)
     chi = P[I_CONTACT_DAMPING]
     N = PHI + n
     need = 0.0
     impact = False
+    resting = False
     for i in range(n):
         for j in range(i + 1, n):
             reach = sep + 2.0 * abs(y[N + PHI + j] - y[N + PHI + i]) * dt
@@ -411,6 +419,7 @@ def contact_regime_as(y, n, P, dt, every_impact):
                 impact = True
                 w /= CONTACT_OMEGA_H * impact_relaxation(static + kinetic, K, mb)
             else:
+                resting = True
                 w /= CONTACT_OMEGA_H_REST
             if w > need:
                 need = w
@@ -419,7 +428,7 @@ def contact_regime_as(y, n, P, dt, every_impact):
         k = 1
     if k > MAX_SUBSTEPS:
         k = MAX_SUBSTEPS
-    return k, impact
+    return k, impact, resting
 
 @kernel
 def contact_scales(P):
@@ -1471,9 +1480,10 @@ def rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f,
     balls touch (issue 12), sub-steps of dt / :func:`contact_substeps`: the multirate step
     :func:`mis_contact_step` (only the contact forces sub-stepped, :func:`mis_substeps`
     times; :func:`contact_step`), or, in torque mode and with rolling resistance, RK4
-    sub-steps of the whole system (in torque mode taken again when :func:`retake_substeps`
-    says so); with rolling resistance each (sub)step locates its regime
-    switches
+    sub-steps of the whole system (in an impact MIS_IMPACT_REFINE times as many, as the
+    multirate step's). A step with a contact resolved as resting, in one RK4 step or in
+    sub-steps, is taken again when :func:`retake_substeps` says so (not with rolling
+    resistance); with rolling resistance each (sub)step locates its regime switches
     (:func:`rk4_rolling_substep`, ``cache`` (3, 2N) carried from step to step). k1..k4, yt
     and ysave are stage buffers of shape (2N,), the rest the solver scratch of :func:`accel`.
     Returns (status, sub-steps (the multirate step's fast ones), switches): the
@@ -1484,9 +1494,9 @@ def rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f,
         ysave[i] = y[i]
     sub = 1
     impact = False
-    contact = P[I_CONTACT_E] > 0.0 and n > 1
-    if contact:
-        sub, impact = contact_regime(y, n, P, dt)
+    resting = False
+    if P[I_CONTACT_E] > 0.0 and n > 1:
+        sub, impact, resting = contact_regimes(y, n, P, dt, False)
     switches = 0
     if P[I_ROLLING_MU] > 0.0 and n > 0 and S[0] != SPINDLE_TORQUE:
         events = np.empty((MAX_SWITCHES, 1 + n + n2))
@@ -1494,7 +1504,7 @@ def rk4_step_located(t, dt, y, n, P, S, k1, k2, k3, k4, yt, ysave, qdd, A, W, f,
         for j in range(sub):
             switches += rk4_rolling_substep(t + j * h, h, y, n, P, S, k1, k2, k3, k4, yt,
                                             events, cache, A, W, f, B, fb, u)
-    elif sub == 1 and not contact:
+    elif sub == 1 and not impact and not resting:
         rk4_substep(t, dt, y, n, P, S, k1, k2, k3, k4, yt, qdd, A, W, f, B, fb, u)
     elif sub > 1 and S[0] != SPINDLE_TORQUE:
         sub = contact_step(t, dt, y, ysave, n, P, S, sub, impact, np.empty((0, n2)), qdd, A, W,
