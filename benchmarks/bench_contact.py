@@ -20,7 +20,11 @@ sub-steps, each O(n), not a solve of the coupled system; "rolling switches" coun
 stick/slip switches located inside steps (over the whole run). Nothing is asserted (shared, noisy
 machines).
 
-Run: nice -n 10 .venv/bin/python benchmarks/bench_contact.py [--seconds 2]
+``--dt`` runs every line at another step (e.g. 1e-5 s: contacts resolved in one RK4 step, each
+checked for a misjudged impact, kernels.retake_substeps; the settling then takes as many more
+steps).
+
+Run: nice -n 10 .venv/bin/python benchmarks/bench_contact.py [--seconds 2] [--dt 1e-4]
 """
 
 import argparse
@@ -34,15 +38,16 @@ from abb_ros.model.beyond import with_steel_balls
 from abb_ros.model.integrate import DEFAULT_DT, ConstantSpeed, Simulation, initial_state
 
 
-def _rtf(params, omega, phi0, seconds, settle=0.0):
-    """Best of two real-time factors over ``seconds``, after ``settle`` s untimed."""
+def _rtf(params, omega, phi0, seconds, settle=0.0, dt=DEFAULT_DT):
+    """Best of two real-time factors over ``seconds`` at steps of dt, after ``settle`` s
+    untimed."""
     y0 = initial_state(params, omega, phi0=phi0)
-    nsteps = int(round(seconds / DEFAULT_DT))
+    nsteps = int(round(seconds / dt))
     best = math.inf
     sim = None
     for _ in range(2):
-        sim = Simulation(params, omega, DEFAULT_DT, spindle=ConstantSpeed(), y0=y0)
-        sim.advance(1 + int(round(settle / DEFAULT_DT)))      # compile, settle: not timed
+        sim = Simulation(params, omega, dt, spindle=ConstantSpeed(), y0=y0)
+        sim.advance(1 + int(round(settle / dt)))      # compile, settle: not timed
         t0 = time.perf_counter()
         sim.advance(nsteps)
         best = min(best, time.perf_counter() - t0)
@@ -52,13 +57,14 @@ def _rtf(params, omega, phi0, seconds, settle=0.0):
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--seconds', type=float, default=2.0)
+    parser.add_argument('--dt', type=float, default=DEFAULT_DT, help='step [s]')
     args = parser.parse_args()
     scenario = load_scenario('p3_n10_scattered')
     paper = scenario.params
     steel = with_steel_balls(paper)
     full = with_steel_balls(paper, rolling_mu=1e-6, rotation=True)
     chain = np.arange(10) * (steel.contact_separation + math.radians(0.1))
-    print(f'n = 10, P3, {args.seconds:g} s per run, RK4 at {DEFAULT_DT * 1e6:g} us, '
+    print(f'n = 10, P3, {args.seconds:g} s per run, RK4 at {args.dt * 1e6:g} us, '
           f'r_ball = {steel.r_ball * 1e3:.3f} mm')
     p1 = 0.8 * paper.omega0
     for label, params, phi0, omega, settle in (
@@ -69,7 +75,7 @@ def main():
             ('P1: paper model', paper, scenario.phi0, p1, 0.0),
             ('P1: contact, balls gathering', steel, scenario.phi0, p1, 0.0),
             ('P1: contact, chain at rest (after 1.5 s)', steel, scenario.phi0, p1, 1.5)):
-        rtf, sim = _rtf(params, omega, phi0, args.seconds, settle)
+        rtf, sim = _rtf(params, omega, phi0, args.seconds, settle, args.dt)
         steps = sim.steps
         per_step = (steps - sim.refined_steps + sim.substeps) / steps
         print(f'  {label:42s} real-time factor {rtf:7.2f}x   RK4 steps per step '
