@@ -50,6 +50,9 @@ def run(args) -> dict:
         out['note'] = ('linear analysis of the paper\'s model: it ignores '
                        + ', '.join(params.beyond_paper)
                        + ' (docs/beyond_the_paper.md); the time simulation has them')
+        if params.contact_E > 0 and params.n > 1:
+            out['note'] += ('; the balls\' size does bound the balanced equilibrium (their '
+                            'capacity and spacing, docs/verification.md)')
     if res.exists:
         out['lam_max_in_plane'] = res.lam_in
         out['lam_max_out_of_plane'] = res.lam_out
