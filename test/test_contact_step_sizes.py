@@ -124,3 +124,16 @@ def test_the_python_twin_takes_the_same_steps_at_a_fine_step(torque):
         out.append((y, work[6, 0]))
     assert out[0][1] == out[1][1] >= 3
     np.testing.assert_array_equal(out[1][0], out[0][0])
+
+
+def test_a_step_outside_the_verified_range_is_said_not_refused():
+    """With contact on, a step outside 1e-5..2e-4 s runs and says so (summary and node
+    /diagnostics use contact_step_note); without contact, or inside the range, nothing."""
+    from abb_ros.model.integrate import contact_step_note
+    from abb_ros.model.params import DriveParams
+    touching = DriveParams(n=3, r_ball=0.0023, contact_E=2e11)
+    assert contact_step_note(touching, 1e-4) == ''
+    assert contact_step_note(touching, 1e-5) == '' and contact_step_note(touching, 2e-4) == ''
+    assert '5e-06 s outside 1e-05..0.0002 s' in contact_step_note(touching, 5e-6)
+    assert 'outside' in contact_step_note(touching, 5e-4)
+    assert contact_step_note(DriveParams(n=3), 5e-4) == ''

@@ -30,6 +30,21 @@ __all__ = ['DEFAULT_DT', 'ConstantSpeed', 'Ramp', 'SpindleMotor', 'StateError', 
            'initial_state', 'reference_solution', 'Trajectory', 'simulate', 'TorqueMotor']
 
 DEFAULT_DT = 1.0 / 10000.0
+
+CONTACT_DT_VERIFIED = (1e-5, 2e-4)
+"""Steps [s] over which the contact step's rebound accuracy (1e-5 m/s or 7.8e-5 of the speed,
+approach speeds 0.001-0.5 m/s, both spindle modes) is tested: test_contact_step_sizes.py.
+Outside it a run goes on, and says so (:func:`contact_step_note`)."""
+
+
+def contact_step_note(params, dt: float) -> str:
+    """A one-line warning when balls touch (contact on) and dt [s] lies outside
+    :data:`CONTACT_DT_VERIFIED`; '' otherwise."""
+    lo, hi = CONTACT_DT_VERIFIED
+    if params.contact_E <= 0 or params.n < 2 or lo <= dt <= hi:
+        return ''
+    return (f'integration step {dt:.3g} s outside {lo:g}..{hi:g} s, where the contact '
+            'impacts\' accuracy is verified (docs/beyond_the_paper.md)')
 """Default fixed step [s] (10 kHz); see docs/verification.md for the accuracy
 study that chose it."""
 
