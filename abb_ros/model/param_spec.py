@@ -296,8 +296,14 @@ SIMULATOR_SPECS = (
               nodes=_SIM),
     ParamSpec('speed_sensor.edge_jitter', 1.0e-6, 's', 'FG edge time jitter, standard '
               'deviation', low=0.0, high=_INF, applies='on ~/reset', nodes=_SIM),
-    ParamSpec('speed_sensor.timeout', 0.1, 's', 'no FG edge for this long reads 0 rad/s',
+    ParamSpec('speed_sensor.timeout', 0.1, 's', 'no FG edge for this long reads 0 rad/s: '
+              'below 2 pi / (pulses_per_rev timeout), 10.47 rad/s by default, the reading drops '
+              'to 0 between edges',
               low=0.0, low_open=True, high=_INF, applies='on ~/reset', nodes=_SIM),
+    ParamSpec('speed_sensor.pitch_error', 0.0, 'rad', 'FG pole-pitch error, RMS over the '
+              'edges of a revolution: a zero-mean pattern drawn from the seed, repeating every '
+              'revolution; below pi / pulses_per_rev^1.5', low=0.0, high=_INF,
+              applies='on ~/reset', nodes=_SIM),
     ParamSpec('fault.imu_dropout', False, '', 'IMU dropout: no deck/imu messages while true',
               BOOL, applies=_AT_STEP, nodes=_SIM),
     ParamSpec('fault.imu_stuck', False, '', 'IMU stuck: deck/imu repeats its last reading '

@@ -522,7 +522,8 @@ class SimulatorNode(Node):
     # ---- diagnostics ---------------------------------------------------------------------
     def publish_diagnostics(self) -> None:
         """The simulation status: real_time_factor achieved over the window (and since
-        start, paused time excluded), the stamp lag (window and since start) and slips."""
+        start, paused time excluded), the stamp lag (window and since start) and slips; the
+        FG's state (WARN while it reads 0 with the spindle turning below its minimum speed)."""
         wall_ns = self._steady.now().nanoseconds
         wall0, steps0, running = self._diag_window
         self._diag_window = (wall_ns, self.sim.steps, not (self.paused or self.fault))
@@ -559,6 +560,12 @@ class SimulatorNode(Node):
         if self.recording_error:
             level = max(level, DiagnosticStatus.WARN)
             message += f'; recording stopped: {self.recording_error}'
+        fg = self.bench.speed
+        fg_state, fg_min_speed = fg.state(self.sim.omega), fg.min_speed
+        if fg_state == 'below_min_speed' and fg.value == 0.0:
+            level = max(level, DiagnosticStatus.WARN)
+            message += (f'; spindle/speed reads 0: the spindle turns below the FG minimum '
+                        f'{fg_min_speed:.3f} rad/s')
         values = dict(real_time_factor=achieved, real_time_factor_since_start=since_start,
                       target_real_time_factor=target, stamp_lag=lag,
                       stamp_lag_max=self.lag_max_ns * 1e-9,
@@ -569,6 +576,7 @@ class SimulatorNode(Node):
                       rbar=self.sim.rbar, omega=self.sim.omega,
                       wbar=self.drive.wbar(self.sim.omega), speed_cmd=self.speed_cmd,
                       spindle_mode=self.settings.spindle_mode,
+                      fg_state=fg_state, fg_min_speed=fg_min_speed,
                       n=self.drive.n, paused=self.paused, fault=self.fault,
                       contact_refined_steps=self.sim.refined_steps,
                       rolling_switches=self.sim.rolling_switches,
