@@ -531,3 +531,20 @@ def test_a_change_of_n_waits_for_reset(plant_factory):
     assert states[-1].name == ['spindle', 'ball_1', 'ball_2', 'ball_3']
     # n = 3 starts from the two fanned groups of integrate.default_phi0: +60, -60, +61 deg.
     assert np.degrees(states[-1].position[1:]) == pytest.approx([60.0, -60.0, 61.0], abs=1.0)
+
+
+@pytest.mark.parametrize('rate_hz, warned', [(2000, True), (10000, False)])
+def test_contact_at_a_step_outside_the_verified_range_is_a_warning(plant_factory, rate_hz,
+                                                                   warned):
+    """Steel balls touching, 2 kHz steps (5e-4 s, beyond the tested 1e-5..2e-4 s): the plant
+    runs and /diagnostics says so (WARN); at the default 10 kHz nothing is said."""
+    plant = plant_factory(real_time_factor=0.0, publish_rate_hz=100,
+                          integration_rate_hz=rate_hz,
+                          **{'drive.r_ball': 0.0023, 'drive.contact_E': 2e11})
+    plant.wait(lambda: plant.status() is not None and float(plant.values()['sim_time']) > 0,
+               'a simulation status')
+    status = plant.status()
+    assert ('contact impacts\' accuracy is verified' in status.message) is warned
+    if warned:
+        assert status.level >= DiagnosticStatus.WARN
+        assert '0.0005 s outside 1e-05..0.0002 s' in status.message
