@@ -52,7 +52,8 @@ from abb_ros.model.state import wrap_angle
 
 __all__ = ['BalancedEquilibrium', 'balanced_equilibrium', 'phi_star_two_balls', 'fan_phi_star',
            'eq26_residual', 'epsbar_lim', 'mbar_lim', 'EQ26_TOL', 'ball_capacity',
-           'balls_touch', 'SPACING_TOL', 'no_equilibrium_reason']
+           'balls_touch', 'SPACING_TOL', 'no_equilibrium_reason', 'least_spacing',
+           'balls_apart']
 
 EQ26_TOL = 1e-9
 """Largest |Eq. (26) residual| (dimensionless, relative to n) accepted for a given phi_star."""
@@ -158,7 +159,7 @@ def balanced_equilibrium(params: DriveParams, phi_star=None) -> BalancedEquilibr
         if res > EQ26_TOL * max(n, 1):
             raise ParamError('phi_star', _deg(phi), 'a solution of Eq. (26)',
                              f'residual {res:.3g}')
-        if balls_touch(params) and min_spacing(phi) < params.contact_separation - SPACING_TOL:
+        if not balls_apart(params, phi):
             raise ParamError('phi_star', _deg(phi), 'balls at least the contact separation '
                              f'2 asin(r_ball / R) = {math.degrees(params.contact_separation):.4g}'
                              ' deg apart', f'two are {math.degrees(min_spacing(phi)):.4g} deg '
@@ -180,15 +181,28 @@ def balanced_equilibrium(params: DriveParams, phi_star=None) -> BalancedEquilibr
 
 
 def no_equilibrium_reason(params: DriveParams) -> str:
-    """Why n >= 2 balls cannot balance the drive (its imbalance exceeds their capacity)."""
+    """Why n >= 2 balls cannot balance the drive: its imbalance exceeds their capacity."""
     mR = params.m * params.R
+    eps_max = ball_capacity(params) * mR / params.M
+    limit = f'eps above {eps_max * 1e3:.3g} mm'
     if balls_touch(params):
-        return ("no balanced equilibrium: the balls touch before they cancel the imbalance "
-                f"(packed {math.degrees(params.contact_separation):.4g} deg apart they cancel "
-                f"at most {ball_capacity(params):.4g} m R = {ball_capacity(params) * mR:.4g} "
-                f"< M eps = {params.M * params.eps:.4g} kg m)")
-    return (f"imbalance beyond the balls' capacity: n m R = {params.n * mR:.4g} "
-            f"< M eps = {params.M * params.eps:.4g} kg m")
+        return ("the balls touch before they cancel the imbalance (packed "
+                f"{math.degrees(params.contact_separation):.4g} deg apart they cancel at most "
+                f"{ball_capacity(params):.4g} m R = {ball_capacity(params) * mR:.4g} < M eps = "
+                f"{params.M * params.eps:.4g} kg m; {limit})")
+    return (f"imbalance exceeds the balls' capacity: n m R = {params.n * mR:.4g} "
+            f"< M eps = {params.M * params.eps:.4g} kg m ({limit})")
+
+
+def least_spacing(params: DriveParams) -> float:
+    """The smallest spacing [rad] of a balanced configuration's balls: the contact
+    separation (less :data:`SPACING_TOL`) for balls that touch, else 0."""
+    return params.contact_separation - SPACING_TOL if balls_touch(params) else 0.0
+
+
+def balls_apart(params: DriveParams, phi) -> bool:
+    """True when no two of the angles phi [rad] are closer than :func:`least_spacing`."""
+    return min_spacing(phi) >= least_spacing(params)
 
 
 def epsbar_lim(params: DriveParams) -> float:

@@ -138,13 +138,8 @@ def speed_table(params: DriveParams, omega_max: float, points: int = TABLE_POINT
         bands = ()
     neutral = int(neutral_count(eq.phi_star)) if eq.exists and params.n > 1 else 0
     return SpeedTable(params, float(omega_max), omegas, lam_in, lam_out, eq.exists,
-                      eq.phi_star, _capacity_text(params) if 'capacity' in eq.reason
-                      else eq.reason, natural, bands, time.perf_counter() - start, neutral)
-
-
-def _capacity_text(p: DriveParams) -> str:
-    return (f"imbalance exceeds the balls' capacity: n m R = {p.n * p.m * p.R:.4g} < "
-            f'M eps = {p.M * p.eps:.4g} kg m (eps above {p.n * p.m * p.R / p.M * 1e3:.3g} mm)')
+                      eq.phi_star, eq.reason, natural, bands, time.perf_counter() - start,
+                      neutral)
 
 
 def unbalanced_bands(omegas, lam, natural: dict) -> tuple:
@@ -307,15 +302,14 @@ def member_near_balls(params: DriveParams, phi):
     """The member of the balanced family nearest the balls' present angles phi [rad], once
     they are near balance (:data:`NEAR_BALANCE`); None before, or for fewer than 3 balls
     (n = 2 with eps > 0 has one member up to the balls' order: the fan)."""
-    from abb_ros.model.equilibrium import SPACING_TOL, balls_touch, eq26_residual
-    from abb_ros.model.family import min_spacing, nearest_member
+    from abb_ros.model.equilibrium import balls_apart, eq26_residual
+    from abb_ros.model.family import nearest_member
     phi = np.asarray(phi, dtype=float)
     if phi.size != params.n or params.n < 3 or not np.all(np.isfinite(phi)):
         return None
     if eq26_residual(params, phi) > NEAR_BALANCE:
         return None
     member, _ = nearest_member(params.M * params.eps / (params.m * params.R), phi)
-    if member is None or (balls_touch(params) and min_spacing(member)
-                          < params.contact_separation - SPACING_TOL):
+    if member is None or not balls_apart(params, member):
         return None
     return member
