@@ -412,7 +412,8 @@ def multipliers_batch(params_list, omegas, plane='in', phi_star=None, progress=N
             U, k = tangent_frame(phi[sel])
         else:
             U, k = None, np.zeros(sel.size, dtype=np.int64)
-        lam[sel] = max_multiplier(Phi)
+        plain = k == 0
+        lam[sel[plain]] = max_multiplier(Phi[plain])
         for count in np.unique(k[k > 0]):
             group = np.flatnonzero(k == count)
             lam[sel[group]], invariance[sel[group]] = transverse_max_multiplier(
@@ -444,7 +445,8 @@ MAX_MEMBERS = 64
 """Most members of the family sampled per point by :func:`member_extremes`."""
 
 
-def member_extremes(params_list, omegas, plane='in', count=8, progress=None, kern=None):
+def member_extremes(params_list, omegas, plane='in', count=8, progress=None, kern=None,
+                    fan_lam=None):
     """Best and worst |lambda|max over sampled members of each point's balanced family.
 
     For n >= 3 the balanced equilibria form a family, and stability may differ along it:
@@ -452,44 +454,43 @@ def member_extremes(params_list, omegas, plane='in', count=8, progress=None, ker
     they settle" (worst). Each point's members are its symmetric fan and count - 1 random
     members (:func:`abb_ros.model.family.sample_members`, seeded, balls kept the contact
     separation apart when they touch); points sharing M eps / (m R) share members. n <= 2
-    has the fan only (its mirror image has the same multipliers). Returns (best (B,),
+    has the fan only (its mirror image has the same multipliers). ``fan_lam`` (B,): the fan's
+    |lambda|max when the caller has it (a map), else it is computed. Returns (best (B,),
     worst (B,), sampled (B,) int: members evaluated per point); +inf where no balanced
     equilibrium exists.
     """
-    from abb_ros.model.equilibrium import balls_touch
+    from abb_ros.model.equilibrium import least_spacing
     from abb_ros.model.family import sample_members
     if not 1 <= count <= MAX_MEMBERS:
         raise ParamError('members', count, f'[1, {MAX_MEMBERS}]')
     omegas = np.asarray(omegas, dtype=float)
-    B = len(params_list)
     n = params_list[0].n
-    exists, fan = equilibria(params_list)
+    if fan_lam is None:
+        fan_lam, exists = max_multiplier_batch(params_list, omegas, plane, kern=kern)
+    else:
+        exists, _ = equilibria(params_list)
+    best, worst = np.array(fan_lam, dtype=float), np.array(fan_lam, dtype=float)
+    sampled = exists.astype(np.int64)
     cache, rows, owner = {}, [], []
-    sampled = np.zeros(B, dtype=np.int64)
-    for i in np.flatnonzero(exists):
+    for i in np.flatnonzero(exists) if n >= 3 else ():
         p = params_list[i]
-        ratio = p.M * p.eps / (p.m * p.R)
-        spacing = p.contact_separation if balls_touch(p) else 0.0
-        key = (ratio, spacing)
+        key = (p.M * p.eps / (p.m * p.R), least_spacing(p))
         if key not in cache:
-            cache[key] = (sample_members(ratio, n, count, fan[i], spacing) if n >= 3
-                          else fan[i][None])
-        members = cache[key]
-        rows.append(members)
-        owner.append(np.full(len(members), i))
-        sampled[i] = len(members)
-    best = np.full(B, np.inf)
-    worst = np.full(B, np.inf)
-    if rows:
+            cache[key] = sample_members(*key[:1], n, count - 1, spacing=key[1])
+        rows.append(cache[key])
+        owner.append(np.full(len(cache[key]), i))
+        sampled[i] += len(cache[key])
+    if rows and sum(len(r) for r in rows):
         phi = np.concatenate(rows)
         who = np.concatenate(owner)
-        per = max(float(sampled[exists].mean()), 1.0)
+        per = max(float(sampled[exists].mean()) - 1.0, 1.0)
         res = multipliers_batch([params_list[i] for i in who], omegas[who], plane, phi,
                                 None if progress is None else (lambda k: progress(k / per)),
                                 kern)
-        worst[exists] = -np.inf
         np.minimum.at(best, who, res.lam)
         np.maximum.at(worst, who, res.lam)
+    elif progress is not None:
+        progress(int(exists.sum()))
     if progress is not None and not exists.all():
         progress(int((~exists).sum()))
     return best, worst, sampled
@@ -666,7 +667,7 @@ def stability_map(base, x, x_values, y, y_values, settings=None, plane='in',
                         limits)
     if members:
         best, worst, sampled = member_extremes(plist, np.maximum(omegas, 1e-9), plane, members,
-                                               progress)
+                                               progress, fan_lam=lam)
         smap.lam_best, smap.lam_worst = best.reshape(shape), worst.reshape(shape)
         smap.members = int(sampled[exists].min()) if exists.any() else 0
     return smap
