@@ -45,6 +45,7 @@ class RunResult:
     refined_steps: int = 0      # steps split into contact sub-steps (issue 12)
     max_substeps: int = 1       # most sub-steps in one step
     rolling_switches: int = 0   # rolling regime switches located inside steps (issue 12)
+    contact_step_note: str = ''  # integrate.contact_step_note of the run
 
     @property
     def real_time_factor(self) -> float:
@@ -141,4 +142,5 @@ def run_scenario(scenario: Scenario, dt: float = DEFAULT_DT, publish_dt: float =
     states = np.concatenate([np.atleast_2d(s) for s in states])
     wall = time.perf_counter() - start
     return RunResult(scenario, np.array(times), states, wall, written, compile_time,
-                     sim.refined_steps, sim.max_substeps, sim.rolling_switches)
+                     sim.refined_steps, sim.max_substeps, sim.rolling_switches,
+                     sim.contact_step_note)

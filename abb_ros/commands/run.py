@@ -85,7 +85,7 @@ def run(args) -> dict:
     from abb_ros.commands.api import CommandFailed, UsageError, drive_params, parse_settings
     from abb_ros.app.headless import check_duration, run_scenario
     from abb_ros.io.scenario import load_scenario
-    from abb_ros.model.integrate import DEFAULT_DT, StateError, contact_step_note
+    from abb_ros.model.integrate import StateError
     from abb_ros.model.params import ParamError
     from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
     from abb_ros.model.state import StateLayout, wrap_degrees
@@ -181,9 +181,8 @@ def run(args) -> dict:
     }
     if p.beyond_paper:
         summary['beyond_paper'] = list(p.beyond_paper)
-    note = contact_step_note(p, options.get('dt', DEFAULT_DT))
-    if note:
-        summary['contact_step_note'] = note
+    if result.contact_step_note:
+        summary['contact_step_note'] = result.contact_step_note
     if result.refined_steps:
         summary['contact_refined_steps'] = result.refined_steps
         summary['contact_max_substeps'] = result.max_substeps

@@ -254,6 +254,11 @@ class Simulation:
         self._solver = solver_buffers(params.n)
         self._S = self.spindle.pack(self.omega_cmd)
 
+    @property
+    def contact_step_note(self) -> str:
+        """:func:`contact_step_note` of this run's drive and step ('' when nothing to say)."""
+        return contact_step_note(self.params, self.dt)
+
     # ---- inputs -------------------------------------------------------------------------
     def set_speed_command(self, omega_cmd: float) -> None:
         """New commanded spindle speed [rad/s], taken at the next step boundary."""

@@ -42,7 +42,7 @@ from std_srvs.srv import SetBool, Trigger
 from abb_ros.io import cdr, ros_messages
 from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
 from abb_ros.model.params import ParamError
-from abb_ros.model.integrate import Simulation, StateError, contact_step_note, initial_state
+from abb_ros.model.integrate import Simulation, StateError, initial_state
 from abb_ros.model.sampling import PlantSampler
 from abb_ros.model.sensors import ImuModel
 from abb_ros.nodes import ros_params
@@ -566,7 +566,7 @@ class SimulatorNode(Node):
             level = max(level, DiagnosticStatus.WARN)
             message += (f'; spindle/speed reads 0: the spindle turns below the FG minimum '
                         f'{fg_min_speed:.3f} rad/s')
-        contact_note = contact_step_note(self.drive, self.sim.dt)
+        contact_note = self.sim.contact_step_note
         if contact_note:
             level = max(level, DiagnosticStatus.WARN)
             message += f'; {contact_note}'
