@@ -54,6 +54,7 @@ import numpy as np
 
 from abb_ros.model.jit import KernelSet
 from abb_ros.model.normals import NormalStream
+from abb_ros.model.params import ParamError
 
 __all__ = ['SpeedSensorConfig', 'SpeedSensor', 'fg_speed', 'pitch_pattern', 'max_pitch_error',
            'FG_STATES', 'SPEED_SEED_STREAM', 'PITCH_SEED_STREAM', 'STOPPED_FRACTION']
@@ -95,9 +96,10 @@ class SpeedSensorConfig:
     pitch_error: float = 0.0
 
     def __post_init__(self):
-        if not 0.0 <= self.pitch_error < max_pitch_error(self.pulses_per_rev):
-            raise ValueError(f'pitch_error = {self.pitch_error!r} rad: valid range is '
-                             f'[0, {max_pitch_error(self.pulses_per_rev)!r}) rad')
+        bound = max_pitch_error(self.pulses_per_rev)
+        if not 0.0 <= self.pitch_error < bound:
+            raise ParamError('speed_sensor.pitch_error', self.pitch_error,
+                             f'[0, pi / pulses_per_rev^1.5) = [0, {bound:.6g}) rad')
 
     @property
     def pitch(self) -> float:

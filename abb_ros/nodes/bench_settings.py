@@ -14,7 +14,7 @@ from dataclasses import dataclass
 from typing import Any, Mapping
 
 from abb_ros.model.params import ParamError
-from abb_ros.model.speed_sensor import SpeedSensorConfig, max_pitch_error
+from abb_ros.model.speed_sensor import SpeedSensorConfig
 
 __all__ = ['BenchSettings', 'bench_settings']
 
@@ -49,16 +49,11 @@ def bench_settings(values: Mapping[str, Any]) -> BenchSettings:
     for name in ('speed_sensor.timer_hz', 'speed_sensor.timeout'):
         if not values[name] > 0:
             raise ParamError(name, values[name], '(0, inf)')
-    pulses = values['speed_sensor.pulses_per_rev']
-    pitch_error = values['speed_sensor.pitch_error']
-    if not pitch_error < max_pitch_error(pulses):
-        raise ParamError('speed_sensor.pitch_error', pitch_error,
-                         f'[0, pi / pulses_per_rev^1.5) = [0, {max_pitch_error(pulses):.6g}) rad')
-    speed = SpeedSensorConfig(pulses_per_rev=int(pulses),
+    speed = SpeedSensorConfig(pulses_per_rev=int(values['speed_sensor.pulses_per_rev']),
                               timer_hz=float(values['speed_sensor.timer_hz']),
                               edge_jitter=float(values['speed_sensor.edge_jitter']),
                               timeout=float(values['speed_sensor.timeout']),
-                              pitch_error=float(pitch_error))
+                              pitch_error=float(values['speed_sensor.pitch_error']))
     return BenchSettings(
         speed_sensor=speed,
         imu_dropout=bool(values['fault.imu_dropout']),
