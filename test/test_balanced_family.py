@@ -57,20 +57,15 @@ def _reference_transverse(params, omega, phi_star, h=1e-6, samples=16):
     taus = 2 * math.pi * np.arange(samples) / samples
     mats = np.zeros((3, samples, m, m))
     for s_, tau in enumerate(taus):
-        y0 = layout.pack(theta=tau, deck=np.zeros(6), phi=phi_star, omega=omega)
-        qdd0 = np.zeros(N)
+        z0 = np.concatenate([layout.pack(theta=tau, deck=np.zeros(6), phi=phi_star,
+                                         omega=omega), np.zeros(N)])     # [q, q', q'']
         for j, k in enumerate(idx):
-            for which, (y_shift, a_shift) in enumerate((((None, k)), ((N + k, None)),
-                                                        ((k, None)))):
-                yp, ym, ap, am = y0.copy(), y0.copy(), qdd0.copy(), qdd0.copy()
-                if y_shift is not None:
-                    yp[y_shift] += h
-                    ym[y_shift] -= h
-                else:
-                    ap[a_shift] += h
-                    am[a_shift] -= h
-                d = (dynamics.lagrange_residual(params, yp, ap)
-                     - dynamics.lagrange_residual(params, ym, am)) / (2 * h)
+            for which, offset in enumerate((2 * N, N, 0)):   # d/dq'': M, d/dq': C, d/dq: K
+                zp, zm = z0.copy(), z0.copy()
+                zp[offset + k] += h
+                zm[offset + k] -= h
+                d = (dynamics.lagrange_residual(params, zp[:2 * N], zp[2 * N:])
+                     - dynamics.lagrange_residual(params, zm[:2 * N], zm[2 * N:])) / (2 * h)
                 mats[which, s_, :, j] = d[rows]
     basis = np.stack([np.ones(samples)] + [f(o * taus) for o in (1, 2)
                                            for f in (np.cos, np.sin)], axis=1)
