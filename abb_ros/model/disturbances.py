@@ -30,8 +30,10 @@ __all__ = ['deck_twist_matrix', 'apply_shock', 'swap_disc']
 
 
 def deck_twist_matrix(y: np.ndarray, n: int) -> np.ndarray:
-    """L(q), shape (6, 6): the deck twist (v, w) in deck axes from (X', Y', Z', alpha', beta',
-    gamma')."""
+    """Return L(q), shape (6, 6), the map from the deck's coordinate rates to its twist.
+
+    The twist (v, w) is in deck axes; the rates are (X', Y', Z', alpha', beta', gamma').
+    """
     N = n_coords(n)
     q = y[:N]
     columns = []
@@ -44,8 +46,11 @@ def deck_twist_matrix(y: np.ndarray, n: int) -> np.ndarray:
 
 
 def apply_shock(y: np.ndarray, n: int, twist_step) -> np.ndarray:
-    """The state just after an impulsive shock: the deck twist stepped by ``twist_step``
-    (vx, vy, vz [m/s], wx, wy, wz [rad/s], deck axes); positions unchanged."""
+    """Return the state just after an impulsive shock to the deck.
+
+    The deck twist is stepped by ``twist_step`` (vx, vy, vz [m/s], wx, wy, wz [rad/s], deck
+    axes); positions are unchanged.
+    """
     step = np.asarray(twist_step, dtype=float)
     if step.shape != (6,):
         raise ValueError(f'twist_step: 6 values, got shape {step.shape}')
@@ -56,8 +61,10 @@ def apply_shock(y: np.ndarray, n: int, twist_step) -> np.ndarray:
 
 
 def swap_disc(y: np.ndarray, n: int, delta: float) -> np.ndarray:
-    """The state re-expressed for an imbalance moved by ``delta`` [rad] in the rotor:
-    theta + delta, phi_i - delta; nothing moves."""
+    """Return the state re-expressed for an imbalance moved by ``delta`` [rad] in the rotor.
+
+    theta + delta, phi_i - delta; nothing moves.
+    """
     N = n_coords(n)
     out = np.array(y, dtype=float)
     out[0] += delta

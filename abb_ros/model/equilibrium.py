@@ -64,12 +64,12 @@ packed chain at the capacity, computed in floating point)."""
 
 
 def balls_touch(params: DriveParams) -> bool:
-    """True when the balls have a size and touch (contact on): their spacing is bounded."""
+    """Return whether the balls have a size and touch (contact on): their spacing is bounded."""
     return params.n > 1 and params.r_ball > 0.0 and params.contact_E > 0.0
 
 
 def ball_capacity(params: DriveParams) -> float:
-    """The largest |sum_i exp(i phi_i)| the balls can make, C (the imbalance C m R they cancel).
+    """Return C, the largest |sum_i exp(i phi_i)| the balls can make (they cancel C m R).
 
     n for point masses or without contact; sin(n s / 2) / sin(s / 2) for balls that touch at
     the contact separation s = 2 asin(r_ball / R) (the packed chain, module docstring).
@@ -94,6 +94,7 @@ class BalancedEquilibrium:
 
     @property
     def phi_star_deg(self) -> list:
+        """Ball angles phi_star in degrees."""
         return [math.degrees(p) for p in self.phi_star]
 
 
@@ -144,9 +145,9 @@ def fan_phi_star(n: int, ratio):
 
 
 def balanced_equilibrium(params: DriveParams, phi_star=None) -> BalancedEquilibrium:
-    """The balanced equilibrium of Eq. (26) (symmetric fan, or the given ``phi_star`` [rad]).
+    """Return the balanced equilibrium of Eq. (26) (symmetric fan, or the given ``phi_star``).
 
-    A given ``phi_star`` must have n entries and satisfy Eq. (26) to :data:`EQ26_TOL`;
+    A given ``phi_star`` [rad] must have n entries and satisfy Eq. (26) to :data:`EQ26_TOL`;
     otherwise :class:`ParamError` is raised naming ``phi_star``.
     """
     n = params.n
@@ -195,27 +196,31 @@ def no_equilibrium_reason(params: DriveParams) -> str:
 
 
 def least_spacing(params: DriveParams) -> float:
-    """The smallest spacing [rad] of a balanced configuration's balls: the contact
-    separation (less :data:`SPACING_TOL`) for balls that touch, else 0."""
+    """Return the smallest spacing [rad] of a balanced configuration's balls.
+
+    The contact separation (less :data:`SPACING_TOL`) for balls that touch, else 0.
+    """
     return params.contact_separation - SPACING_TOL if balls_touch(params) else 0.0
 
 
 def balls_apart(params: DriveParams, phi) -> bool:
-    """True when no two of the angles phi [rad] are closer than :func:`least_spacing`."""
+    """Return whether no two of the angles phi [rad] are closer than :func:`least_spacing`."""
     return min_spacing(phi) >= least_spacing(params)
 
 
 def epsbar_lim(params: DriveParams) -> float:
     """Largest balanceable eccentricity eps/R = C m / M (Fig. 6; n = 2: 2 m R = M eps).
 
-    C is the :func:`ball_capacity` (n for point masses)."""
+    C is the :func:`ball_capacity` (n for point masses).
+    """
     return ball_capacity(params) * params.m / params.M
 
 
 def mbar_lim(params: DriveParams) -> float:
     """Smallest ball mass m/M that can balance: eps / (C R) (Fig. 7; n = 2: 2 m R = M eps).
 
-    C is the :func:`ball_capacity` at the drive's r_ball (n for point masses)."""
+    C is the :func:`ball_capacity` at the drive's r_ball (n for point masses).
+    """
     if params.n == 0:
         return math.inf
     return params.eps / (ball_capacity(params) * params.R)

@@ -45,7 +45,7 @@ def eq26_jacobian(phi) -> np.ndarray:
 
 
 def tangent_frame(phi):
-    """An orthonormal frame of R^n adapted to the family at phi [rad] (shape (..., n)).
+    """Return an orthonormal frame of R^n adapted to the family at phi [rad] (shape (..., n)).
 
     Returns (U, k): U shape (..., n, n) orthogonal, whose last k[...] columns span the tangent
     space null(J) and whose first n - k columns span its complement (the row space of J);
@@ -61,7 +61,7 @@ def tangent_frame(phi):
 
 
 def neutral_count(phi) -> np.ndarray:
-    """n - rank J(phi): the dimension of the family through phi (int array)."""
+    """Return n - rank J(phi), the dimension of the family through phi (int array)."""
     return tangent_frame(phi)[1]
 
 
@@ -79,7 +79,7 @@ def _residual(ratio, phi):
 
 
 def nearest_member(ratio: float, phi0, tol: float = 1e-13):
-    """The solution of Eq. (26) reached from phi0 by minimum-norm Gauss-Newton steps.
+    """Solve Eq. (26) from phi0 by minimum-norm Gauss-Newton steps.
 
     ``ratio`` = M eps / (m R); phi0 [rad], shape (n,). Each step is the smallest change of
     the angles that zeroes the linearised residual (phi -= J^+ F), so the result is the

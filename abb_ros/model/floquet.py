@@ -34,8 +34,14 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from abb_ros.model.equilibrium import (EQ26_TOL, ball_capacity, balanced_equilibrium, epsbar_lim,
-                                       fan_phi_star, mbar_lim)
+from abb_ros.model.equilibrium import (
+    EQ26_TOL,
+    balanced_equilibrium,
+    ball_capacity,
+    epsbar_lim,
+    fan_phi_star,
+    mbar_lim,
+)
 from abb_ros.model.family import tangent_frame
 from abb_ros.model.jit import Kernels, KernelSet, prange
 from abb_ros.model.linear import in_plane_harmonics, out_of_plane_harmonics, stack_params
@@ -64,7 +70,7 @@ nogil and fastmath, and parallel over the batch for monodromy_many."""
 
 @kernel
 def eval_coeffs(H, basis, out):
-    """out = sum_j H[j] basis[j], basis = [1, cos tau, sin tau, cos 2 tau, sin 2 tau]."""
+    """Set out = sum_j H[j] basis[j], basis = [1, cos tau, sin tau, cos 2 tau, sin 2 tau]."""
     nh, nq = H.shape[0], H.shape[1]
     for i in range(nq):
         for j in range(nq):
@@ -126,7 +132,7 @@ def accel_matrix(Mh, Ch, Kh, tau, Mw, R, basis):
 
 @kernel
 def deriv(R, Q, V, dQ, dV):
-    """dQ = V, dV = P Q + S V with R = [P S]; Q, V shape (nq, m)."""
+    """Set dQ = V, dV = P Q + S V with R = [P S]; Q, V shape (nq, m)."""
     nq, m = Q.shape
     for i in range(nq):
         for j in range(m):
@@ -347,7 +353,8 @@ def _rate_estimate(Mh, Ch, Kh, omega):
 def equilibria(params_list):
     """Balanced equilibria of a batch of DriveParams (same n): (exists (B,), phi_star (B, n)).
 
-    The symmetric fan where the imbalance is within the balls' capacity (equilibrium.py)."""
+    The symmetric fan where the imbalance is within the balls' capacity (equilibrium.py).
+    """
     n = params_list[0].n
     p = stack_params(params_list)
     B = len(params_list)
@@ -435,8 +442,11 @@ def multipliers_batch(params_list, omegas, plane='in', phi_star=None, progress=N
 
 def max_multiplier_batch(params_list, omegas, plane='in', phi_star=None, progress=None,
                          kern=None):
-    """(lam (B,), exists (B,) bool) of :func:`multipliers_batch`: the largest |transverse
-    Floquet multiplier| at the balanced equilibrium (+inf where none exists)."""
+    """Return (lam (B,), exists (B,) bool) of :func:`multipliers_batch`.
+
+    ``lam`` is the largest |transverse Floquet multiplier| at the balanced equilibrium (+inf
+    where none exists).
+    """
     res = multipliers_batch(params_list, omegas, plane, phi_star, progress, kern)
     return res.lam, res.exists
 
@@ -544,6 +554,7 @@ class PointStability:
 
     @property
     def verdict(self) -> str:
+        """Verdict in words: 'balanced', or 'unbalanced (...)' saying why."""
         if not self.exists:
             return 'unbalanced (no balanced equilibrium)'
         if self.balanced:
@@ -598,6 +609,7 @@ class StabilityMap:
     members: int = 0
 
     def summary(self) -> dict:
+        """Return the map's axes, plane, balanced fractions and |lambda|max range as a dict."""
         n = self.status.size
         out = {'x': self.x, 'y': self.y, 'plane': self.plane, 'points': int(n),
                'balanced_fraction': float((self.status == BALANCED).mean()),

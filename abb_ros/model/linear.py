@@ -74,7 +74,7 @@ class PeriodicSystem:
 
 
 def stack_params(plist) -> SimpleNamespace:
-    """A list of DriveParams (same n) -> namespace of arrays, shape (B,), for the builders."""
+    """Stack a list of DriveParams (same n) into a namespace of arrays, shape (B,)."""
     ns = {f: np.array([getattr(p, f) for p in plist], dtype=float) for f in _FIELDS}
     ns['n'] = plist[0].n
     return SimpleNamespace(**ns)

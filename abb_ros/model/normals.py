@@ -26,7 +26,7 @@ class NormalStream:
         self._next = 0
 
     def take(self, k: int) -> np.ndarray:
-        """The next ``k`` normals (a read-only view; valid until the next call)."""
+        """Return the next ``k`` normals (a read-only view; valid until the next call)."""
         end = self._next + k
         if end > self._buffer.size:
             unused = self._buffer[self._next:]

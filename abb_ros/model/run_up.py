@@ -23,14 +23,16 @@ the far side of a jump; the analysis node's WARN guard (speed_bands.BAND_GUARD_W
 
 
 def in_band(bands, omega: float):
-    """The band containing omega [rad/s], or None."""
+    """Return the band containing omega [rad/s], or None."""
     return next((b for b in bands if b.lo <= omega <= b.hi), None)
 
 
 def hold_speed(bands, target: float, omega_max: float, guard: float) -> float:
-    """The speed [rad/s] to hold for ``target``: the target itself when it is at least
-    ``guard`` from every band; else the nearest such speed in [0, omega_max] (ties: above).
-    Raises ValueError when no speed in range qualifies."""
+    """Return the speed [rad/s] to hold for ``target``, at least ``guard`` from every band.
+
+    The target itself when it is at least ``guard`` from every band; else the nearest such
+    speed in [0, omega_max] (ties: above). Raises ValueError when no speed in range qualifies.
+    """
     def clear(w):
         return 0.0 < w <= omega_max and all(w <= b.lo - guard or w >= b.hi + guard
                                             for b in bands)
@@ -44,8 +46,11 @@ def hold_speed(bands, target: float, omega_max: float, guard: float) -> float:
 
 @dataclass
 class RunUp:
-    """Speed reference [rad/s] from ``omega_ref`` towards ``hold`` at ``accel`` [rad/s^2],
-    jumping over the bands (with ``guard`` [rad/s] beyond their far edge)."""
+    """Speed reference [rad/s] that runs up to a hold speed, jumping over the bands.
+
+    From ``omega_ref`` towards ``hold`` at ``accel`` [rad/s^2], landing ``guard`` [rad/s]
+    beyond a band's far edge.
+    """
 
     bands: tuple
     hold: float
@@ -74,4 +79,5 @@ class RunUp:
 
     @property
     def holding(self) -> bool:
+        """True once the reference has reached the hold speed."""
         return self.omega_ref == self.hold

@@ -24,10 +24,13 @@ __all__ = ['Sample', 'PlantSampler']
 
 @dataclass(frozen=True)
 class Sample:
-    """The plant at step ``steps``: ``y`` (state copy, shape (2N,)) when the state is due,
-    ``imu`` when the IMU is due (else None); ``n`` the ball count of ``y``; ``effort`` the
-    spindle motor's torque [N m] in torque mode (None in speed modes); ``speed`` the FG
-    reading [rad/s] with the state (None without a speed sensor or during its dropout)."""
+    """The plant's readings at step ``steps``.
+
+    ``y`` (state copy, shape (2N,)) when the state is due, ``imu`` when the IMU is due (else
+    None); ``n`` the ball count of ``y``; ``effort`` the spindle motor's torque [N m] in
+    torque mode (None in speed modes); ``speed`` the FG reading [rad/s] with the state (None
+    without a speed sensor or during its dropout).
+    """
 
     steps: int
     n: int
@@ -37,14 +40,16 @@ class Sample:
     speed: float | None = None
 
     def stamp_ns(self, dt_ns: int, epoch_ns: int = 0) -> int:
-        """The exact time stamp [ns] of this sample: epoch + steps * dt."""
+        """Return the exact time stamp [ns] of this sample: epoch + steps * dt."""
         return epoch_ns + self.steps * dt_ns
 
     def is_finite(self) -> bool:
-        """No NaN or infinity in the state or the IMU reading. (A sum is NaN or infinite when
-        a term is; finite terms overflow it only beyond 1e300, far outside the state envelope
-        that the integrator enforces. Python floats: numpy's reductions cost more on arrays
-        this small.)"""
+        """Return whether the state and the IMU reading hold no NaN or infinity.
+
+        A sum is NaN or infinite when a term is; finite terms overflow it only beyond 1e300,
+        far outside the state envelope that the integrator enforces. Python floats: numpy's
+        reductions cost more on arrays this small.
+        """
         total = 0.0 if self.y is None else sum(self.y.tolist())
         if self.imu is not None:
             total += sum(self.imu.accel.tolist()) + sum(self.imu.gyro.tolist())
@@ -73,13 +78,14 @@ class PlantSampler:
         self.set_rates(publish_every, imu_every)
 
     def set_rates(self, publish_every: int, imu_every: int) -> None:
+        """Set the steps between state samples and between IMU samples (>= 1)."""
         if publish_every < 1 or imu_every < 1:
             raise ValueError('publish_every and imu_every must be >= 1 step')
         self.publish_every = int(publish_every)
         self.imu_every = int(imu_every)
 
     def sample_now(self) -> Sample | None:
-        """What is due at the current step (None if nothing)."""
+        """Return what is due at the current step (None if nothing)."""
         steps = self.sim.steps
         state_due = steps % self.publish_every == 0
         imu_due = steps % self.imu_every == 0
@@ -102,8 +108,9 @@ class PlantSampler:
                       None if math.isnan(effort) else effort, speed)
 
     def next_period(self) -> list[Sample]:
-        """Advance to the next state instant (a multiple of publish_every), returning every
-        sample due after the current step up to and including it, in time order.
+        """Advance to the next state instant (a multiple of publish_every).
+
+        Return every sample due after the current step up to and including it, in time order.
 
         Raises :class:`abb_ros.model.integrate.StateError` like ``Simulation.advance``
         (the samples of the failed period are lost; none is non-finite).

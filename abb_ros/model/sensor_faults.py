@@ -64,7 +64,7 @@ class ImuFaults:
         return out
 
     def apply(self, reading: ImuReading) -> ImuReading | None:
-        """The reading given out for the sensor's ``reading`` (None: nothing)."""
+        """Return the reading given out for the sensor's ``reading`` (None: nothing)."""
         if self.dropout:
             return None
         if self.stuck and self._last is not None:
@@ -102,7 +102,7 @@ class SpeedFaults:
         return out
 
     def apply(self, value: float) -> float | None:
-        """The reading given out for the sensor's ``value`` [rad/s] (None: nothing)."""
+        """Return the reading given out for the sensor's ``value`` [rad/s] (None: nothing)."""
         z = float(self._normals.take(1)[0])
         if self.dropout:
             return None

@@ -49,7 +49,8 @@ def _t_matrix(alpha: float, beta: float, gamma: float) -> tuple[float, ...]:
     """T_beta T_alpha T_gamma of Eq. (2), row-major (9 floats): base -> deck components.
 
     Plain floats: at one call per sample, numpy's per-call overhead on 3 x 3 arrays costs
-    more than the arithmetic."""
+    more than the arithmetic.
+    """
     ca, sa = math.cos(alpha), math.sin(alpha)
     cb, sb = math.cos(beta), math.sin(beta)
     cg, sg = math.cos(gamma), math.sin(gamma)
@@ -72,16 +73,20 @@ def _cross(u, v) -> tuple[float, float, float]:
 
 
 def euler_rotation(alpha: float, beta: float, gamma: float) -> np.ndarray:
-    """Deck-to-base rotation R = Rz(gamma) Rx(alpha) Ry(beta) = (T_beta T_alpha T_gamma)^T,
-    Eqs. (1)-(2); shape (3, 3). ``R @ v_deck = v_base``."""
+    """Return the deck-to-base rotation R = Rz(gamma) Rx(alpha) Ry(beta), Eqs. (1)-(2).
+
+    R = (T_beta T_alpha T_gamma)^T, shape (3, 3); ``R @ v_deck = v_base``.
+    """
     return np.array(_t_matrix(alpha, beta, gamma)).reshape(3, 3).T
 
 
 @kernel
 def euler_quaternion(alpha: float, beta: float, gamma: float) -> tuple[float, float, float,
                                                                          float]:
-    """Unit quaternion (x, y, z, w) of R = Rz(gamma) Rx(alpha) Ry(beta) (Hamilton product
-    qz * qx * qy), as geometry_msgs/Quaternion orders it."""
+    """Return the unit quaternion (x, y, z, w) of R = Rz(gamma) Rx(alpha) Ry(beta).
+
+    The Hamilton product qz * qx * qy, in the order of geometry_msgs/Quaternion.
+    """
     cg, sg = math.cos(gamma / 2), math.sin(gamma / 2)
     ca, sa = math.cos(alpha / 2), math.sin(alpha / 2)
     cb, sb = math.cos(beta / 2), math.sin(beta / 2)
@@ -156,10 +161,12 @@ def _specific_force(q, qd, qdd, r, gravity):
 
 @kernel
 def imu_reading(q, qd, qdd, r, gravity, z, k, bias, out):
-    """One IMU sample into ``out`` (specific force [m/s^2], then angular rate [rad/s]), deck
-    axes: bias += z[:6] (ka, ka, ka, kg, kg, kg) (random walk), then out = ideal + bias +
+    """Write one IMU sample into ``out``: specific force [m/s^2], then angular rate [rad/s].
+
+    Deck axes: bias += z[:6] (ka, ka, ka, kg, kg, kg) (random walk), then out = ideal + bias +
     z[6:] (sa, sa, sa, sg, sg, sg) (white noise); ``k`` = (ka, kg, sa, sg), ``bias`` (6,)
-    updated in place."""
+    updated in place.
+    """
     accel, gyro = _specific_force(q, qd, qdd, r, gravity)
     for i in range(3):
         bias[i] = bias[i] + z[i] * k[0]
@@ -171,9 +178,11 @@ def imu_reading(q, qd, qdd, r, gravity, z, k, bias, out):
 
 @kernel
 def deck_pose_twist(y, n, out):
-    """``out`` (13,) = C in base [m], the quaternion (x, y, z, w) of R (Eqs. 1-2), the
-    velocity of C [m/s] and Eq. (10) [rad/s], both in deck axes (deck/pose, deck/twist), for
-    the state ``y`` of ``n`` balls."""
+    """Write the deck's pose and twist for the state ``y`` of ``n`` balls into ``out`` (13,).
+
+    ``out`` = C in base [m], the quaternion (x, y, z, w) of R (Eqs. 1-2), the velocity of C
+    [m/s] and Eq. (10) [rad/s], both in deck axes (deck/pose, deck/twist).
+    """
     N = PHI + n
     a, b, g = y[ALPHA], y[ALPHA + 1], y[ALPHA + 2]
     quat = euler_quaternion(a, b, g)
@@ -270,7 +279,7 @@ class ImuModel:
         self._normals = NormalStream(self.rng)
 
     def reconfigure(self, config: ImuConfig) -> None:
-        """New mounting/noise parameters; the generator and the bias state carry on."""
+        """Apply new mounting/noise parameters; the generator and the bias state carry on."""
         self.config = config
         sqrt_dt = math.sqrt(1.0 / config.rate)
         self._k = np.array([config.accel_bias_random_walk * sqrt_dt,
@@ -279,10 +288,11 @@ class ImuModel:
         self._position = np.asarray(config.position, dtype=float)
 
     def read(self, q, qd, qdd) -> ImuReading:
-        """The reading at the state (q, q', q''); advances the noise generator.
+        """Return the reading at the state (q, q', q''), advancing the noise generator.
 
         bias += z rw sqrt(dt); reading = ideal + bias + z sqrt(variance), in one compiled
-        kernel (:func:`imu_reading`)."""
+        kernel (:func:`imu_reading`).
+        """
         # One draw of 12 normals per sample whatever the settings, so that the sequence of
         # the generator (and so every later reading) does not depend on which terms are on.
         z = self._normals.take(12)

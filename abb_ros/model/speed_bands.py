@@ -77,9 +77,11 @@ class Band:
 
     @property
     def kind(self) -> str:
+        """'translational' or 'rotational', after the natural frequency nearest the band."""
         return 'translational' if self.near in TRANSLATIONAL else 'rotational'
 
     def contains(self, omega: float) -> bool:
+        """Return whether omega [rad/s] lies in the band (edges included)."""
         return self.lo <= omega <= self.hi
 
     def distance(self, omega: float) -> float:
@@ -182,8 +184,11 @@ def _named_band(lo, hi, natural) -> Band:
 
 @dataclass(frozen=True)
 class Assessment:
-    """The verdict at one speed: ``level`` (OK/WARN/ERROR), ``message``, ``margin``
-    (1 - max |lambda|, -inf without a balanced equilibrium) and ``values`` (key -> value)."""
+    """The analysis' verdict at one speed.
+
+    ``level`` (OK/WARN/ERROR), ``message``, ``margin`` (1 - max |lambda|, -inf without a
+    balanced equilibrium) and ``values`` (key -> value).
+    """
 
     level: int
     message: str
@@ -277,8 +282,9 @@ def _base_values(table: SpeedTable, omega) -> dict:
 
 
 def refine(table: SpeedTable, omega: float, member=None):
-    """Exact multipliers at omega [rad/s] (about 2 ms), or None when the table has no
-    balanced equilibrium or omega <= 0.
+    """Compute the exact multipliers at omega [rad/s] (about 2 ms).
+
+    None when the table has no balanced equilibrium or omega <= 0.
 
     ``member`` : a member of the balanced family [rad] (:func:`member_near_balls`), default
     the table's symmetric fan.
@@ -299,9 +305,11 @@ MEMBER_NEAR_BALLS = 'nearest the balls'
 
 
 def member_near_balls(params: DriveParams, phi):
-    """The member of the balanced family nearest the balls' present angles phi [rad], once
-    they are near balance (:data:`NEAR_BALANCE`); None before, or for fewer than 3 balls
-    (n = 2 with eps > 0 has one member up to the balls' order: the fan)."""
+    """Return the member of the balanced family nearest the balls' present angles phi [rad].
+
+    Only once they are near balance (:data:`NEAR_BALANCE`); None until then, or for fewer than
+    3 balls (n = 2 with eps > 0 has one member up to the balls' order: the fan).
+    """
     from abb_ros.model.equilibrium import balls_apart, eq26_residual
     from abb_ros.model.family import nearest_member
     phi = np.asarray(phi, dtype=float)

@@ -1,5 +1,6 @@
-"""The speed loop of a torque-mode drive: the winding current that makes the free spindle follow
-a speed reference (docs/torque_mode.md).
+"""Speed loop of a torque-mode drive (docs/torque_mode.md).
+
+The winding current that makes the free spindle follow a speed reference.
 
 Pure and stepwise (tested without ROS); the example controller ``spin_controller`` runs it in
 torque mode on the reference of :class:`abb_ros.model.run_up.RunUp`. With the rotor's
@@ -33,16 +34,20 @@ PI_ZERO_RATIO = 0.25
 
 
 def rotor_inertia(drive: DriveParams) -> float:
-    """J_z + I_r [kg m^2], I_r = M eps^2 + n m R^2: the coefficient of theta'' in the theta
-    row (docs/torque_mode.md), the inertia the motor accelerates."""
+    """Return J_z + I_r [kg m^2], the inertia the motor accelerates; I_r = M eps^2 + n m R^2.
+
+    The coefficient of theta'' in the theta row (docs/torque_mode.md).
+    """
     return drive.J_z + drive.M * drive.eps ** 2 + drive.n * drive.m * drive.R ** 2
 
 
 @dataclass
 class SpeedLoop:
     """Current command [A] from the speed reference and the measured speed (module doc).
+
     ``inertia`` [kg m^2] (:func:`rotor_inertia`), ``bandwidth`` wc [rad/s]; ``integral`` [A]
-    is the state."""
+    is the state.
+    """
 
     motor: TorqueMotor
     inertia: float
@@ -60,7 +65,7 @@ class SpeedLoop:
         return self.kp * PI_ZERO_RATIO * self.bandwidth
 
     def limits(self, omega: float) -> tuple[float, float]:
-        """The current range [A] the drive delivers at omega [rad/s]."""
+        """Return the current range [A] the drive delivers at omega [rad/s]."""
         return self.motor.current(omega, -math.inf), self.motor.current(omega, math.inf)
 
     def friction(self, omega: float) -> float:
@@ -73,8 +78,11 @@ class SpeedLoop:
         return (self.inertia * alpha_ref + self.friction(omega)) / self.motor.K_t
 
     def step(self, omega_ref: float, alpha_ref: float, omega: float, dt: float) -> float:
-        """The current [A] to hold over the next dt [s] for the reference omega_ref [rad/s]
-        (accelerating at alpha_ref [rad/s^2]) at the measured speed omega [rad/s]."""
+        """Return the current [A] to hold over the next dt [s].
+
+        For the reference omega_ref [rad/s] (accelerating at alpha_ref [rad/s^2]) at the
+        measured speed omega [rad/s].
+        """
         error = omega_ref - omega
         lo, hi = self.limits(omega)
         base = self.feedforward(alpha_ref, omega) + self.kp * error

@@ -86,8 +86,11 @@ kernel = KernelSet()
 
 @dataclass(frozen=True)
 class SpeedSensorConfig:
-    """FG pulses per revolution, capture timer clock [Hz], edge jitter std [s], zero-speed
-    timeout [s], RMS pitch error of the edges [rad] (below :func:`max_pitch_error`)."""
+    """Settings of the frequency generator (FG) speed sensor.
+
+    FG pulses per revolution, capture timer clock [Hz], edge jitter std [s], zero-speed
+    timeout [s], RMS pitch error of the edges [rad] (below :func:`max_pitch_error`).
+    """
 
     pulses_per_rev: int = 6
     timer_hz: float = 1.0e6
@@ -108,14 +111,20 @@ class SpeedSensorConfig:
 
 
 def max_pitch_error(pulses_per_rev: int) -> float:
-    """Bound [rad] of the RMS pitch error, pi / pulses_per_rev^1.5 (exclusive): a zero-mean
-    pattern of that RMS has every |delta_k| < pitch / 2, so the edges keep their order."""
+    """Return the bound [rad] of the RMS pitch error, pi / pulses_per_rev^1.5 (exclusive).
+
+    A zero-mean pattern of that RMS has every |delta_k| < pitch / 2, so the edges keep their
+    order.
+    """
     return math.pi / pulses_per_rev ** 1.5
 
 
 def pitch_pattern(config: SpeedSensorConfig, seed: int) -> np.ndarray:
-    """The pitch errors delta_k [rad] of the edges k = 0..pulses_per_rev-1 (module
-    docstring); empty when there are none (``pitch_error`` 0, or one pulse per revolution)."""
+    """Draw the pitch errors delta_k [rad] of the edges k = 0..pulses_per_rev-1 from ``seed``.
+
+    See the module docstring; empty when there are none (``pitch_error`` 0, or one pulse per
+    revolution).
+    """
     n = config.pulses_per_rev
     if config.pitch_error == 0.0 or n < 2:
         return np.zeros(0)
@@ -125,7 +134,7 @@ def pitch_pattern(config: SpeedSensorConfig, seed: int) -> np.ndarray:
 
 
 def fg_speed(period_ticks: int, config: SpeedSensorConfig) -> float:
-    """The speed [rad/s] read from a pulse period of ``period_ticks`` timer ticks."""
+    """Return the speed [rad/s] read from a pulse period of ``period_ticks`` timer ticks."""
     return _fg_speed(period_ticks, config.timer_hz, config.pulses_per_rev)
 
 
@@ -136,8 +145,10 @@ def _fg_speed(period_ticks, timer_hz, pulses_per_rev):
 
 @kernel
 def _hermite_crossing(level, h, th0, w0, th1, w1) -> float:
-    """Time s in [0, h] at which the cubic Hermite interpolant of (th0, w0) at 0 and
-    (th1, w1) at h equals ``level`` (which lies between th0 and th1)."""
+    """Return the time s in [0, h] at which a cubic Hermite interpolant equals ``level``.
+
+    The interpolant of (th0, w0) at 0 and (th1, w1) at h; ``level`` lies between th0 and th1.
+    """
     d = th1 - th0
     u = (level - th0) / d if d != 0.0 else 0.0   # linear guess, u = s / h
     hw0, hw1 = h * w0, h * w1
@@ -183,16 +194,20 @@ class SpeedSensor:
 
     @property
     def min_speed(self) -> float:
-        """The lowest steady speed [rad/s] at which an edge comes within the timeout: below
-        it the reading drops to 0 between edges. 2 pi / (pulses_per_rev * timeout) without
-        pitch error; with one, the widest edge interval sets it."""
+        """The lowest steady speed [rad/s] at which an edge comes within the timeout.
+
+        Below it the reading drops to 0 between edges. 2 pi / (pulses_per_rev * timeout)
+        without pitch error; with one, the widest edge interval sets it.
+        """
         c, d = self.config, self._offsets
         widest = c.pitch + (float(np.max(d - np.roll(d, 1))) if d.size else 0.0)
         return widest / c.timeout
 
     def state(self, omega: float) -> str:
-        """One of :data:`FG_STATES` for the spindle speed ``omega`` [rad/s] (the true one)
-        and the present reading."""
+        """Return one of :data:`FG_STATES` for the true spindle speed ``omega`` [rad/s].
+
+        The state also depends on the present reading.
+        """
         speed, low = abs(omega), self.min_speed
         if speed < STOPPED_FRACTION * low:
             return 'stopped'
@@ -211,8 +226,11 @@ class SpeedSensor:
         return int(self._state[EDGES])
 
     def reconfigure(self, config: SpeedSensorConfig) -> None:
-        """New settings; a new pulse count restarts the edge bookkeeping (not the seed), a
-        new pulse count or pitch error redraws the pitch pattern from the seed."""
+        """Apply new settings.
+
+        A new pulse count restarts the edge bookkeeping (not the seed); a new pulse count or
+        pitch error redraws the pitch pattern from the seed.
+        """
         old, self.config = self.config, config
         if config.pulses_per_rev != old.pulses_per_rev:
             self._last = None
@@ -221,15 +239,19 @@ class SpeedSensor:
             self._offsets = pitch_pattern(config, self.seed)
 
     def shift_angle(self, delta: float) -> None:
-        """The state's theta was re-expressed by ``delta`` [rad] without the rotor moving
-        (a disc swap, :func:`abb_ros.model.disturbances.swap_disc`): no edge is produced."""
+        """Follow the state's theta re-expressed by ``delta`` [rad] without the rotor moving.
+
+        A disc swap (:func:`abb_ros.model.disturbances.swap_disc`): no edge is produced.
+        """
         if self._last is not None:
             t, theta, omega = self._last
             self._last = (t, theta + delta, omega)
 
     def update(self, t: float, theta: float, omega: float) -> float:
-        """The reading [rad/s] after the state sample (t, theta, omega); advances the jitter
-        generator once per edge crossed since the previous sample."""
+        """Return the reading [rad/s] after the state sample (t, theta, omega).
+
+        Advances the jitter generator once per edge crossed since the preceding sample.
+        """
         last, self._last = self._last, (t, theta, omega)
         state = self._state
         if last is not None and t > last[0]:
@@ -246,9 +268,11 @@ class SpeedSensor:
 
 @kernel
 def _edge_index(theta, pitch, offsets):
-    """The index k of the last FG edge at or below the rotor angle ``theta``: edge k is at
-    k * pitch + offsets[k mod n] (n = offsets.size, each |offset| < pitch / 2), or at
-    k * pitch when ``offsets`` is empty."""
+    """Return the index k of the last FG edge at or below the rotor angle ``theta``.
+
+    Edge k is at k * pitch + offsets[k mod n] (n = offsets.size, each |offset| < pitch / 2),
+    or at k * pitch when ``offsets`` is empty.
+    """
     k = math.floor(theta / pitch)
     n = offsets.size
     if n == 0:
@@ -262,11 +286,14 @@ def _edge_index(theta, pitch, offsets):
 
 @kernel
 def fg_edges(a, b, pitch, offsets, timer_hz, pulses_per_rev, edge_jitter, normals, state):
-    """Capture every FG edge between the state samples a = (t0, theta0, omega0) and b (a
-    later one): each crossing of an edge angle k * pitch + offsets[k mod pulses_per_rev]
-    (k * pitch when ``offsets`` is empty; in the order the rotor meets them) is found on the
-    Hermite interpolant, jittered by its own of ``normals`` (one per edge, in order) times
-    ``edge_jitter`` and captured by the timer; ``state`` (EDGE_TICKS...) is updated."""
+    """Capture every FG edge between the state samples a = (t0, theta0, omega0) and b.
+
+    b is a later sample. Each crossing of an edge angle k * pitch + offsets[k mod
+    pulses_per_rev] (k * pitch when ``offsets`` is empty; in the order the rotor meets them)
+    is found on the Hermite interpolant, jittered by its own of ``normals`` (one per edge, in
+    order) times ``edge_jitter`` and captured by the timer; ``state`` (EDGE_TICKS...) is
+    updated.
+    """
     t0, th0, w0 = a[0], a[1], a[2]
     t1, th1, w1 = b[0], b[1], b[2]
     k0, k1 = _edge_index(th0, pitch, offsets), _edge_index(th1, pitch, offsets)

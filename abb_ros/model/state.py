@@ -41,7 +41,7 @@ def n_coords(n: int) -> int:
 
 
 def rbar(X, Y, Z, R: float):
-    """rbar = sqrt(X^2 + Y^2 + Z^2) / R (Section 5): deck translation over the race radius."""
+    """Return rbar = sqrt(X^2 + Y^2 + Z^2) / R (Section 5), deck translation over race radius."""
     return np.sqrt(X ** 2 + Y ** 2 + Z ** 2) / R
 
 
@@ -87,7 +87,7 @@ class StateLayout:
     @classmethod
     @functools.lru_cache(maxsize=None)
     def of(cls, n: int) -> StateLayout:
-        """The layout for n balls, one shared instance per n."""
+        """Return the layout for n balls, one shared instance per n."""
         return cls(n)
 
     def __setattr__(self, name, value):
@@ -108,6 +108,7 @@ class StateLayout:
 
     # ---- accessors ----------------------------------------------------------------------------
     def theta(self, y):
+        """Spindle angle theta [rad]."""
         return np.asarray(y)[..., THETA]
 
     def omega(self, y):
@@ -123,6 +124,7 @@ class StateLayout:
         return np.asarray(y)[..., self.translation_slice]
 
     def deck_rates(self, y) -> np.ndarray:
+        """[X', Y', Z', alpha', beta', gamma'] (m/s, rad/s)."""
         return np.asarray(y)[..., self.deck_rate_slice]
 
     def phi(self, y) -> np.ndarray:
@@ -130,25 +132,26 @@ class StateLayout:
         return np.asarray(y)[..., self.phi_slice]
 
     def phi_rates(self, y) -> np.ndarray:
+        """Ball angle rates phi_1'..phi_n' relative to the rotor [rad/s]."""
         return np.asarray(y)[..., self.phi_rate_slice]
 
     def coords(self, y) -> np.ndarray:
-        """q (first half of y)."""
+        """Return q (first half of y)."""
         return np.asarray(y)[..., self.q]
 
     def rates(self, y) -> np.ndarray:
-        """q' (second half of y)."""
+        """Return q' (second half of y)."""
         return np.asarray(y)[..., self.qd]
 
     def rbar(self, y, R: float):
-        """rbar = sqrt(X^2 + Y^2 + Z^2) / R (Section 5), R the race radius [m]."""
+        """Return rbar = sqrt(X^2 + Y^2 + Z^2) / R (Section 5), R the race radius [m]."""
         y = np.asarray(y)
         return rbar(y[..., DECK], y[..., DECK + 1], y[..., DECK + 2], R)
 
     # ---- construction -------------------------------------------------------------------------
     def pack(self, theta: float = 0.0, deck=(0.0,) * N_DECK, phi=None, omega: float = 0.0,
              deck_rates=(0.0,) * N_DECK, phi_rates=None) -> np.ndarray:
-        """A new state y (shape (2N,)); unset ball angles and rates are zero."""
+        """Return a new state y (shape (2N,)); unset ball angles and rates are zero."""
         y = np.zeros(self.size)
         y[THETA] = theta
         y[self.deck_slice] = deck

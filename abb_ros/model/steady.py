@@ -35,9 +35,11 @@ _SAMPLES = 256  # points per revolution for the mean of Q (exact for the harmoni
 
 
 def in_plane_matrices_static(params: DriveParams):
-    """Constant mass, damping, stiffness matrices of the deck's in-plane motion (X, Y, gamma):
-    the harmonic-0 deck block of the linearised Eqs. (27), (28), (32) (abb_ros.model.linear),
-    which does not depend on the ball angles."""
+    """Return the constant mass, damping, stiffness matrices of the deck's in-plane motion.
+
+    The deck (X, Y, gamma) block of harmonic 0 of the linearised Eqs. (27), (28), (32)
+    (abb_ros.model.linear), which does not depend on the ball angles.
+    """
     harmonics = in_plane_harmonics(params, 0.0, np.zeros(params.n))
     return tuple(H[0, :3, :3] for H in harmonics)
 
@@ -58,7 +60,7 @@ def mean_tangential_force(params: DriveParams, omega: float, phi_lock: float) ->
 
 
 def locked_ball_angle(params: DriveParams, omega: float) -> float:
-    """The stable lock angle phi_L [rad] of merged balls (mean Q = 0, dQ/dphi < 0).
+    """Return the stable lock angle phi_L [rad] of merged balls (mean Q = 0, dQ/dphi < 0).
 
     Raises ValueError if there is none (e.g. n = 0).
     """

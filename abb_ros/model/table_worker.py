@@ -1,6 +1,9 @@
-"""The analysis node's background computation, free of ROS: a thread that keeps the
-|lambda|max-versus-speed table (:func:`abb_ros.model.speed_bands.speed_table`) of the latest
-drive configuration and, when idle, the exact multipliers at the current speed."""
+"""Background computation of the analysis node, free of ROS.
+
+A thread that keeps the |lambda|max-versus-speed table
+(:func:`abb_ros.model.speed_bands.speed_table`) of the latest drive configuration and, when
+idle, the exact multipliers at the current speed.
+"""
 
 from __future__ import annotations
 
@@ -47,13 +50,14 @@ class TableWorker:
         self._thread.start()
 
     def request(self, config) -> None:
+        """Ask for the speed table of ``config`` (a newer request supersedes an older one)."""
         with self._cv:
             self._config = config
             self._config_id += 1
             self._cv.notify()
 
     def want(self, omega: float, member=None) -> None:
-        """The current speed [rad/s]: refined once it has been steady for REFINE_SETTLE_S.
+        """Set the current speed [rad/s], refined once it has been steady for REFINE_SETTLE_S.
 
         ``member``: the family member to evaluate [rad] (speed_bands.member_near_balls),
         None for the table's symmetric fan.
@@ -70,6 +74,7 @@ class TableWorker:
                 self._cv.notify()
 
     def stop(self) -> None:
+        """Stop the thread and wait for it (at most 10 s)."""
         with self._cv:
             self._stop = True
             self._cv.notify()
@@ -82,8 +87,10 @@ class TableWorker:
                 or not _same_member(self._member, self.exact_member))
 
     def _next_job(self):
-        """Under the lock: wait until there is a table to compute or a steady speed to refine;
-        None to stop."""
+        """Wait, under the lock, for a table to compute or a steady speed to refine.
+
+        Return the job, or None to stop.
+        """
         while not self._stop:
             if self.table_id != self._config_id:
                 self.busy = True
