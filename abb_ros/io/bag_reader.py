@@ -20,7 +20,7 @@ each (safe_yaml.MAX_BYTES gives the parse time)."""
 
 
 def bag_files(path) -> list[Path]:
-    """The MCAP files of a bag directory (per its metadata.yaml) or of a single .mcap path."""
+    """Return the MCAP files of a bag directory (per its metadata.yaml) or a single .mcap."""
     path = Path(path)
     if path.is_file():
         return [path]
@@ -95,7 +95,7 @@ def read_bag(path, topics=None):
 
 
 def read_metadata(path) -> dict[str, dict[str, str]]:
-    """The MCAP metadata records of a bag by name (the last record of a name wins)."""
+    """Return the MCAP metadata records of a bag by name (the last record of a name wins)."""
     found: dict[str, dict[str, str]] = {}
     for record in iter_records(path, emit_chunks=True):
         if isinstance(record, Metadata):
@@ -104,7 +104,7 @@ def read_metadata(path) -> dict[str, dict[str, str]]:
 
 
 def read_drive_params(path) -> dict | None:
-    """The drive parameters (SI) that the writer stored, or None."""
+    """Return the drive parameters (SI) that the writer stored, or None."""
     record = read_metadata(path).get(DRIVE_METADATA)
     if not record or 'drive_params' not in record:
         return None
@@ -115,7 +115,7 @@ def read_drive_params(path) -> dict | None:
 
 
 def is_finished(path) -> bool:
-    """True when every MCAP file of the bag ends in a footer and magic (closed cleanly)."""
+    """Return whether every MCAP file of the bag ends in a footer and magic (closed cleanly)."""
     for file in bag_files(path):
         with open(file, 'rb') as f:
             f.seek(0, os.SEEK_END)

@@ -65,7 +65,10 @@ class BagWriteError(OSError):
 
 
 def default_qos() -> dict:
-    """What an rclpy publisher with depth 10 offers, as the ROS graph reports it (Fast DDS)."""
+    """Return the QoS an rclpy publisher with depth 10 offers, as the ROS graph reports it.
+
+    As Fast DDS reports it: history unknown, depth 0, everything else rclpy's default.
+    """
     return {'history': 'unknown', 'depth': 0, 'reliability': 'reliable',
             'durability': 'volatile', 'deadline': dict(_INFINITE),
             'lifespan': dict(_INFINITE), 'liveliness': 'automatic',
@@ -149,7 +152,7 @@ class _FileSink:
         return self.good
 
     def flush(self) -> None:
-        """Writes are unbuffered: nothing to do."""
+        """Do nothing: writes are unbuffered."""
 
     def cut(self) -> None:
         try:
@@ -313,7 +316,7 @@ class BagWriter:
         self._next_flush = time.monotonic() + self._flush_period
 
     def add_metadata(self, name: str, data: dict) -> None:
-        """An MCAP metadata record (string -> string)."""
+        """Add an MCAP metadata record (string -> string)."""
         self._check_open()
         self._guard(self._mcap.add_metadata, name, {str(k): str(v) for k, v in data.items()})
 
@@ -326,8 +329,11 @@ class BagWriter:
         self._write_metadata_yaml()
 
     def mark_incomplete(self, reason: str) -> None:
-        """Say in metadata.yaml (``custom_data``, key ``abb_ros.incomplete``) and in an MCAP
-        metadata record of that name that the bag was cut short, and why."""
+        """Record that the bag was cut short, and why.
+
+        In metadata.yaml (``custom_data``, key ``abb_ros.incomplete``) and in an MCAP metadata
+        record of that name.
+        """
         self._custom[INCOMPLETE_KEY] = reason
         if not self.closed:
             self.add_metadata(INCOMPLETE_KEY, {'reason': reason})
@@ -338,7 +344,7 @@ class BagWriter:
         return {t.name: t.count for t in self._topics.values()}
 
     def set_custom_data(self, key: str, text: str) -> None:
-        """A ``custom_data`` entry of metadata.yaml (and of the summary's rosbag2 record)."""
+        """Set a ``custom_data`` entry of metadata.yaml (and of the summary's rosbag2 record)."""
         self._custom[key] = text
         self._write_metadata_yaml()
 
@@ -355,8 +361,10 @@ class BagWriter:
         (self.path / _RESERVE).unlink(missing_ok=True)
 
     def metadata(self, durable: bool = True) -> dict:
-        """The bag metadata (rosbag2's BagMetadata, version 9) as a dict; with ``durable``
-        it counts only the messages in chunks that reached the file."""
+        """Return the bag metadata (rosbag2's BagMetadata, version 9) as a dict.
+
+        With ``durable`` it counts only the messages in chunks that reached the file.
+        """
         if durable:
             count = self.durable_count
             start, end = self._durable_span or (0, 0)
@@ -409,7 +417,7 @@ class BagWriter:
             self._fail(exc)
 
     def _fail(self, exc: OSError):
-        """The disk refused a write: cut the half-written record, close, keep the bag readable."""
+        """Handle a refused write: cut the half-written record, close, keep the bag readable."""
         self.error = exc
         self.closed = True
         self._custom[INCOMPLETE_KEY] = (f'writing stopped: {exc.strerror or exc}; '

@@ -19,8 +19,7 @@ from __future__ import annotations
 import functools
 import struct
 
-from abb_ros.io.ros_messages import (TOPIC_FRAMES, diagnostics_content, joint_names,
-                                     sample_contents)
+from abb_ros.io.ros_messages import TOPIC_FRAMES, diagnostics_content, joint_names, sample_contents
 
 __all__ = ['ENCAPSULATION', 'Layout', 'joint_state', 'pose_stamped', 'twist_stamped', 'imu',
            'clock', 'float64', 'diagnostic_array', 'diagnostics', 'ENCODERS', 'sample_cdr']
@@ -61,6 +60,7 @@ class Layout:
         return self
 
     def string(self, text: str) -> 'Layout':
+        """Append a constant string (uint32 length with the NUL, UTF-8, NUL)."""
         data = text.encode() + b'\0'
         self.const('I', len(data))
         self._pending += data
@@ -68,7 +68,7 @@ class Layout:
         return self
 
     def strings(self, texts) -> 'Layout':
-        """A string sequence (count, then the strings)."""
+        """Append a constant string sequence (count, then the strings)."""
         self.const('I', len(texts))
         for text in texts:
             self.string(text)
@@ -88,10 +88,11 @@ class Layout:
         return self
 
     def sequence(self, code: str, count: int) -> 'Layout':
-        """A variable sequence of a fixed length: the count, then the values."""
+        """Append a variable sequence of a fixed length: the count, then the values."""
         return self.const('I', count).var(code, count)
 
     def compile(self) -> tuple[struct.Struct, tuple[bytes, ...]]:
+        """Return the Struct and the constant chunks (see the class docstring)."""
         fmt, consts = list(self._fmt), list(self._consts)
         if self._pending:
             fmt.append(f'{len(self._pending)}s')
@@ -99,7 +100,7 @@ class Layout:
         return struct.Struct(''.join(fmt)), tuple(consts)
 
     def constant_bytes(self) -> bytes:
-        """The message when it has no variable field."""
+        """Return the message's bytes when it has no variable field."""
         st, consts = self.compile()
         return st.pack(*consts)
 
@@ -117,8 +118,10 @@ def _joint_state_layout(n: int, efforts: int = 0):
 
 
 def joint_state(sec: int, nanosec: int, content) -> bytes:
-    """sensor_msgs/JointState of ros_messages.sample_contents: (n, position, velocity,
-    effort)."""
+    """Encode sensor_msgs/JointState.
+
+    ``content`` as ros_messages.sample_contents gives it: (n, position, velocity, effort).
+    """
     n, position, velocity, effort = content
     st, (c0, c1, c2, c3) = _joint_state_layout(n, len(effort))
     return st.pack(c0, sec, nanosec, c1, *position, c2, *velocity, c3, *effort)
@@ -183,8 +186,11 @@ def float64(sec: int, nanosec: int, content: float) -> bytes:
 
 
 def diagnostic_array(sec: int, nanosec: int, content) -> bytes:
-    """diagnostic_msgs/DiagnosticArray with the one status of
-    ros_messages.diagnostics_content (not cached: its texts change every time)."""
+    """Encode diagnostic_msgs/DiagnosticArray with the one status of a diagnostics content.
+
+    ``content`` as ros_messages.diagnostics_content gives it (not cached: its texts change
+    every time).
+    """
     level, name, message, hardware_id, pairs = content
     layout = Layout().const('i', sec).const('I', nanosec).string('').const('I', 1)
     layout.const('B', level[0]).string(name).string(message).string(hardware_id)
@@ -195,8 +201,11 @@ def diagnostic_array(sec: int, nanosec: int, content) -> bytes:
 
 
 def diagnostics(stamp_ns: int, name: str, level: bytes, message: str, values: dict) -> bytes:
-    """The CDR bytes of ros_messages.diagnostics (one status; publishing them skips building
-    and converting an rclpy DiagnosticArray of some thirty key/values)."""
+    """Return the CDR bytes of ros_messages.diagnostics (one status).
+
+    Publishing them skips building and converting an rclpy DiagnosticArray of some thirty
+    key/values.
+    """
     sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
     return diagnostic_array(sec, nanosec, diagnostics_content(name, level, message, values))
 
@@ -209,8 +218,10 @@ ENCODERS = {'joint_states': joint_state, 'deck/pose': pose_stamped,
 
 def sample_cdr(sample, dt_ns: int, imu_config, epoch_ns: int = 0, with_clock: bool = False
                ) -> tuple[int, list[tuple[str, bytes]]]:
-    """(stamp [ns], [(topic, CDR bytes)]) of one sample, as ros_messages.sample_messages
-    would serialise, in the same order."""
+    """Return (stamp [ns], [(topic, CDR bytes)]) of one sample.
+
+    The bytes and order are those of ros_messages.sample_messages serialised.
+    """
     stamp_ns, contents = sample_contents(sample, dt_ns, imu_config, epoch_ns, with_clock)
     sec, nanosec = divmod(stamp_ns, 1_000_000_000)
     return stamp_ns, [(topic, ENCODERS[topic](sec, nanosec, content))

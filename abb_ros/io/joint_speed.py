@@ -25,9 +25,12 @@ _HEADER = 4   # encapsulation bytes; alignment counts from the byte after them
 
 @dataclass(frozen=True)
 class JointSpeed:
-    """omega [rad/s] (nan when the message has no velocity), the ball count (joints named
+    """Spindle speed and ball angles read from a JointState.
+
+    omega [rad/s] (nan when the message has no velocity), the ball count (joints named
     ``ball_*``), whether any name was given, the header stamp [ns] and the ball angles phi
-    [rad] (empty when the message has no position for every ball)."""
+    [rad] (empty when the message has no position for every ball).
+    """
 
     omega: float
     n: int
@@ -44,6 +47,7 @@ class JointSpeedReader:
         self._layout = None   # (omega offset or None, n, named)
 
     def __call__(self, data: bytes) -> JointSpeed:
+        """Read the :class:`JointSpeed` of the CDR bytes ``data``."""
         if len(data) < _HEADER + 12:
             raise ValueError(f'JointState of {len(data)} bytes is too short')
         sec, nanosec = _STAMP.unpack_from(data, _HEADER)

@@ -8,8 +8,10 @@ import numpy as np
 
 
 def save_map(smap, path) -> None:
-    """Write a :class:`abb_ros.model.floquet.StabilityMap` to ``path``: CSV when it ends in
-    ``.csv`` (x, y, lam_max, status; '#' header), NPZ otherwise."""
+    """Write a :class:`abb_ros.model.floquet.StabilityMap` to ``path``.
+
+    CSV when it ends in ``.csv`` (x, y, lam_max, status; '#' header), NPZ otherwise.
+    """
     path = str(path)
     if path.endswith('.csv'):
         X, Y = np.meshgrid(smap.x_values, smap.y_values)

@@ -46,8 +46,10 @@ def ball_radius(m: float) -> float:
 
 def marker_poses(y: np.ndarray, params: DriveParams, exaggeration: float
                  ) -> list[tuple[int, tuple[float, ...], tuple[float, float, float]]]:
-    """[(marker type, (x, y, z, qx, qy, qz, qw) in base, (scale x, y, z))] for the deck,
-    the rotor and the n balls, in id order."""
+    """Return the markers of the deck, the rotor and the n balls, in id order.
+
+    [(marker type, (x, y, z, qx, qy, qz, qw) in base, (scale x, y, z))].
+    """
     n = params.n
     N = n_coords(n)
     k = exaggeration
@@ -74,9 +76,11 @@ def marker_poses(y: np.ndarray, params: DriveParams, exaggeration: float
 
 
 def _marker_layout(kinds: tuple[int, ...]):
-    """The compiled CDR layout of a MarkerArray of markers of ``kinds`` (ids 0, 1, ...): per
-    marker the variable stamp, then pose (7 doubles) and scale (3 doubles); every other field
-    constant (ADD, colour of the kind, lifetime 0, no points, texture, mesh or text)."""
+    """Compile the CDR layout of a MarkerArray of markers of ``kinds`` (ids 0, 1, ...).
+
+    Per marker the variable stamp, then pose (7 doubles) and scale (3 doubles); every other
+    field constant (ADD, colour of the kind, lifetime 0, no points, texture, mesh or text).
+    """
     layout = Layout().const('I', len(kinds))
     for i, kind in enumerate(kinds):
         layout.var('i').var('I').string(FRAME_BASE)                 # header
@@ -96,9 +100,12 @@ _LAYOUTS: dict[tuple[int, ...], object] = {}
 
 def marker_array(stamp_ns: int, y: np.ndarray, params: DriveParams, exaggeration: float
                  ) -> bytes:
-    """The CDR bytes of the visualization_msgs/MarkerArray of :func:`marker_poses` (see the
-    module docstring), published as they are (no rclpy message is built: converting a
-    MarkerArray of twelve markers cost more than the rest of the node's publish period)."""
+    """Return the CDR bytes of the visualization_msgs/MarkerArray of :func:`marker_poses`.
+
+    See the module docstring. They are published as they are (no rclpy message is built:
+    converting a MarkerArray of twelve markers costs more than the rest of the node's publish
+    period).
+    """
     sec, nanosec = divmod(int(stamp_ns), 1_000_000_000)
     poses = marker_poses(y, params, exaggeration)
     kinds = tuple(kind for kind, _, _ in poses)

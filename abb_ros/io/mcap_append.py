@@ -46,6 +46,7 @@ class MessageAppender:
 
     def add(self, channel_id: int, log_time: int, data: bytes, publish_time: int,
             sequence: int) -> None:
+        """Append one message record, as ``writer.add_message`` would."""
         if not self.fast:
             self._writer.add_message(channel_id=channel_id, log_time=log_time, data=data,
                                      publish_time=publish_time, sequence=sequence)

@@ -1,8 +1,8 @@
-"""ROS 2 message definitions as rosbag2 stores them in an MCAP schema, and type hashes.
+r"""ROS 2 message definitions as rosbag2 stores them in an MCAP schema, and type hashes.
 
 rosbag2 (``rosbag2_cpp::LocalMessageDefinitionSource``, Jazzy) builds the ``ros2msg`` schema
 text from the installed ``.msg`` files: the top-level text, then for every dependency not seen
-yet, depth-first in sorted order, ``"\\n" + "=" * 80 + "\\nMSG: pkg/Name\\n"`` and its text.
+yet, depth-first in sorted order, ``"\n" + "=" * 80 + "\nMSG: pkg/Name\n"`` and its text.
 The same procedure is followed here, on the ``share/<pkg>/msg/*.msg`` files of the message
 packages installed beside rclpy. The type description hash (``RIHS01_...``) is read from the
 ``.json`` type description that rosidl installs beside each ``.msg`` file.
@@ -43,7 +43,7 @@ def split_type(type_name: str) -> tuple[str, str]:
 
 
 def normalize_type(type_name: str) -> str:
-    """The full ROS 2 type name, ``pkg/msg/Name``."""
+    """Return the full ROS 2 type name, ``pkg/msg/Name``."""
     package, name = split_type(type_name)
     return f'{package}/msg/{name}'
 
@@ -80,7 +80,7 @@ def _dependencies(text: str, package: str) -> list[str]:
 
 @functools.lru_cache(maxsize=None)
 def full_text(type_name: str) -> str:
-    """The ``ros2msg`` schema text of ``type_name`` with all its dependencies, as rosbag2."""
+    """Return the ``ros2msg`` schema text of ``type_name`` with its dependencies, as rosbag2."""
     root = split_type(type_name)
     seen: set[str] = set()
 
@@ -99,7 +99,7 @@ def full_text(type_name: str) -> str:
 
 @functools.lru_cache(maxsize=None)
 def type_hash(type_name: str) -> str:
-    """The RIHS01 type description hash of ``type_name``, '' when none is installed."""
+    """Return the RIHS01 type description hash of ``type_name``, '' when none is installed."""
     package, name = split_type(type_name)
     full = f'{package}/msg/{name}'
     try:
@@ -114,7 +114,7 @@ def type_hash(type_name: str) -> str:
 
 @functools.lru_cache(maxsize=None)
 def message_class(type_name: str):
-    """The rclpy (rosidl Python) message class of ``type_name``."""
+    """Return the rclpy (rosidl Python) message class of ``type_name``."""
     package, name = split_type(type_name)
     try:
         module = importlib.import_module(f'{package}.msg')

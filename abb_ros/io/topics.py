@@ -71,7 +71,7 @@ part of the bag's bytes) and the recorder lists its defaults in this order."""
 
 
 def by_name(name: str) -> Topic:
-    """The :class:`Topic` called ``name`` (KeyError if there is none)."""
+    """Return the :class:`Topic` called ``name`` (KeyError if there is none)."""
     for topic in TOPICS:
         if topic.name == name:
             return topic
@@ -89,11 +89,11 @@ def sampled_topics() -> tuple[Topic, ...]:
 
 
 def recorded_topics() -> tuple[Topic, ...]:
-    """The recorder's default topics."""
+    """Return the recorder's default topics."""
     return tuple(t for t in TOPICS if t.recorded)
 
 
 def message_class(type_name: str):
-    """The Python message class of ``pkg/msg/Name`` (imports the message package)."""
+    """Return the Python message class of ``pkg/msg/Name`` (imports the message package)."""
     package, kind, name = type_name.split('/')
     return getattr(importlib.import_module(f'{package}.{kind}'), name)
