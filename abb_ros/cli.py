@@ -60,14 +60,16 @@ class _NotRaised(Exception):
 
 
 def _state_error():
-    """integrate.StateError if a command imported the integrator (the parser starts without
-    numba: argument errors and --help come at once)."""
+    """Return integrate.StateError if a command imported the integrator, else a stand-in.
+
+    The parser starts without numba: argument errors and --help come at once.
+    """
     module = sys.modules.get('abb_ros.model.integrate')
     return module.StateError if module is not None else _NotRaised
 
 
 def _family_error():
-    """floquet.FamilyInvarianceError if a command imported the Floquet module."""
+    """Return floquet.FamilyInvarianceError if a command imported the Floquet module."""
     module = sys.modules.get('abb_ros.model.floquet')
     return module.FamilyInvarianceError if module is not None else _NotRaised
 
@@ -78,6 +80,7 @@ def _print_human(summary: dict) -> None:
 
 
 def main(argv=None) -> int:
+    """Run the `abb-sim` command line ``argv``; return the exit status (0, 1 failed, 2 usage)."""
     parser = build_parser()
     try:
         args = parser.parse_args(argv)

@@ -42,19 +42,20 @@ class RunResult:
     wall_time: float       # [s], integration and writing (the one-time compile excluded)
     messages: int          # written to the bag (0 without one)
     compile_time: float = 0.0   # [s], numba's one-time compilation of the kernels
-    refined_steps: int = 0      # steps split into contact sub-steps (issue 12)
+    refined_steps: int = 0      # steps split into contact sub-steps
     max_substeps: int = 1       # most sub-steps in one step
-    rolling_switches: int = 0   # rolling regime switches located inside steps (issue 12)
+    rolling_switches: int = 0   # rolling regime switches located inside steps
     contact_step_note: str = ''  # integrate.contact_step_note of the run
 
     @property
     def real_time_factor(self) -> float:
+        """Simulated time over wall time (inf when the wall time is 0)."""
         span = float(self.t[-1] - self.t[0])
         return span / self.wall_time if self.wall_time > 0 else float('inf')
 
 
 def check_duration(duration: float, publish_dt: float = PUBLISH_DT) -> None:
-    """A run shorter than one publish period would publish nothing: refused."""
+    """Refuse a run shorter than one publish period: it would publish nothing."""
     if not duration >= publish_dt * (1 - 1e-9):
         from abb_ros.model.params import ParamError
         raise ParamError('duration', duration, f'[{publish_dt:g}, inf) s',

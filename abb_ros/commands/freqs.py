@@ -10,12 +10,14 @@ PAPER = {'X': 298.0, 'Y': 298.0, 'Z': 298.0, 'alpha': 535.0, 'beta': 750.0, 'gam
 
 
 def add_arguments(parser) -> None:
+    """Add the options of `abb-sim freqs` to ``parser``."""
     parser.add_argument('--set', action='append', default=[], metavar='KEY=VALUE',
                         help='parameter (SI name or Eq. 39 name)')
     parser.add_argument('--config', help='ROS 2 parameter file with drive.* parameters')
 
 
 def run(args) -> dict:
+    """Return the drive's natural frequencies [rad/s] beside the paper's."""
     from abb_ros.model.linear import natural_frequencies
     base = drive_params(args.config)
     params, _ = apply_settings(base, parse_settings(args.set, 'freqs'))

@@ -11,8 +11,14 @@ import sys
 
 import numpy as np
 
-from abb_ros.commands.api import (CommandFailed, UsageError, check_output, drive_params,
-                                  output_files, parse_settings)
+from abb_ros.commands.api import (
+    CommandFailed,
+    UsageError,
+    check_output,
+    drive_params,
+    output_files,
+    parse_settings,
+)
 from abb_ros.model.params import ParamError
 
 DEFAULT_RANGES = {'wbar': (0.2, 3.5), 'zeta': (0.0, 0.15), 'Dbar': (0.0, 1.0),
@@ -29,6 +35,7 @@ IMAGE_SUFFIXES = ('.png', '.pdf', '.svg')
 
 
 def add_arguments(parser) -> None:
+    """Add the options of `abb-sim map` to ``parser``."""
     parser.add_argument('--x', required=True, choices=tuple(DEFAULT_RANGES),
                         help='horizontal axis')
     parser.add_argument('--y', required=True, choices=tuple(DEFAULT_RANGES),
@@ -76,8 +83,11 @@ def _res(text):
 
 
 def run(args) -> dict:
+    """Compute the stability map, write the figure and the data file; return the summary."""
     import time
+
     from tqdm import tqdm
+
     from abb_ros.io.map_file import save_map
     from abb_ros.model.floquet import stability_map
     from abb_ros.plots.maps import plot_map

@@ -15,6 +15,7 @@ from abb_ros.io.bag_writer import BagError
 
 
 def add_arguments(parser) -> None:
+    """Add the options of `abb-sim plot` to ``parser``."""
     parser.add_argument('bag', help='bag directory or .mcap file (abb-sim run, recorder, '
                                     'ros2 bag record)')
     parser.add_argument('--out', required=True, help='directory for the PNG files')
@@ -28,6 +29,7 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> dict:
+    """Read the bag(s), write the time-response figures; return the summary."""
     from abb_ros.commands.api import CommandFailed, UsageError, check_output, output_files
     from abb_ros.model.state import wrap_degrees
     from abb_ros.plots import time_response as plots

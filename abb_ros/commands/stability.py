@@ -13,6 +13,7 @@ from abb_ros.model.params import ParamError, apply_settings
 
 
 def add_arguments(parser) -> None:
+    """Add the options of `abb-sim stability` to ``parser``."""
     parser.add_argument('--set', action='append', default=[], metavar='KEY=VALUE',
                         help='parameter (SI name, omega, or wbar/zeta/Dbar/epsbar/mbar/n)')
     parser.add_argument('--config', help='ROS 2 parameter file with drive.* parameters')
@@ -33,6 +34,7 @@ def operating_point(args):
 
 
 def run(args) -> dict:
+    """Return the verdict and both planes' |lambda|max at the operating point."""
     from abb_ros.model.floquet import point_stability
     params, omega = operating_point(args)
     phi = None

@@ -16,6 +16,7 @@ from abb_ros.commands.api import UsageError
 
 
 def add_arguments(parser) -> None:
+    """Add the options of `abb-sim sweep` to ``parser``."""
     parser.add_argument('spec', help='sweep spec (YAML), e.g. config/sweeps/tolerance_p3.yaml')
     parser.add_argument('--out', required=True, help='output directory (Parquet dataset)')
     parser.add_argument('--workers', type=int, default=None,
@@ -30,6 +31,7 @@ def add_arguments(parser) -> None:
 
 
 def run(args) -> dict:
+    """Run the spec's sweep on a Dask cluster into the output directory; return the summary."""
     from abb_ros.sweep.runner import SweepError, check_out_dir, local_cluster, run_sweep
     from abb_ros.sweep.spec import load_spec
 
@@ -83,8 +85,11 @@ def run(args) -> dict:
 
 
 def _has_dashboard(client) -> bool:
-    """A scheduler serves the dashboard on its HTTP server only with bokeh installed; for a
-    remote scheduler this machine's bokeh is the best guess there is."""
+    """Return whether the scheduler serves the Dask dashboard.
+
+    A scheduler serves the dashboard on its HTTP server only with bokeh installed; for a
+    remote scheduler this machine's bokeh is the best guess there is.
+    """
     from abb_ros.sweep.runner import has_bokeh
     try:
         return has_bokeh() and 'dashboard' in client.scheduler_info().get('services', {})

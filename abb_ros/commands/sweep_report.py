@@ -9,11 +9,13 @@ from abb_ros.commands.api import UsageError
 
 
 def add_arguments(parser) -> None:
+    """Add the options of `abb-sim sweep-report` to ``parser``."""
     parser.add_argument('sweep_dir', metavar='DIR', help='output directory of abb-sim sweep')
     parser.add_argument('--out', required=True, help='directory for the PNGs and summary.json')
 
 
 def run(args) -> dict:
+    """Write the sweep's figures and summary.json; return the key figures of the summary."""
     from abb_ros.sweep.report import make_report
     try:
         summary = make_report(args.sweep_dir, args.out)

@@ -1,5 +1,7 @@
-"""Figure titles: the drive's key Eq. (39) parameters (wbar, zeta with the washers, epsbar,
-mbar, n) as matplotlib mathtext."""
+"""Figure titles: the drive's key Eq. (39) parameters as matplotlib mathtext.
+
+The parameters are wbar, zeta with the washers, epsbar, mbar and n.
+"""
 
 from __future__ import annotations
 

@@ -8,7 +8,8 @@ surface (Fig. 4a).
 
 from __future__ import annotations
 
-from abb_ros.plots.labels import SYMBOLS as LABELS, parameter_text
+from abb_ros.plots.labels import SYMBOLS as LABELS
+from abb_ros.plots.labels import parameter_text
 
 LIMIT_LABELS = {'mbar_lim': r'$\bar{m}_{lim}$', 'epsbar_lim': r'$\bar{\varepsilon}_{lim}$'}
 REGION_NAMES = {'in': ('balanced and stable', 'unbalanced or no balanced equilibrium'),
@@ -29,6 +30,7 @@ def _pyplot():
 def plot_map(smap, path, title=None, kind='regions') -> None:
     """Write the map ``smap`` (floquet.StabilityMap) as a PNG at ``path``."""
     import numpy as np
+
     from abb_ros.model.floquet import BALANCED
     plt = _pyplot()
     X, Y = np.meshgrid(smap.x_values, smap.y_values)

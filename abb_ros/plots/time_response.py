@@ -43,7 +43,7 @@ class TimeResponse:
 
     @property
     def rbar(self) -> np.ndarray:
-        """rbar = sqrt(X^2 + Y^2 + Z^2) / R (Section 5, Fig. 9(a))."""
+        """Deck translation over the race radius, sqrt(X^2 + Y^2 + Z^2) / R (Fig. 9(a))."""
         return rbar(*self.deck[:3], self.R)
 
 
@@ -128,7 +128,7 @@ def _pyplot():
 
 
 def plot_rbar_and_balls(resp: TimeResponse, out, title: str = '') -> None:
-    """(a) rbar vs time, (b) ball angles phi_i (deg) vs time: Figs. 9-11, 15, 16."""
+    """Plot (a) rbar vs time, (b) ball angles phi_i (deg) vs time: Figs. 9-11, 15, 16."""
     plt = _pyplot()
     fig, (ax_r, ax_phi) = plt.subplots(2, 1, figsize=(7, 6.5), sharex=True)
     t, rbar = _thin(resp.t_pose, resp.rbar)
@@ -164,7 +164,7 @@ DECK_PANELS = (('(a) X, in-plane', 'X (mm)', 1e3), ('(b) Y, in-plane', 'Y (mm)',
 
 
 def plot_deck_coordinates(resp: TimeResponse, out, title: str = '') -> None:
-    """The six deck coordinates X, Y, Z (mm), alpha, beta, gamma (deg): Figs. 12, 13."""
+    """Plot the six deck coordinates X, Y, Z (mm), alpha, beta, gamma (deg): Figs. 12, 13."""
     plt = _pyplot()
     fig, axes = plt.subplots(3, 2, figsize=(10, 8), sharex=True)
     t, deck = _thin(resp.t_pose, resp.deck)
@@ -183,7 +183,7 @@ def plot_deck_coordinates(resp: TimeResponse, out, title: str = '') -> None:
 
 def plot_abb_comparison(with_abb: TimeResponse, without_abb: TimeResponse, out,
                         title: str = '') -> None:
-    """rbar (a) with the ABB and (b) without it, on one scale: Fig. 14."""
+    """Plot rbar (a) with the ABB and (b) without it, on one scale: Fig. 14."""
     plt = _pyplot()
     fig, axes = plt.subplots(2, 1, figsize=(7, 6.5), sharex=True, sharey=True)
     t_w, r_w = _thin(with_abb.t_pose, with_abb.rbar)
