@@ -30,8 +30,11 @@ MARKERS_TOPIC = 'visualization/markers'
 
 
 class BenchIO:
-    """See the module docstring. ``node`` must have ``sim``, ``sampler``, ``settings``,
-    ``drive``, ``stamp_ns()`` and ``_dt_ns``/``_epoch_ns``."""
+    """The bench's sensors, faults, disturbances and markers of a simulator node.
+
+    See the module docstring. ``node`` must have ``sim``, ``sampler``, ``settings``,
+    ``drive``, ``stamp_ns()`` and ``_dt_ns``/``_epoch_ns``.
+    """
 
     def __init__(self, node, qos_depth: int):
         self.node = node
@@ -54,8 +57,10 @@ class BenchIO:
 
     # ---- parameters ----------------------------------------------------------------------
     def apply(self, b: BenchSettings) -> None:
-        """New bench parameters (at a step boundary); a change of the active faults is
-        reported on /diagnostics at once."""
+        """Apply new bench parameters (at a step boundary).
+
+        A change of the active faults is reported on /diagnostics at once.
+        """
         self.bench = b
         self.speed.reconfigure(b.speed_sensor)
         f = self.imu_faults
@@ -75,6 +80,7 @@ class BenchIO:
         self.imu_faults.reset()
 
     def active_faults(self) -> dict[str, object]:
+        """Return {fault name: setting} of the IMU and FG faults now active."""
         return {**self.imu_faults.active(), **self.speed_faults.active()}
 
     # ---- disturbances --------------------------------------------------------------------
@@ -115,8 +121,10 @@ class BenchIO:
 
     # ---- outputs -------------------------------------------------------------------------
     def on_sample(self, sample) -> None:
-        """Publish the markers when a new slot of 1 / visualization.rate_hz (simulated time)
-        starts with this state sample."""
+        """Publish the markers if this state sample starts a new visualisation slot.
+
+        The slots are 1 / visualization.rate_hz long, in simulated time.
+        """
         rate = self.bench.visualization_rate_hz
         if rate <= 0.0 or sample is None or sample.y is None:
             return
@@ -129,7 +137,7 @@ class BenchIO:
             stamp_ns, sample.y, self.node.sim.params, self.bench.visualization_exaggeration))
 
     def publish_diagnostics(self) -> None:
-        """The 'faults and disturbances' status: WARN listing the active faults, else OK."""
+        """Publish the 'faults and disturbances' status: WARN with the active faults, else OK."""
         active = self.active_faults()
         level = DiagnosticStatus.WARN if active else DiagnosticStatus.OK
         message = ('active faults: ' + ', '.join(active)) if active else 'no fault injected'

@@ -163,8 +163,11 @@ def _runs(spec, params, groups) -> dict:
 
 
 def warm_up(spec) -> None:
-    """Compute the first sample of ``spec`` and discard it: loads (or compiles) the kernels of
-    this process, so that timings and deadlines see the steady state."""
+    """Compute the first sample of ``spec`` and discard it.
+
+    This loads (or compiles) the kernels of this process, so that timings and deadlines see the
+    steady state.
+    """
     from abb_ros.sweep.spec import draw_samples
     one = dataclasses.replace(spec, partition_size=1)
     compute_partition(one, 0, {k: v[:1] for k, v in draw_samples(spec).items()})

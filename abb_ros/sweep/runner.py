@@ -29,6 +29,8 @@ class SweepError(Exception):
 
 @dataclass
 class SweepResult:
+    """What :func:`run_sweep` did: the output directory, counts and partitions, wall time."""
+
     out_dir: str
     samples: int
     partitions: int
@@ -42,7 +44,7 @@ def _slice(samples: dict, start: int, stop: int) -> dict:
 
 
 def check_out_dir(spec, out_dir, resume: bool) -> Path:
-    """The output directory, if it can take this sweep (SweepError says why not)."""
+    """Return the output directory, if it can take this sweep (SweepError says why not)."""
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise SweepError(f'--out {out}: exists and is not a directory')
@@ -122,10 +124,12 @@ def _count(spec, index):
 
 
 def local_cluster(workers: int, dashboard: bool = False):
-    """A distributed.LocalCluster on this machine: ``workers`` processes with one thread
-    each, bound to 127.0.0.1. The scheduler's HTTP server listens on a free port (never a
-    fixed one that another cluster may hold); the dashboard is on it when asked and bokeh is
-    installed."""
+    """Start a distributed.LocalCluster on this machine.
+
+    ``workers`` processes with one thread each, bound to 127.0.0.1. The scheduler's HTTP server
+    listens on a free port (never a fixed one that another cluster may hold); the dashboard is
+    on it when asked and bokeh is installed.
+    """
     from distributed import LocalCluster
     return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                         host='127.0.0.1', dashboard_address='127.0.0.1:0',
@@ -133,6 +137,6 @@ def local_cluster(workers: int, dashboard: bool = False):
 
 
 def has_bokeh() -> bool:
-    """True when bokeh is installed, so a scheduler serves the Dask dashboard."""
+    """Return whether bokeh is installed, so that a scheduler serves the Dask dashboard."""
     import importlib.util
     return importlib.util.find_spec('bokeh') is not None

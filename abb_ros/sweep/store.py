@@ -29,6 +29,7 @@ _PART = re.compile(r'^part-(\d{5,})\.parquet$')
 
 
 def package_version() -> str:
+    """Return the installed abb_ros version ('unknown' from a source tree)."""
     try:
         from importlib.metadata import version
         return version('abb_ros')
@@ -37,11 +38,12 @@ def package_version() -> str:
 
 
 def spec_json(spec) -> str:
-    """The normalised spec as canonical JSON (what resume compares)."""
+    """Return the normalised spec as canonical JSON (what resume compares)."""
     return json.dumps(spec.doc, sort_keys=True, separators=(',', ':'))
 
 
 def part_path(out_dir, index: int) -> Path:
+    """Return the Parquet file of partition ``index`` in ``out_dir``."""
     return Path(out_dir) / f'part-{index:05d}.parquet'
 
 
@@ -55,6 +57,7 @@ def _atomic_write_bytes(path: Path, data: bytes) -> None:
 
 
 def write_manifest(out_dir, spec, partitions: int) -> None:
+    """Write the sweep's manifest (spec, version, partition and sample counts) atomically."""
     doc = {'spec': spec.doc, 'version': package_version(), 'partitions': partitions,
            'samples': spec.total}
     _atomic_write_bytes(Path(out_dir) / MANIFEST,
@@ -62,6 +65,7 @@ def write_manifest(out_dir, spec, partitions: int) -> None:
 
 
 def read_manifest(out_dir) -> dict | None:
+    """Return the manifest of the sweep in ``out_dir``, or None without one."""
     path = Path(out_dir) / MANIFEST
     if not path.exists():
         return None
@@ -70,7 +74,7 @@ def read_manifest(out_dir) -> dict | None:
 
 
 def to_table(result: dict, spec):
-    """The partition's columns as a pyarrow Table with the spec and version as metadata."""
+    """Return the partition's columns as a pyarrow Table, the spec and version as metadata."""
     import pyarrow as pa
     arrays = {}
     for name, values in result.items():
@@ -100,7 +104,7 @@ def write_partition(out_dir, index: int, result: dict, spec) -> Path:
 
 
 def finished_partitions(out_dir, count: int) -> set:
-    """Indices < count whose file exists and holds a readable Parquet footer."""
+    """Return the indices < count whose file exists and holds a readable Parquet footer."""
     import pyarrow.parquet as pq
     done = set()
     for entry in os.listdir(out_dir):
@@ -123,8 +127,11 @@ def remove_temporaries(out_dir) -> None:
 
 
 def read_results(out_dir):
-    """All finished partitions as one pyarrow Table sorted by sample, and the metadata of the
-    first file ({'spec': dict, 'version': str}); raises FileNotFoundError without any."""
+    """Read all finished partitions as one pyarrow Table sorted by sample.
+
+    Returns the table and the metadata of the first file ({'spec': dict, 'version': str});
+    raises FileNotFoundError without any.
+    """
     import pyarrow as pa
     import pyarrow.parquet as pq
     files = sorted(p for p in Path(out_dir).iterdir() if _PART.match(p.name))

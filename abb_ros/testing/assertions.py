@@ -13,16 +13,18 @@ import math
 import numpy as np
 
 from abb_ros.model.equilibrium import balanced_equilibrium
-from abb_ros.model.state import wrap_angle
 from abb_ros.model.params import DriveParams
+from abb_ros.model.state import wrap_angle
 
 __all__ = ['settling_time', 'peak', 'phi_star_error_deg', 'time_in_bands',
            'assert_balls_at_phi_star', 'assert_settles']
 
 
 def settling_time(t, x, final: float, tol: float) -> float:
-    """The first time [s] from which |x - final| <= tol for every later sample; inf when the
-    last sample is still outside, t[0] when none ever is."""
+    """Return the first time [s] from which |x - final| <= tol for every later sample.
+
+    inf when the last sample is still outside, t[0] when none ever is.
+    """
     t, x = np.asarray(t, dtype=float), np.asarray(x, dtype=float)
     outside = np.flatnonzero(~(np.abs(x - final) <= tol))
     if outside.size == 0:
@@ -39,9 +41,11 @@ def peak(t, x, t_from: float = -math.inf, t_to: float = math.inf) -> float:
 
 
 def phi_star_error_deg(phi, drive: DriveParams) -> float:
-    """Largest angle [deg] between a ball and its place in the balanced equilibrium phi*
-    (Eq. 26; balls matched to phi* in angular order, any ball may take any place). inf when
-    the drive has no balanced equilibrium."""
+    """Return the largest angle [deg] between a ball and its place in phi* (Eq. 26).
+
+    Balls are matched to the balanced equilibrium phi* in angular order (any ball may take
+    any place). inf when the drive has no balanced equilibrium.
+    """
     eq = balanced_equilibrium(drive)
     if not eq.exists:
         return math.inf
@@ -54,8 +58,10 @@ def phi_star_error_deg(phi, drive: DriveParams) -> float:
 
 
 def time_in_bands(t, omega, bands) -> float:
-    """Time [s] with the speed inside an unbalanced band (each sample counts for the interval
-    to the next one)."""
+    """Return the time [s] with the speed inside an unbalanced band.
+
+    Each sample counts for the interval to the next one.
+    """
     t, omega = np.asarray(t, dtype=float), np.asarray(omega, dtype=float)
     if t.size < 2:
         return 0.0
@@ -77,7 +83,7 @@ def assert_balls_at_phi_star(phi, drive: DriveParams, tol_deg: float) -> float:
 
 
 def assert_settles(t, x, final: float, tol: float, by: float) -> float:
-    """x settles within tol of final by time ``by`` [s]; returns the settling time."""
+    """Assert that x settles within tol of final by time ``by`` [s]; return the settling time."""
     ts = settling_time(t, x, final, tol)
     assert ts <= by, f'settles (|x - {final:g}| <= {tol:g}) at t = {ts:.4f} s, later than {by:g} s'
     return ts

@@ -57,10 +57,12 @@ def drive_parameters(drive: DriveParams) -> dict:
 
 
 class Trace:
-    """What the harness saw of the plant, one row per publish period: ``t`` [s] (header
-    stamps), ``omega`` [rad/s], ``phi`` [rad] shape (K, n), ``rbar`` [] (deck/pose position
-    over R), ``omega_cmd`` [rad/s] and ``current_cmd`` [A] (the commands in force after the
-    period's answer)."""
+    """What the harness saw of the plant, one row per publish period.
+
+    ``t`` [s] (header stamps), ``omega`` [rad/s], ``phi`` [rad] shape (K, n), ``rbar`` []
+    (deck/pose position over R), ``omega_cmd`` [rad/s] and ``current_cmd`` [A] (the commands
+    in force after the period's answer).
+    """
 
     def __init__(self, states, poses, commands, R: float, currents=()):
         by_stamp = {_stamp_ns(m): m for m in poses}
@@ -91,11 +93,11 @@ class LockstepPlant:
     def __init__(self, parameters: dict | None = None, *, namespace: str = '',
                  analysis: bool = False, deadline_s: float = DEADLINE_S):
         import rclpy
+        from geometry_msgs.msg import PoseStamped
         from rclpy.node import Node
         from rclpy.parameter import Parameter
         from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
         from sensor_msgs.msg import JointState
-        from geometry_msgs.msg import PoseStamped
         from std_srvs.srv import Trigger
 
         from abb_ros.nodes.simulator import SimulatorNode, make_executor
@@ -155,11 +157,15 @@ class LockstepPlant:
         self._connected = False
 
     def record(self, topic: str, kind=None, raw: bool = False) -> list:
-        """A list that collects every message of ``topic`` (relative names resolve in the
-        plant's namespace; ``raw``: the CDR bytes). ``kind`` defaults to the type of a bench
-        topic (the simulator's, ``spindle/speed_cmd``, ``stability/margin``)."""
-        from abb_ros.io import ros_messages
+        """Return a list that collects every message of ``topic``.
+
+        Relative names resolve in the plant's namespace; ``raw``: the CDR bytes. ``kind``
+        defaults to the type of a bench topic (the simulator's, ``spindle/speed_cmd``,
+        ``stability/margin``).
+        """
         from std_msgs.msg import Float64
+
+        from abb_ros.io import ros_messages
         got = []
         kind = kind or ros_messages.TOPIC_TYPES.get(topic) or (
             Float64 if topic in (COMMAND_TOPIC, CURRENT_TOPIC, MARGIN_TOPIC) else None)
@@ -182,24 +188,31 @@ class LockstepPlant:
         self._explicit_answers = int(value)
 
     def shared_parameters(self) -> list:
-        """The plant's ``drive.*``, ``motor.*`` and ``max_spindle_speed`` as rclpy
-        Parameters: the ``parameter_overrides`` that give a node under test the plant's drive."""
+        """Return the plant's ``drive.*``, ``motor.*`` and ``max_spindle_speed`` parameters.
+
+        As rclpy Parameters: the ``parameter_overrides`` that give a node under test the plant's
+        drive.
+        """
         return self.sim.get_parameters([f'drive.{f.name}' for f in fields(DriveParams)]
                                        + [f'motor.{name}' for name in MOTOR_DEFAULTS]
                                        + ['max_spindle_speed'])
 
     def bands(self) -> tuple:
-        """The unbalanced speed bands of the plant's drive (the analysis' table,
-        speed_bands.speed_table over 0..max_spindle_speed)."""
+        """Return the unbalanced speed bands of the plant's drive.
+
+        The analysis' table: speed_bands.speed_table over 0..max_spindle_speed.
+        """
         from abb_ros.model.speed_bands import speed_table
         return speed_table(self.drive, self.sim.settings.max_spindle_speed).bands
 
     @property
     def drive(self) -> DriveParams:
+        """The plant's drive parameters (SI)."""
         return self.sim.drive
 
     @property
     def period_s(self) -> float:
+        """The plant's publish period [s] (simulated time)."""
         return self.sim.sampler.publish_every * self.sim.settings.dt_ns * 1e-9
 
     # ---- lockstep ------------------------------------------------------------------------
@@ -232,8 +245,10 @@ class LockstepPlant:
         self.advance(round(seconds / self.period_s))
 
     def command(self, omega: float) -> None:
-        """Publish a spindle speed command [rad/s] from the harness; returns when the plant
-        has it (applied from the next period on)."""
+        """Publish a spindle speed command [rad/s] from the harness.
+
+        Returns when the plant has it (applied from the next period on).
+        """
         from std_msgs.msg import Float64
         if self._command_pub is None:
             self._command_pub = self.node.create_publisher(Float64, COMMAND_TOPIC, self._qos)
@@ -244,7 +259,7 @@ class LockstepPlant:
         self.spin_until(lambda: self._received() > before, 'the plant receiving the command')
 
     def trace(self) -> Trace:
-        """The periods so far (see :class:`Trace`)."""
+        """Return the periods so far (see :class:`Trace`)."""
         return Trace(self._states, self._poses, self._commands, self.drive.R, self._currents)
 
     def spin_until_idle(self, quiet_s: float = 0.05) -> None:
@@ -292,8 +307,11 @@ class LockstepPlant:
             self.executor.spin_once(timeout_sec=0.01)
 
     def _wait_connected(self) -> None:
-        """Every subscription of a spinning node to a topic the plant publishes (or to the
-        command topic) is matched, and the plant's ~/step service is up."""
+        """Wait until the plant's ~/step service is up and the subscriptions are matched.
+
+        Every subscription of a spinning node to a topic the plant publishes (or to the command
+        topic) must be matched.
+        """
         self.spin_until(self._step_client.service_is_ready, 'the plant\'s ~/step service')
         wanted = {}
         for n in self._nodes:

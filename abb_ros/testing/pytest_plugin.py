@@ -14,13 +14,14 @@ import pytest
 
 
 def pytest_configure(config):
+    """Keep DDS on this machine and on a random domain, unless the environment says otherwise."""
     os.environ.setdefault('ROS_DOMAIN_ID', str(random.randint(1, 101)))
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 
 
 @pytest.fixture
 def lockstep_plant():
-    """Factory of lockstep plants (the simulator paused in process, stepped over DDS)."""
+    """Provide a factory of lockstep plants (the simulator paused in process, stepped over DDS)."""
     from abb_ros.testing.lockstep import LockstepPlant
     plants = []
 
