@@ -99,14 +99,14 @@ class BalancedEquilibrium:
 
 
 def eq26_residual(params: DriveParams, phi_star) -> float:
-    """Largest |left-hand side| of the two Eq. (26) sums (dimensionless)."""
+    """Return the largest |left-hand side| of the two Eq. (26) sums (dimensionless)."""
     phi = np.asarray(phi_star, dtype=float)
     ratio = params.M * params.eps / (params.m * params.R)
     return max(abs(ratio + np.cos(phi).sum()), abs(np.sin(phi).sum()))
 
 
 def phi_star_two_balls(ratio: float) -> tuple[float, float]:
-    """Eq. (34) in the corrected quadrant, for n = 2 and ratio = M eps / (m R) <= 2.
+    """Solve Eq. (34) in the corrected quadrant, for n = 2 and ratio = M eps / (m R) <= 2.
 
     Returns (phi_1*, phi_2*) = (-(pi - atan(sqrt((2/ratio)^2 - 1))), +...) [rad]; for ratio = 0
     the balls sit opposite each other at -+90 deg.
@@ -120,11 +120,11 @@ def phi_star_two_balls(ratio: float) -> tuple[float, float]:
 
 
 def fan_phi_star(n: int, ratio):
-    """Symmetric-fan solution of Eq. (26) for n >= 2 balls and ratio = M eps / (m R) <= n.
+    """Return the symmetric-fan solution of Eq. (26) for n >= 2 balls.
 
-    ``ratio`` may be an array of shape (B,); the result then has shape (B, n) [rad]. Its
-    spacing falls monotonically with ratio (module docstring), so balls that touch are apart
-    in it whenever ratio is within their :func:`ball_capacity`.
+    ``ratio`` = M eps / (m R) <= n may be an array of shape (B,); the result then has shape (B, n)
+    [rad]. Its spacing falls monotonically with ratio (module docstring), so balls that touch are
+    apart in it whenever ratio is within their :func:`ball_capacity`.
     """
     ratio = np.asarray(ratio, dtype=float)
     if np.any(ratio > n):
@@ -182,7 +182,7 @@ def balanced_equilibrium(params: DriveParams, phi_star=None) -> BalancedEquilibr
 
 
 def no_equilibrium_reason(params: DriveParams) -> str:
-    """Why n >= 2 balls cannot balance the drive: its imbalance exceeds their capacity."""
+    """Say why n >= 2 balls cannot balance the drive: its imbalance exceeds their capacity."""
     mR = params.m * params.R
     eps_max = ball_capacity(params) * mR / params.M
     limit = f'eps above {eps_max * 1e3:.3g} mm'
@@ -209,7 +209,7 @@ def balls_apart(params: DriveParams, phi) -> bool:
 
 
 def epsbar_lim(params: DriveParams) -> float:
-    """Largest balanceable eccentricity eps/R = C m / M (Fig. 6; n = 2: 2 m R = M eps).
+    """Return the largest balanceable eccentricity eps/R = C m / M (Fig. 6; n = 2: 2 m R = M eps).
 
     C is the :func:`ball_capacity` (n for point masses).
     """
@@ -217,9 +217,10 @@ def epsbar_lim(params: DriveParams) -> float:
 
 
 def mbar_lim(params: DriveParams) -> float:
-    """Smallest ball mass m/M that can balance: eps / (C R) (Fig. 7; n = 2: 2 m R = M eps).
+    """Return the smallest ball mass m/M that can balance, eps / (C R) (Fig. 7).
 
-    C is the :func:`ball_capacity` at the drive's r_ball (n for point masses).
+    For n = 2: 2 m R = M eps. C is the :func:`ball_capacity` at the drive's r_ball (n for point
+    masses).
     """
     if params.n == 0:
         return math.inf

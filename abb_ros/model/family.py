@@ -39,7 +39,7 @@ steps from within 0.3 rad of the family)."""
 
 
 def eq26_jacobian(phi) -> np.ndarray:
-    """J of Eq. (26) at phi [rad], shape (..., 2, n)."""
+    """Return the Jacobian J of Eq. (26) at phi [rad], shape (..., 2, n)."""
     phi = np.asarray(phi, dtype=float)
     return np.stack([-np.sin(phi), np.cos(phi)], axis=-2)
 
@@ -66,7 +66,7 @@ def neutral_count(phi) -> np.ndarray:
 
 
 def min_spacing(phi) -> float:
-    """Smallest angular distance [rad] between two of the angles phi (inf for n < 2)."""
+    """Return the smallest angular distance [rad] between two of the angles phi (inf for n < 2)."""
     phi = np.sort(wrap_angle(np.asarray(phi, dtype=float)))
     if phi.size < 2:
         return math.inf
@@ -100,7 +100,7 @@ def nearest_member(ratio: float, phi0, tol: float = 1e-13):
 
 def sample_members(ratio: float, n: int, count: int, first=None, spacing: float = 0.0,
                    seed: int = 0) -> np.ndarray:
-    """``count`` members of the family of Eq. (26) for n balls, shape (count, n) [rad].
+    """Sample ``count`` members of the family of Eq. (26) for n balls, shape (count, n) [rad].
 
     ``first`` (a member, e.g. the symmetric fan) is the first row when given; the others are
     random angles (``seed``) projected onto Eq. (26) by :func:`nearest_member`, keeping those

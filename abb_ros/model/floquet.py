@@ -82,7 +82,7 @@ def eval_coeffs(H, basis, out):
 
 @kernel
 def accel_matrix(Mh, Ch, Kh, tau, Mw, R, basis):
-    """R = -M(tau)^-1 [K(tau) C(tau)], shape (nq, 2 nq), by Gauss elimination (pivoting).
+    """Set R = -M(tau)^-1 [K(tau) C(tau)], shape (nq, 2 nq), by Gauss elimination (pivoting).
 
     Mw (nq, nq) and basis (5,) are work buffers.
     """
@@ -154,7 +154,7 @@ def axpy(Q, V, h, dQ, dV, Qo, Vo):
 
 @kernel(nogil=True, fastmath=True)
 def monodromy_one(Mh, Ch, Kh, tau_end, nsteps, Phi):
-    """Phi = fundamental matrix at tau_end of M x'' + C x' + K x = 0 (tau units), RK4."""
+    """Set Phi = the fundamental matrix at tau_end of M x'' + C x' + K x = 0 (tau units), RK4."""
     nq = Mh.shape[1]
     m = 2 * nq
     Q = np.zeros((nq, m))
@@ -199,14 +199,14 @@ def monodromy_one(Mh, Ch, Kh, tau_end, nsteps, Phi):
 
 @kernel(nogil=True, fastmath=True, parallel=True)
 def monodromy_many(Mh, Ch, Kh, tau_end, nsteps, Phi):
-    """monodromy_one for each point b of the batch (parallel over b)."""
+    """Run monodromy_one for each point b of the batch (parallel over b)."""
     for b in prange(Mh.shape[0]):
         monodromy_one(Mh[b], Ch[b], Kh[b], tau_end[b], nsteps[b], Phi[b])
 
 
 @kernel(nogil=True, fastmath=True)
 def monodromy_many_serial(Mh, Ch, Kh, tau_end, nsteps, Phi):
-    """monodromy_one for each point b of the batch, in order, in the calling thread."""
+    """Run monodromy_one for each point b of the batch, in order, in the calling thread."""
     for b in range(Mh.shape[0]):
         monodromy_one(Mh[b], Ch[b], Kh[b], tau_end[b], nsteps[b], Phi[b])
 
@@ -223,14 +223,14 @@ the parallel one takes ~2 s."""
 
 
 def steps_for(rate_tau, tau_end) -> np.ndarray:
-    """RK4 steps per period for the fastest rate [1/rad of tau] of each point (int array)."""
+    """Return the RK4 steps per period for each point's fastest rate [1/rad of tau] (int array)."""
     rate = np.asarray(rate_tau, dtype=float)
     return np.maximum(MIN_STEPS, np.ceil(STEPS_PER_RADIAN * rate * np.asarray(tau_end)))\
         .astype(np.int64)
 
 
 def monodromy_batch(Mh, Ch, Kh, omega, tau_end, nsteps, kern=None) -> np.ndarray:
-    """Monodromy matrices in tau units for a batch.
+    """Compute the monodromy matrices in tau units for a batch.
 
     Mh, Ch, Kh : ndarray, shape (B, H, nq, nq), harmonics in SI (linear.py);
     omega : (B,) [rad/s]; tau_end : (B,) period in tau (2 pi or pi); nsteps : (B,) int.
@@ -249,12 +249,12 @@ def monodromy_batch(Mh, Ch, Kh, omega, tau_end, nsteps, kern=None) -> np.ndarray
 
 
 def multipliers(Phi) -> np.ndarray:
-    """Floquet (characteristic) multipliers: eigenvalues of Phi, shape (..., 2 nq) complex."""
+    """Return the Floquet multipliers, the eigenvalues of Phi, shape (..., 2 nq) complex."""
     return np.linalg.eigvals(Phi)
 
 
 def max_multiplier(Phi) -> np.ndarray:
-    """Largest |multiplier| of each monodromy matrix (shape Phi.shape[:-2])."""
+    """Return the largest |multiplier| of each monodromy matrix (shape Phi.shape[:-2])."""
     return np.abs(multipliers(Phi)).max(axis=-1)
 
 
@@ -270,7 +270,7 @@ class FamilyInvarianceError(RuntimeError):
 
 
 def transverse_max_multiplier(Phi, U, k: int):
-    """Largest |transverse multiplier| and the invariance residual of each monodromy.
+    """Return the largest |transverse multiplier| and invariance residual of each monodromy.
 
     Phi : (B, 2 nq, 2 nq) in-plane monodromies (state [X, Y, gamma, phi_1..phi_n, rates]);
     U, k : the ball-angle frames of :func:`abb_ros.model.family.tangent_frame` (U (B, n, n),
@@ -290,14 +290,14 @@ def transverse_max_multiplier(Phi, U, k: int):
 
 
 def _to_physical(Phi_tau, omega):
-    """Phi for [x, dx/dt] from Phi for [x, dx/dtau] (similarity S Phi S^-1, S = diag(1, omega))."""
+    """Convert Phi for [x, dx/dtau] to [x, dx/dt] (similarity S Phi S^-1, S = diag(1, omega))."""
     nq = Phi_tau.shape[-1] // 2
     s = np.concatenate([np.ones(nq), np.full(nq, omega)])
     return Phi_tau * s[:, None] / s[None, :]
 
 
 def monodromy(system, nsteps=None, kern=None) -> np.ndarray:
-    """Phi(T) of a :class:`~abb_ros.model.linear.PeriodicSystem`, state [x, x'] (SI)."""
+    """Compute Phi(T) of a :class:`~abb_ros.model.linear.PeriodicSystem`, state [x, x'] (SI)."""
     tau_end = system.omega * system.period
     if nsteps is None:
         nsteps = int(steps_for(fastest_rate(system), tau_end))
@@ -307,7 +307,7 @@ def monodromy(system, nsteps=None, kern=None) -> np.ndarray:
 
 
 def fastest_rate(system) -> float:
-    """Largest |eigenvalue| of A(tau) in tau units over a coarse grid of the period, plus 1."""
+    """Estimate the largest |eigenvalue| of A(tau) in tau units over the period, plus 1."""
     rates = []
     for tau in np.linspace(0.0, 2 * math.pi, 9)[:-1]:
         A = system.state_matrix(tau / system.omega)
@@ -316,7 +316,7 @@ def fastest_rate(system) -> float:
 
 
 def monodromy_reference(system, rtol=1e-12, atol=1e-12, method='DOP853') -> np.ndarray:
-    """Phi(T) by scipy's adaptive solve_ivp (the accuracy reference), state [x, x'] (SI)."""
+    """Compute Phi(T) by scipy's adaptive solve_ivp (the accuracy reference), state [x, x']."""
     from scipy.integrate import solve_ivp
     nq = system.M.shape[1]
 
@@ -338,7 +338,7 @@ CHUNK = 2000
 
 
 def _rate_estimate(Mh, Ch, Kh, omega):
-    """Fastest rate [1/rad of tau] of each point, from the constant harmonic, plus 1.
+    """Estimate the fastest rate [1/rad of tau] of each point, from the constant harmonic, plus 1.
 
     sqrt of the largest eigenvalue of M0^-1 K0 / omega^2 (oscillation) plus the largest one of
     M0^-1 C0 / omega (decay); the +1 covers the phase advance of the rotating terms.
@@ -351,7 +351,9 @@ def _rate_estimate(Mh, Ch, Kh, omega):
 
 
 def equilibria(params_list):
-    """Balanced equilibria of a batch of DriveParams (same n): (exists (B,), phi_star (B, n)).
+    """Find the balanced equilibria of a batch of DriveParams (same n).
+
+    Returns (exists (B,), phi_star (B, n)).
 
     The symmetric fan where the imbalance is within the balls' capacity (equilibrium.py).
     """
@@ -386,7 +388,7 @@ class MultiplierBatch:
 
 def multipliers_batch(params_list, omegas, plane='in', phi_star=None, progress=None,
                       kern=None) -> MultiplierBatch:
-    """Largest |transverse Floquet multiplier| at the balanced equilibrium, for a batch.
+    """Compute the largest |transverse Floquet multiplier| at the balanced equilibria of a batch.
 
     params_list : sequence of DriveParams with the same n; omegas : (B,) [rad/s] > 0;
     phi_star : optional (B, n) or (n,) [rad] members of the family, else the symmetric fan
@@ -457,7 +459,7 @@ MAX_MEMBERS = 64
 
 def member_extremes(params_list, omegas, plane='in', count=8, progress=None, kern=None,
                     fan_lam=None):
-    """Best and worst |lambda|max over sampled members of each point's balanced family.
+    """Compute the best and worst |lambda|max over sampled members of each point's balanced family.
 
     For n >= 3 the balanced equilibria form a family, and stability may differ along it:
     this answers "can these balls balance here at all" (best) and "do they balance wherever
@@ -507,7 +509,7 @@ def member_extremes(params_list, omegas, plane='in', count=8, progress=None, ker
 
 
 def sweep_speed(params, omegas, plane='in', phi_star=None) -> np.ndarray:
-    """|lambda|max against spindle speed omegas [rad/s] for fixed parameters (1-D sweep).
+    """Compute |lambda|max against spindle speed omegas [rad/s] for fixed parameters.
 
     +inf at every speed when no balanced equilibrium exists. About 0.2 s for 200 speeds once
     the kernel is compiled (numba caches it on disk; the first use in a fresh checkout compiles
@@ -565,7 +567,7 @@ class PointStability:
 
 
 def point_stability(params, omega, phi_star=None, member=None) -> PointStability:
-    """In-plane and out-of-plane |lambda|max at the balanced equilibrium (omega [rad/s] > 0).
+    """Compute in-plane and out-of-plane |lambda|max at the balanced equilibrium.
 
     ``phi_star`` : a member of the family [rad] (checked against Eq. 26), default the
     symmetric fan; ``member`` names it in the result (default 'symmetric fan' or 'given').
@@ -630,7 +632,7 @@ def _finite_range(lam):
 
 def stability_map(base, x, x_values, y, y_values, settings=None, plane='in',
                   progress=None, members=0) -> StabilityMap:
-    """|lambda|max over the grid x_values x y_values of two Eq. (39) parameters.
+    """Compute |lambda|max over the grid x_values x y_values of two Eq. (39) parameters.
 
     base : DriveParams; settings : further fixed settings for apply_settings (e.g. zeta, wbar);
     every point is converted with :func:`abb_ros.model.params.apply_settings`. wbar must be

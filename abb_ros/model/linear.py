@@ -35,7 +35,7 @@ _FIELDS = ('a', 'b', 'd', 'R', 'M_P', 'M', 'm', 'J_Px', 'J_Py', 'J_Pz', 'J_x', '
 
 
 def harmonic_basis(tau, order: int) -> np.ndarray:
-    """[1, cos tau, sin tau, cos 2tau, sin 2tau, ...] up to ``order``, shape (2 order + 1,)."""
+    """Return [1, cos tau, sin tau, cos 2tau, ...] up to ``order``, shape (2 order + 1,)."""
     out = [1.0]
     for j in range(1, order + 1):
         out += [math.cos(j * tau), math.sin(j * tau)]
@@ -58,12 +58,12 @@ class PeriodicSystem:
     coords: tuple
 
     def at(self, t: float):
-        """(M(t), C(t), K(t)), each shape (nq, nq)."""
+        """Return (M(t), C(t), K(t)), each shape (nq, nq)."""
         basis = harmonic_basis(self.omega * t, (self.M.shape[0] - 1) // 2)
         return tuple(np.tensordot(basis, H, axes=1) for H in (self.M, self.C, self.K))
 
     def state_matrix(self, t: float) -> np.ndarray:
-        """A(t) of the first-order form y' = A(t) y, y = [x, x'], shape (2 nq, 2 nq)."""
+        """Return A(t) of the first-order form y' = A(t) y, y = [x, x'], shape (2 nq, 2 nq)."""
         M, C, K = self.at(t)
         nq = M.shape[0]
         A = np.zeros((2 * nq, 2 * nq))
@@ -81,15 +81,15 @@ def stack_params(plist) -> SimpleNamespace:
 
 
 def _trig_sums(phi):
-    """Harmonic parts of the ball sums: sum cos(phi*), sum sin(phi*), each shape batch."""
+    """Return the ball sums' harmonic parts, sum cos(phi*) and sum sin(phi*), each shape batch."""
     return np.cos(phi), np.sin(phi)
 
 
 def in_plane_harmonics(p, omega, phi_star):
-    """(M, C, K) harmonics of Eqs. (27), (28), (32), (33), each shape batch + (3, 3+n, 3+n).
+    """Return the (M, C, K) harmonics of Eqs. (27), (28), (32), (33).
 
-    ``p`` has attributes of DriveParams (scalars or arrays of shape (B,)), ``omega`` [rad/s]
-    scalar or (B,), ``phi_star`` [rad] shape (n,) or (B, n).
+    Each has shape batch + (3, 3+n, 3+n). ``p`` has attributes of DriveParams (scalars or arrays of
+    shape (B,)), ``omega`` [rad/s] scalar or (B,), ``phi_star`` [rad] shape (n,) or (B, n).
     """
     omega = np.asarray(omega, dtype=float)
     phi = np.asarray(phi_star, dtype=float)
@@ -140,7 +140,7 @@ def in_plane_harmonics(p, omega, phi_star):
 
 
 def out_of_plane_harmonics(p, omega, phi_star):
-    """(M, C, K) harmonics of Eqs. (29)-(31), each shape batch + (5, 3, 3)."""
+    """Return the (M, C, K) harmonics of Eqs. (29)-(31), each shape batch + (5, 3, 3)."""
     omega = np.asarray(omega, dtype=float)
     phi = np.asarray(phi_star, dtype=float)
     batch = np.broadcast_shapes(omega.shape, phi.shape[:-1], np.shape(p.m), np.shape(p.c))
@@ -197,7 +197,7 @@ def _phi_star(params: DriveParams, phi_star):
 
 
 def in_plane(params: DriveParams, omega: float, phi_star=None) -> PeriodicSystem:
-    """M_I(t), C_I(t), K_I(t) of Eq. (35) at the balanced equilibrium (Eq. 26)."""
+    """Return M_I(t), C_I(t), K_I(t) of Eq. (35) at the balanced equilibrium (Eq. 26)."""
     phi = _phi_star(params, phi_star)
     M, C, K = in_plane_harmonics(params, omega, phi)
     coords = ('X', 'Y', 'gamma') + tuple(f'phi_{i + 1}' for i in range(params.n))
@@ -206,7 +206,7 @@ def in_plane(params: DriveParams, omega: float, phi_star=None) -> PeriodicSystem
 
 
 def out_of_plane(params: DriveParams, omega: float, phi_star=None) -> PeriodicSystem:
-    """M_O(t), C_O(t), K_O(t) of Eq. (37) at the balanced equilibrium (Eq. 26)."""
+    """Return M_O(t), C_O(t), K_O(t) of Eq. (37) at the balanced equilibrium (Eq. 26)."""
     phi = _phi_star(params, phi_star)
     M, C, K = out_of_plane_harmonics(params, omega, phi)
     return PeriodicSystem(M, C, K, float(omega), math.pi / omega if omega else math.inf,
@@ -214,7 +214,7 @@ def out_of_plane(params: DriveParams, omega: float, phi_star=None) -> PeriodicSy
 
 
 def natural_frequencies(params: DriveParams) -> dict:
-    """Undamped natural frequencies [rad/s] of Eqs. (27)-(32) with m = omega = 0 (Section 4).
+    """Return Section 4's undamped natural frequencies [rad/s] of Eqs. (27)-(32), m = omega = 0.
 
     Each mode is named after the coordinate with the largest share of its kinetic energy.
     Values for Table 1 (the paper's in brackets): X 299.5, Y 300.5, Z 299.1 (omega0 ~ 298),
@@ -239,6 +239,6 @@ def natural_frequencies(params: DriveParams) -> dict:
 
 
 def _at_zero(H):
-    """Coefficient matrix at tau = 0 (sum of the constant and cosine harmonics), 3x3 block."""
+    """Return the 3x3 block of the coefficient matrix at tau = 0 (constant + cosine harmonics)."""
     return (H[0] + H[1::2].sum(axis=0))[:3, :3]
 

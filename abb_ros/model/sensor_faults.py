@@ -51,7 +51,7 @@ class ImuFaults:
         self._last: ImuReading | None = None
 
     def active(self) -> dict[str, object]:
-        """{fault name: setting} of the faults now active."""
+        """Return {fault name: setting} of the faults now active."""
         out = {}
         if self.dropout:
             out['imu_dropout'] = True
@@ -93,7 +93,7 @@ class SpeedFaults:
         self._normals = NormalStream(self.rng)
 
     def active(self) -> dict[str, object]:
-        """{fault name: setting} of the faults now active."""
+        """Return {fault name: setting} of the faults now active."""
         out = {}
         if self.dropout:
             out['speed_dropout'] = True

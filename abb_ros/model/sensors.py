@@ -46,7 +46,7 @@ kernel = KernelSet()
 
 @kernel
 def _t_matrix(alpha: float, beta: float, gamma: float) -> tuple[float, ...]:
-    """T_beta T_alpha T_gamma of Eq. (2), row-major (9 floats): base -> deck components.
+    """Return T_beta T_alpha T_gamma of Eq. (2), row-major (9 floats): base -> deck components.
 
     Plain floats: at one call per sample, numpy's per-call overhead on 3 x 3 arrays costs
     more than the arithmetic.
@@ -119,18 +119,18 @@ def _omega_dot(alpha, beta, dalpha, dbeta, dgamma, ddalpha, ddbeta, ddgamma
 
 
 def deck_angular_velocity(alpha, beta, gamma, dalpha, dbeta, dgamma) -> np.ndarray:
-    """omega_P of Eq. (10) in deck axes [rad/s], shape (3,)."""
+    """Return omega_P of Eq. (10) in deck axes [rad/s], shape (3,)."""
     return np.array(_omega(alpha, beta, dalpha, dbeta, dgamma))
 
 
 def deck_angular_acceleration(alpha, beta, gamma, dalpha, dbeta, dgamma,
                               ddalpha, ddbeta, ddgamma) -> np.ndarray:
-    """Time derivative of Eq. (10) in deck axes [rad/s^2], shape (3,)."""
+    """Return the time derivative of Eq. (10) in deck axes [rad/s^2], shape (3,)."""
     return np.array(_omega_dot(alpha, beta, dalpha, dbeta, dgamma, ddalpha, ddbeta, ddgamma))
 
 
 def deck_velocity(q, qd) -> tuple[np.ndarray, np.ndarray]:
-    """(velocity of C, angular velocity Eq. 10), both in deck axes [m/s], [rad/s].
+    """Return (velocity of C, angular velocity Eq. 10), both in deck axes [m/s], [rad/s].
 
     ``q``, ``qd``: generalised coordinates and rates, [theta, X, Y, Z, alpha, beta, gamma, ...]
     (the twist of :func:`deck_pose_twist`).
@@ -143,7 +143,7 @@ def deck_velocity(q, qd) -> tuple[np.ndarray, np.ndarray]:
 
 @kernel
 def _specific_force(q, qd, qdd, r, gravity):
-    """point_specific_force and Eq. (10) as float tuples (arrays q, q', q'', r)."""
+    """Return point_specific_force and Eq. (10) as float tuples (arrays q, q', q'', r)."""
     a, b, g = q[ALPHA], q[ALPHA + 1], q[ALPHA + 2]
     da, db, dg = qd[ALPHA], qd[ALPHA + 1], qd[ALPHA + 2]
     ddX, ddY, ddZ = qdd[DECK], qdd[DECK + 1], qdd[DECK + 2]
@@ -201,7 +201,7 @@ JIT, PY = kernel.build()
 
 
 def point_specific_force(q, qd, qdd, r, gravity: bool = False) -> np.ndarray:
-    """Specific force at point r (deck axes, from C) [m/s^2], deck axes, shape (3,).
+    """Return the specific force at point r (deck axes, from C) [m/s^2], deck axes, shape (3,).
 
     a_C + w' x r + w x (w x r) - g, with a_C = R^T (X'', Y'', Z'').
     """

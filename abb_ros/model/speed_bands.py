@@ -58,7 +58,7 @@ ROTATIONAL = ('gamma', 'alpha', 'beta')
 
 
 def rpm(omega: float) -> float:
-    """Spindle speed in revolutions per minute from omega [rad/s] (edge unit)."""
+    """Convert the spindle speed omega [rad/s] to revolutions per minute (edge unit)."""
     return omega * 30.0 / math.pi
 
 
@@ -85,7 +85,7 @@ class Band:
         return self.lo <= omega <= self.hi
 
     def distance(self, omega: float) -> float:
-        """Speed distance [rad/s] from omega to the band (0 inside)."""
+        """Return the speed distance [rad/s] from omega to the band (0 inside)."""
         return max(self.lo - omega, omega - self.hi, 0.0)
 
 
@@ -112,7 +112,7 @@ class SpeedTable:
     neutral: int = 0
 
     def at(self, omega: float) -> tuple[float, float]:
-        """(lam_in, lam_out) at omega [rad/s] by linear interpolation (clamped to the table)."""
+        """Return (lam_in, lam_out) at omega [rad/s], interpolated (clamped to the table)."""
         return (float(np.interp(omega, self.omegas, self.lam_in)),
                 float(np.interp(omega, self.omegas, self.lam_out)))
 
@@ -145,10 +145,11 @@ def speed_table(params: DriveParams, omega_max: float, points: int = TABLE_POINT
 
 
 def unbalanced_bands(omegas, lam, natural: dict) -> tuple:
-    """Intervals of omegas [rad/s] where lam >= 1, edges by linear interpolation of lam - 1.
+    """Return the intervals of omegas [rad/s] where lam >= 1.
 
-    A band that starts at the first table point extends down to 0 (the spindle at rest).
-    ``natural`` : {coordinate: natural frequency [rad/s]} names each band.
+    The edges are found by linear interpolation of lam - 1; a band that starts at the first table
+    point extends down to 0 (the spindle at rest). ``natural`` : {coordinate: natural frequency
+    [rad/s]} names each band.
     """
     omegas = np.asarray(omegas, dtype=float)
     unstable = np.asarray(lam) >= 1.0
@@ -169,7 +170,7 @@ def unbalanced_bands(omegas, lam, natural: dict) -> tuple:
 
 
 def _crossing(omegas, lam, i, j) -> float:
-    """Speed where lam crosses 1 between table points i and j (linear)."""
+    """Return the speed where lam crosses 1 between table points i and j (linear)."""
     a, b = lam[i] - 1.0, lam[j] - 1.0
     if not (math.isfinite(a) and math.isfinite(b)) or a == b:
         return float(omegas[j])
@@ -197,7 +198,7 @@ class Assessment:
 
 
 def assess(table: SpeedTable, omega: float, exact=None) -> Assessment:
-    """Verdict at spindle speed omega [rad/s] from the table.
+    """Assess the spindle speed omega [rad/s] from the table.
 
     ``exact`` : optional :class:`abb_ros.model.floquet.PointStability` computed at (nearly)
     this speed; its multipliers replace the interpolated ones.

@@ -69,12 +69,12 @@ class SpeedLoop:
         return self.motor.current(omega, -math.inf), self.motor.current(omega, math.inf)
 
     def friction(self, omega: float) -> float:
-        """Bearing friction estimate b_v omega + T_c tanh(omega / omega_c) [N m]."""
+        """Estimate the bearing friction b_v omega + T_c tanh(omega / omega_c) [N m]."""
         m = self.motor
         return m.b_v * omega + m.T_c * math.tanh(omega / m.omega_c)
 
     def feedforward(self, alpha_ref: float, omega: float) -> float:
-        """[(J_z + I_r) alpha_ref + friction(omega)] / K_t [A]."""
+        """Return the feedforward current [(J_z + I_r) alpha_ref + friction(omega)] / K_t [A]."""
         return (self.inertia * alpha_ref + self.friction(omega)) / self.motor.K_t
 
     def step(self, omega_ref: float, alpha_ref: float, omega: float, dt: float) -> float:

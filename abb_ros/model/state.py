@@ -36,7 +36,7 @@ PHI = DECK + N_DECK
 
 
 def n_coords(n: int) -> int:
-    """N = 7 + n generalised coordinates (theta, 6 deck coordinates, n ball angles)."""
+    """Return N = 7 + n generalised coordinates (theta, 6 deck coordinates, n ball angles)."""
     return PHI + n
 
 
@@ -46,12 +46,12 @@ def rbar(X, Y, Z, R: float):
 
 
 def wrap_angle(phi):
-    """Angles [rad] wrapped to (-pi, pi]."""
+    """Wrap angles [rad] to (-pi, pi]."""
     return math.pi - np.mod(math.pi - np.asarray(phi, dtype=float), 2.0 * math.pi)
 
 
 def wrap_degrees(phi) -> np.ndarray:
-    """Angles [rad] wrapped to (-pi, pi], in degrees."""
+    """Wrap angles [rad] to (-pi, pi] and return them in degrees."""
     return np.degrees(wrap_angle(phi))
 
 
@@ -103,36 +103,36 @@ class StateLayout:
         return f'StateLayout(n={self.n})'
 
     def coord_names(self) -> tuple[str, ...]:
-        """Names of q: theta, X, Y, Z, alpha, beta, gamma, phi_1..phi_n."""
+        """Return the names of q: theta, X, Y, Z, alpha, beta, gamma, phi_1..phi_n."""
         return ('theta',) + DECK_NAMES + tuple(f'phi_{i + 1}' for i in range(self.n))
 
     # ---- accessors ----------------------------------------------------------------------------
     def theta(self, y):
-        """Spindle angle theta [rad]."""
+        """Return the spindle angle theta [rad]."""
         return np.asarray(y)[..., THETA]
 
     def omega(self, y):
-        """Spindle speed theta' [rad/s]."""
+        """Return the spindle speed theta' [rad/s]."""
         return np.asarray(y)[..., self.omega_index]
 
     def deck(self, y) -> np.ndarray:
-        """[X, Y, Z, alpha, beta, gamma] (m, rad)."""
+        """Return the deck coordinates [X, Y, Z, alpha, beta, gamma] (m, rad)."""
         return np.asarray(y)[..., self.deck_slice]
 
     def translation(self, y) -> np.ndarray:
-        """[X, Y, Z] (m)."""
+        """Return the deck translation [X, Y, Z] (m)."""
         return np.asarray(y)[..., self.translation_slice]
 
     def deck_rates(self, y) -> np.ndarray:
-        """[X', Y', Z', alpha', beta', gamma'] (m/s, rad/s)."""
+        """Return the deck rates [X', Y', Z', alpha', beta', gamma'] (m/s, rad/s)."""
         return np.asarray(y)[..., self.deck_rate_slice]
 
     def phi(self, y) -> np.ndarray:
-        """Ball angles phi_1..phi_n relative to the rotor [rad]."""
+        """Return the ball angles phi_1..phi_n relative to the rotor [rad]."""
         return np.asarray(y)[..., self.phi_slice]
 
     def phi_rates(self, y) -> np.ndarray:
-        """Ball angle rates phi_1'..phi_n' relative to the rotor [rad/s]."""
+        """Return the ball angle rates phi_1'..phi_n' relative to the rotor [rad/s]."""
         return np.asarray(y)[..., self.phi_rate_slice]
 
     def coords(self, y) -> np.ndarray:

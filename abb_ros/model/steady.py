@@ -45,7 +45,7 @@ def in_plane_matrices_static(params: DriveParams):
 
 
 def mean_tangential_force(params: DriveParams, omega: float, phi_lock: float) -> float:
-    """Mean over a revolution of Q (module docstring) on one ball locked at phi_lock [N m]."""
+    """Return the mean of Q [N m] over a revolution on one ball locked at phi_lock (module doc)."""
     p = params
     M, C, K = in_plane_matrices_static(p)
     U = p.M * p.eps + p.n * p.m * p.R * np.exp(1j * phi_lock)

@@ -140,7 +140,7 @@ class TableWorker:
 
 
 def _same_member(a, b) -> bool:
-    """Both None (the fan), or members within MEMBER_TOL_RAD of each other."""
+    """Return whether both are None (the fan) or members within MEMBER_TOL_RAD of each other."""
     if a is None or b is None:
         return a is None and b is None
     return len(a) == len(b) and all(abs(math.remainder(x - y, 2 * math.pi)) <= MEMBER_TOL_RAD
