@@ -48,7 +48,7 @@ def bag_files(path) -> list[Path]:
 
 
 def iter_records(path, emit_chunks: bool = False):
-    """MCAP records of a bag in file order; a truncated last chunk (crash) ends the stream."""
+    """Yield the MCAP records of a bag in file order; a truncated last chunk ends the stream."""
     for file in bag_files(path):
         with open(file, 'rb') as stream:
             reader = StreamReader(stream, emit_chunks=emit_chunks, validate_crcs=True)

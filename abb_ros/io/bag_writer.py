@@ -77,7 +77,7 @@ def default_qos() -> dict:
 
 
 def qos_dict(profile) -> dict:
-    """One offered QoS profile in rosbag2's metadata v9 form, from an rclpy ``QoSProfile``."""
+    """Convert an offered rclpy ``QoSProfile`` to rosbag2's metadata v9 form."""
     if isinstance(profile, dict):
         return dict(profile)
 
@@ -110,13 +110,13 @@ _Dumper.add_representer(str, _str)
 
 
 def dump_yaml(data) -> str:
-    """YAML text in the layout rosbag2 (yaml-cpp) writes, without the final newline."""
+    """Return YAML text in the layout rosbag2 (yaml-cpp) writes, without the final newline."""
     text = yaml.dump(data, Dumper=_Dumper, default_flow_style=False, sort_keys=False, width=4096)
     return text.replace(': null\n', ': ~\n').rstrip('\n')
 
 
 def topic_name(name: str) -> str:
-    """Topic names are stored fully qualified, as rosbag2 records them."""
+    """Return the topic ``name`` fully qualified, as rosbag2 records topic names."""
     if not name:
         raise BagError('empty topic name')
     return name if name.startswith('/') else '/' + name
@@ -245,7 +245,7 @@ class BagWriter:
         return {t.name: t.type for t in self._topics.values()}
 
     def has_topic(self, name: str) -> bool:
-        """Whether the topic ``name`` (as :meth:`add_topic` was given it) was added."""
+        """Return whether the topic ``name`` (as :meth:`add_topic` was given it) was added."""
         return name in self._topics or topic_name(name) in self._topics
 
     def add_topic(self, name: str, type_name: str, qos=None, type_hash: str | None = None
@@ -302,7 +302,7 @@ class BagWriter:
             self.flush()
 
     def _chunk_written(self) -> None:
-        """Every message given so far is in a chunk that reached the file."""
+        """Count every message given so far as durable: its chunk reached the file."""
         for t in self._topics.values():
             t.durable = t.count
         self.durable_count = self.message_count
@@ -340,7 +340,7 @@ class BagWriter:
             self._write_metadata_yaml()
 
     def topic_counts(self) -> dict[str, int]:
-        """Topic name -> messages written so far."""
+        """Return topic name -> messages written so far."""
         return {t.name: t.count for t in self._topics.values()}
 
     def set_custom_data(self, key: str, text: str) -> None:

@@ -52,7 +52,7 @@ class Layout:
         self._pos += pad
 
     def const(self, code: str, *values) -> 'Layout':
-        """Constant primitive(s) of struct ``code`` (each aligned to its size)."""
+        """Append constant primitive(s) of struct ``code`` (each aligned to its size)."""
         for value in values:
             self._align(_SIZE[code])
             self._pending += struct.pack('<' + code, value)
@@ -75,7 +75,7 @@ class Layout:
         return self
 
     def var(self, code: str, count: int = 1) -> 'Layout':
-        """``count`` variable primitives of struct ``code``, aligned to their size."""
+        """Append ``count`` variable primitives of struct ``code``, aligned to their size."""
         if count == 0:
             return self
         self._align(_SIZE[code])
@@ -106,7 +106,7 @@ class Layout:
 
 
 def _header(frame_id: str) -> Layout:
-    """std_msgs/Header: a variable stamp and a constant frame."""
+    """Start a layout with std_msgs/Header: a variable stamp and a constant frame."""
     return Layout().var('i').var('I').string(frame_id)
 
 
@@ -136,13 +136,13 @@ _TWIST = _fixed(TOPIC_FRAMES['deck/twist'], 6)    # Vector3 linear, angular
 
 
 def pose_stamped(sec: int, nanosec: int, content) -> bytes:
-    """geometry_msgs/PoseStamped of the pose of ros_messages.deck_pose_twist_content."""
+    """Encode geometry_msgs/PoseStamped of the pose of ros_messages.deck_pose_twist_content."""
     st, (c0, c1) = _POSE
     return st.pack(c0, sec, nanosec, c1, *content)
 
 
 def twist_stamped(sec: int, nanosec: int, content) -> bytes:
-    """geometry_msgs/TwistStamped of the twist of ros_messages.deck_pose_twist_content."""
+    """Encode geometry_msgs/TwistStamped of the twist of ros_messages.deck_pose_twist_content."""
     st, (c0, c1) = _TWIST
     return st.pack(c0, sec, nanosec, c1, *content)
 
@@ -161,7 +161,7 @@ def _imu_layout(accel_variance: float, gyro_variance: float):
 
 
 def imu(sec: int, nanosec: int, content) -> bytes:
-    """sensor_msgs/Imu of ros_messages.deck_imu_content."""
+    """Encode sensor_msgs/Imu of ros_messages.deck_imu_content."""
     wx, wy, wz, ax, ay, az, accel_variance, gyro_variance = content
     st, (c0, c1, c2, c3) = _imu_layout(accel_variance, gyro_variance)
     return st.pack(c0, sec, nanosec, c1, wx, wy, wz, c2, ax, ay, az, c3)
@@ -171,7 +171,7 @@ _CLOCK = Layout().var('i').var('I').compile()
 
 
 def clock(sec: int, nanosec: int, content=None) -> bytes:
-    """rosgraph_msgs/Clock."""
+    """Encode rosgraph_msgs/Clock."""
     st, (c0,) = _CLOCK
     return st.pack(c0, sec, nanosec)
 
@@ -180,7 +180,7 @@ _FLOAT64 = Layout().var('d').compile()
 
 
 def float64(sec: int, nanosec: int, content: float) -> bytes:
-    """std_msgs/Float64 (no header: the stamp is not encoded)."""
+    """Encode std_msgs/Float64 (no header: the stamp is not encoded)."""
     st, (c0,) = _FLOAT64
     return st.pack(c0, content)
 

@@ -66,7 +66,7 @@ class JointSpeedReader:
         return JointSpeed(omega, n, named, sec * 1_000_000_000 + nanosec, phi)
 
     def _names_end(self, data: bytes, pos: int) -> int:
-        """Byte after the frame_id and the name sequence (a cheap walk over lengths)."""
+        """Return the byte after the frame_id and the name sequence (a cheap walk over lengths)."""
         if self._key is not None and data.startswith(self._key, pos):
             return pos + len(self._key)
         pos = _string_end(data, pos)

@@ -40,7 +40,7 @@ _COLOURS = {Marker.CUBE: (0.55, 0.55, 0.6, 1.0), Marker.CYLINDER: (0.2, 0.4, 0.8
 
 
 def ball_radius(m: float) -> float:
-    """Radius [m] of a steel ball of mass m [kg]."""
+    """Return the radius [m] of a steel ball of mass m [kg]."""
     return (3.0 * m / (4.0 * math.pi * STEEL_DENSITY)) ** (1.0 / 3.0)
 
 

@@ -34,7 +34,7 @@ class MessageTypeError(ValueError):
 
 
 def split_type(type_name: str) -> tuple[str, str]:
-    """``'sensor_msgs/msg/JointState'`` or ``'sensor_msgs/JointState'`` -> (package, name)."""
+    """Split ``'sensor_msgs/msg/JointState'`` or ``'sensor_msgs/JointState'`` into (pkg, name)."""
     match = _TYPE_NAME.match(type_name or '')
     if not match:
         raise MessageTypeError(
@@ -49,7 +49,7 @@ def normalize_type(type_name: str) -> str:
 
 
 def share_dir(package: str) -> Path:
-    """``share/<package>`` of an installed ROS package (ament index, then this prefix)."""
+    """Return ``share/<package>`` of an installed ROS package (ament index, then this prefix)."""
     prefixes = [p for p in os.environ.get('AMENT_PREFIX_PATH', '').split(os.pathsep) if p]
     prefixes.append(sys.prefix)
     for prefix in prefixes:
@@ -125,7 +125,7 @@ def message_class(type_name: str):
 
 
 def type_name_of(msg) -> str:
-    """``'pkg/msg/Name'`` of an rclpy message instance."""
+    """Return ``'pkg/msg/Name'`` of an rclpy message instance."""
     cls = type(msg)
     package = cls.__module__.split('.')[0]
     return f'{package}/msg/{cls.__name__}'

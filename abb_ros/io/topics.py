@@ -79,12 +79,12 @@ def by_name(name: str) -> Topic:
 
 
 def published_by(node: str) -> tuple[Topic, ...]:
-    """Topics the node ('simulator' or 'analysis') publishes, in :data:`TOPICS` order."""
+    """Return the topics ``node`` ('simulator' or 'analysis') publishes, in TOPICS order."""
     return tuple(t for t in TOPICS if node in t.publishers)
 
 
 def sampled_topics() -> tuple[Topic, ...]:
-    """Topics produced by a simulation sample (a headless run writes exactly these)."""
+    """Return the topics produced by a simulation sample (a headless run writes exactly these)."""
     return tuple(t for t in TOPICS if t.rate in SAMPLED)
 
 
