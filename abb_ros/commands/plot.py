@@ -80,6 +80,6 @@ def run(args) -> dict:
 
 
 def _tail_max(resp) -> float:
-    """Largest rbar over the last tenth of the run (residual vibration, Fig. 14)."""
+    """Return the largest rbar over the last tenth of the run (residual vibration, Fig. 14)."""
     rbar = resp.rbar
     return float(np.max(rbar[len(rbar) * 9 // 10:]))

@@ -23,7 +23,7 @@ def add_arguments(parser) -> None:
 
 
 def operating_point(args):
-    """(DriveParams, omega) from --config and --set; omega is required."""
+    """Return (DriveParams, omega) from --config and --set; omega is required."""
     base = drive_params(args.config)
     params, omega = apply_settings(base, parse_settings(args.set, 'stability'))
     if omega is None:

@@ -73,7 +73,7 @@ class BenchIO:
             self.publish_diagnostics()
 
     def reset(self, seed: int) -> None:
-        """~/reset: FG and speed noise re-seeded, the stuck IMU value forgotten."""
+        """Handle ~/reset: re-seed the FG and speed noise, forget the stuck IMU value."""
         self.speed.seed = self.speed_faults.seed = seed
         self.speed.reset()
         self.speed_faults.reset()

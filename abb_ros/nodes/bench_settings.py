@@ -45,7 +45,7 @@ def _vector(values: Mapping[str, Any], name: str, size: int, unit: str) -> tuple
 
 
 def bench_settings(values: Mapping[str, Any]) -> BenchSettings:
-    """BenchSettings from a flat {ROS name: value} mapping; raises ParamError."""
+    """Build BenchSettings from a flat {ROS name: value} mapping; raises ParamError."""
     for name in ('speed_sensor.timer_hz', 'speed_sensor.timeout'):
         if not values[name] > 0:
             raise ParamError(name, values[name], '(0, inf)')

@@ -14,7 +14,7 @@ WASHER_TOLERANCE = 0.05
 
 
 def washer_name(c: float) -> str:
-    """'metal' or 'rubber' when c is within 5 % of one of the paper's washers, else ''."""
+    """Return 'metal' or 'rubber' when c is within 5 % of one of the paper's washers, else ''."""
     for name, value in WASHERS.items():
         if abs(c - value) <= WASHER_TOLERANCE * value:
             return name
@@ -22,7 +22,7 @@ def washer_name(c: float) -> str:
 
 
 def parameter_text(params, wbar: float | None = None, omit=()) -> str:
-    """'wbar = 2.7, zeta = 0.025 (metal washers), epsbar = 0.0167, mbar = 0.03, n = 2'.
+    """Return e.g. 'wbar = 2.7, zeta = 0.025 (metal washers), epsbar = 0.0167, mbar = 0.03, n = 2'.
 
     params : abb_ros.model.params.DriveParams; ``omit`` names parameters left out (map axes).
     ``n = 0`` is written 'n = 0 (without ABB)' and mbar is left out.

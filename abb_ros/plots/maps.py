@@ -70,7 +70,7 @@ def _limit_text(name, value) -> str:
 
 
 def _region_legend(ax, plane, limits) -> None:
-    """Dotted / blank / limit-line legend below the axes, where it covers no data."""
+    """Draw the dotted / blank / limit-line legend below the axes, where it covers no data."""
     from matplotlib.patches import Patch
     dotted, blank = REGION_NAMES[plane]
     ax.legend(handles=[Patch(facecolor='white', edgecolor='k', hatch='..', label=dotted),
@@ -80,7 +80,7 @@ def _region_legend(ax, plane, limits) -> None:
 
 
 def map_title(smap) -> str:
-    """Plane and the parameters held fixed over the map (the rest are Table 1 values)."""
+    """Return the map's title: its plane and the parameters held fixed (others: Table 1 values)."""
     from abb_ros.model.params import DriveParams
     params = DriveParams(**smap.fixed['SI'])
     wbar = smap.fixed['settings'].get('wbar')
@@ -89,7 +89,7 @@ def map_title(smap) -> str:
 
 
 def plot_speed_curves(curves, path, title=None) -> None:
-    """|lambda|max against wbar for several drives side by side, one panel each.
+    """Plot |lambda|max against wbar for several drives side by side, one panel each.
 
     ``curves`` : list of (label, wbar (K,), lam_in (K,), lam_out (K,)); the line
     |lambda| = 1 separates balanced from unbalanced speeds.

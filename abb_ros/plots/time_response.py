@@ -48,7 +48,7 @@ class TimeResponse:
 
 
 def euler_from_quaternion(x, y, z, w):
-    """(alpha, beta, gamma) of R = Rz(gamma) Rx(alpha) Ry(beta) (Eqs. 1-2) from a quaternion."""
+    """Return (alpha, beta, gamma) of a quaternion's R = Rz(gamma) Rx(alpha) Ry(beta), Eqs. 1-2."""
     x, y, z, w = (np.asarray(v, dtype=float) for v in (x, y, z, w))
     r01 = 2.0 * (x * y - w * z)
     r11 = 1.0 - 2.0 * (x * x + z * z)
@@ -62,7 +62,7 @@ def euler_from_quaternion(x, y, z, w):
 
 
 def _stamp(msg, log_time):
-    """Header stamp (simulated time) when set, else the receive time [ns]."""
+    """Return the header stamp (simulated time) when set, else the receive time [ns]."""
     ns = msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
     return ns if ns else log_time
 
@@ -109,7 +109,7 @@ def load_time_response(path, R: float | None = None) -> TimeResponse:
 
 
 def _broken_at_wraps(deg: np.ndarray) -> np.ndarray:
-    """NaN where a time series of wrapped angles jumps by a turn (no vertical lines)."""
+    """Return a copy with NaN where wrapped angles jump by a turn (no vertical lines)."""
     deg = deg.copy()
     deg[..., 1:][np.abs(np.diff(deg, axis=-1)) > 180.0] = np.nan
     return deg

@@ -37,7 +37,7 @@ DERIVED = ('omega0',) + tuple(n for n in DIMENSIONLESS_NAMES if n != 'wbar') + (
 
 
 def partition_params(spec, columns) -> list:
-    """DriveParams of each sample: the nominal drive (scenario + base) with its draws."""
+    """Return each sample's DriveParams: the nominal drive (scenario + base) with its draws."""
     nominal = spec.scenario.params
     names = list(columns)
     count = len(columns[names[0]])
@@ -50,7 +50,7 @@ def partition_params(spec, columns) -> list:
 
 
 def compute_partition(spec, index: int, columns: dict) -> dict:
-    """Results of the samples ``columns`` (parameter -> values) of partition ``index``.
+    """Compute the results of the samples ``columns`` (parameter -> values) of partition ``index``.
 
     Returns an ordered mapping column -> numpy array (or list of arrays for the ball angles),
     see docs/sweep.md for the columns.

@@ -64,7 +64,7 @@ def _influence(table, parameters, margin):
 
 
 def _bins(x, discrete):
-    """Bin index of each x and the bin centres: distinct values, or up to 12 quantile bins."""
+    """Return each x's bin index and the bin centres: distinct values or up to 12 quantile bins."""
     values = np.unique(x)
     if discrete or values.size <= 12:
         return np.searchsorted(values, x), values

@@ -120,7 +120,7 @@ def finished_partitions(out_dir, count: int) -> set:
 
 
 def remove_temporaries(out_dir) -> None:
-    """Temporary files left by an interrupted writer."""
+    """Remove the temporary files left by an interrupted writer."""
     for entry in os.listdir(out_dir):
         if entry.startswith('.part-') and '.tmp-' in entry:
             os.remove(Path(out_dir) / entry)

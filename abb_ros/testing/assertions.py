@@ -34,7 +34,7 @@ def settling_time(t, x, final: float, tol: float) -> float:
 
 
 def peak(t, x, t_from: float = -math.inf, t_to: float = math.inf) -> float:
-    """Largest x over t_from <= t <= t_to (e.g. peak rbar during the run-up)."""
+    """Return the largest x over t_from <= t <= t_to (e.g. peak rbar during the run-up)."""
     t, x = np.asarray(t, dtype=float), np.asarray(x, dtype=float)
     window = x[(t >= t_from) & (t <= t_to)]
     return float(np.max(window)) if window.size else math.nan
@@ -72,7 +72,7 @@ def time_in_bands(t, omega, bands) -> float:
 
 
 def assert_balls_at_phi_star(phi, drive: DriveParams, tol_deg: float) -> float:
-    """Every ball within ``tol_deg`` of +-phi*; returns the largest error [deg]."""
+    """Assert that every ball is within ``tol_deg`` of +-phi*; return the largest error [deg]."""
     err = phi_star_error_deg(phi, drive)
     star = balanced_equilibrium(drive).phi_star
     balls = np.degrees(wrap_angle(np.asarray(phi))).round(3).tolist()

@@ -52,7 +52,7 @@ class LockstepTimeout(AssertionError):
 
 
 def drive_parameters(drive: DriveParams) -> dict:
-    """``{'drive.<name>': value}`` for every field of ``drive`` (node parameter overrides)."""
+    """Return ``{'drive.<name>': value}`` for each field of ``drive`` (as parameter overrides)."""
     return {f'drive.{f.name}': getattr(drive, f.name) for f in fields(drive)}
 
 
@@ -273,7 +273,7 @@ class LockstepPlant:
                 end = time.monotonic() + quiet_s
 
     def close(self) -> None:
-        """Destroy the nodes and the Context (again: nothing happens)."""
+        """Destroy the nodes and the Context (a second call does nothing)."""
         import rclpy
         if not self._nodes:
             return

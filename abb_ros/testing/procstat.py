@@ -9,13 +9,13 @@ PAGE_SIZE = os.sysconf('SC_PAGE_SIZE')
 
 
 def cpu_seconds(pid: int) -> float:
-    """User + system CPU time [s] of process ``pid`` so far."""
+    """Return the user + system CPU time [s] of process ``pid`` so far."""
     with open(f'/proc/{pid}/stat') as f:
         fields = f.read().rsplit(')', 1)[1].split()
     return (int(fields[11]) + int(fields[12])) / CLK_TCK  # utime, stime
 
 
 def rss_bytes(pid: int) -> int:
-    """Resident set size [bytes] of process ``pid`` now."""
+    """Return the resident set size [bytes] of process ``pid``."""
     with open(f'/proc/{pid}/statm') as f:
         return int(f.read().split()[1]) * PAGE_SIZE
