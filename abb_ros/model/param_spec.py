@@ -160,17 +160,6 @@ class ParamSpec:
             raise ParamError(name, value, self.valid_text())
         return value
 
-    def parse(self, text: str, name: str | None = None) -> Any:
-        """The value of ``--set name=text`` (YAML syntax, as ``ros2 param set``), checked."""
-        from abb_ros.io.safe_yaml import YamlFileError, load_text
-        try:
-            value = load_text(text, where=name or self.short)
-        except YamlFileError:
-            value = text
-        if self.type == STRING:
-            value = text
-        return self.check(value, name or self.short)
-
 
 def _plain(value):
     """A list for a sequence (rclpy gives array.array for arrays), else the value."""

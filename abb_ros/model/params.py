@@ -179,7 +179,6 @@ class DriveParams:
     def as_dict(self) -> dict[str, float]:
         return dataclasses.asdict(self)
 
-    # ---- ROS 2 parameter YAML --------------------------------------------------------------
     @classmethod
     def from_mapping(cls, values: Mapping[str, Any], base: 'DriveParams | None' = None
                      ) -> 'DriveParams':
@@ -189,52 +188,6 @@ class DriveParams:
                 raise ParamError(str(key), values[key], 'one of ' + ', '.join(PARAM_SPECS),
                                  'unknown parameter')
         return (base or cls()).replace(**dict(values))
-
-    @classmethod
-    def from_yaml(cls, path, node: str | None = None) -> 'DriveParams':
-        """Load the ``drive.*`` parameters from a ROS 2 parameter file.
-
-        The file has the form ``<node or /**>: ros__parameters: drive: {a: ..., ...}``.
-        With ``node`` given, that node's section is used (falling back to ``/**``);
-        otherwise the first section that has ``drive``.
-        """
-        from abb_ros.io.safe_yaml import YamlFileError, load_file
-        try:
-            doc = load_file(path) or {}
-        except YamlFileError as exc:
-            raise ParamError('config', str(path), 'a ROS 2 parameter file', exc.why) from None
-        if not isinstance(doc, Mapping):
-            raise ParamError('config', str(path), 'a mapping <node>: ros__parameters: drive:',
-                             f'the document is a {type(doc).__name__}')
-        section = _find_drive_section(doc, node)
-        if section is None:
-            raise ParamError('drive', None, 'a mapping under <node>: ros__parameters: drive:',
-                             f'no drive parameters in {path}')
-        return cls.from_mapping(section)
-
-    def to_yaml(self, path, node: str = '/**') -> None:
-        """Write the parameters as a ROS 2 parameter file (``drive.*`` names)."""
-        import yaml
-        doc = {node: {'ros__parameters': {'drive': self.as_dict()}}}
-        with open(path, 'w', encoding='utf-8') as f:
-            f.write('# abb_ros drive parameters, SI units (see abb_ros/model/params.py)\n')
-            yaml.safe_dump(doc, f, sort_keys=False)
-
-
-def _find_drive_section(doc: Mapping, node: str | None):
-    candidates = []
-    if node is not None:
-        candidates += [node, '/' + node.lstrip('/')]
-    candidates += ['/**']
-    sections = [doc.get(key) for key in candidates]
-    if node is None:
-        sections += list(doc.values())
-    for sec in sections:
-        ros = sec.get('ros__parameters') if isinstance(sec, Mapping) else None
-        drive = ros.get('drive') if isinstance(ros, Mapping) else None
-        if isinstance(drive, Mapping):
-            return drive
-    return None
 
 
 def omega_from_wbar(params: DriveParams, wbar: float) -> float:
