@@ -89,7 +89,7 @@ class DriveParams:
         self._check_beyond_paper()
 
     def _check_beyond_paper(self):
-        """Consistency of the issue-12 terms: what needs a ball size, and whether balls fit."""
+        """Check the terms beyond the paper: what needs a ball size, and whether balls fit."""
         if float(self.ball_rotation) not in (0.0, 1.0):
             raise ParamError('ball_rotation', self.ball_rotation, '0 or 1')
         object.__setattr__(self, 'ball_rotation', int(self.ball_rotation))
@@ -106,8 +106,11 @@ class DriveParams:
 
     @property
     def beyond_paper(self) -> tuple[str, ...]:
-        """Names of the active issue-12 terms (contact, rolling resistance, ball rotation):
-        terms the paper's equations and its linear analysis do not have."""
+        """Return the names of the active terms beyond the paper.
+
+        Contact, rolling resistance, ball rotation: terms the paper's equations and its linear
+        analysis do not have.
+        """
         active = []
         if self.contact_E > 0:
             active.append('contact')
@@ -149,11 +152,6 @@ class DriveParams:
         return self.m / self.M
 
     @property
-    def total_mass(self) -> float:
-        """M + M_P + n m [kg], the translational mass of Eqs. (18)-(20)."""
-        return self.M + self.M_P + self.n * self.m
-
-    @property
     def can_balance(self) -> bool:
         """True when the balls can cancel the imbalance: n m R >= M eps (Eq. 26 solvable)."""
         return self.n * self.m * self.R >= self.M * self.eps
@@ -163,12 +161,12 @@ class DriveParams:
         return omega / self.omega0
 
     def dimensionless(self) -> dict[str, float]:
-        """The Eq. (39) parameters that do not depend on the speed."""
+        """Return the Eq. (39) parameters that do not depend on the speed."""
         return {'zeta': self.zeta, 'Dbar': self.Dbar, 'epsbar': self.epsbar,
                 'mbar': self.mbar, 'n': self.n}
 
     def replace(self, **changes) -> 'DriveParams':
-        """A validated copy with ``changes`` applied (SI names)."""
+        """Return a validated copy with ``changes`` applied (SI names)."""
         unknown = set(changes) - set(PARAM_SPECS)
         if unknown:
             name = sorted(unknown)[0]
@@ -177,6 +175,7 @@ class DriveParams:
         return dataclasses.replace(self, **changes)
 
     def as_dict(self) -> dict[str, float]:
+        """Return {SI name: value} of every field, in declaration order."""
         return dataclasses.asdict(self)
 
     @classmethod
