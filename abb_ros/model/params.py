@@ -21,8 +21,8 @@ import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
-from abb_ros.model.param_spec import (DRIVE_SPECS, MAX_BALLS, METAL_C, RUBBER_C, ParamError,
-                                      ParamSpec)
+from abb_ros.model.drive_spec import DRIVE_SPECS, MAX_BALLS, METAL_C, RUBBER_C
+from abb_ros.model.param_spec import ParamError, ParamSpec
 
 __all__ = [
     'ParamError', 'DriveParams', 'PARAM_SPECS', 'DIMENSIONLESS_NAMES', 'METAL_C', 'RUBBER_C',
@@ -30,7 +30,7 @@ __all__ = [
 ]
 
 PARAM_SPECS: dict[str, ParamSpec] = {s.short: s for s in DRIVE_SPECS}
-"""{SI name: spec} of the drive parameters (abb_ros/model/param_spec.py)."""
+"""{SI name: spec} of the drive parameters (abb_ros/model/drive_spec.py)."""
 
 
 def _default(name):
