@@ -1,5 +1,7 @@
-"""The parameter specs: the shipped YAML files, the module defaults and docs/parameters.md agree
-with them; one check; the --set names of abb-sim."""
+"""The parameter specs: one check, the --set names of abb-sim, and what must agree with them.
+
+The shipped YAML files, the module defaults and docs/parameters.md agree with the specs.
+"""
 
 import math
 from pathlib import Path
