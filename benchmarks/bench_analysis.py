@@ -26,6 +26,7 @@ from pathlib import Path
 import numpy as np
 
 
+from abb_ros.io.drive_file import write_drive_yaml
 from abb_ros.model.floquet import point_stability
 from abb_ros.model.params import DriveParams
 from abb_ros.model.speed_bands import assess, speed_table
@@ -87,7 +88,7 @@ def bench_latency(accel, assess_s):
 
     with tempfile.TemporaryDirectory() as tmp:
         params = Path(tmp) / 'p3.yaml'
-        P3.to_yaml(params)
+        write_drive_yaml(P3, params)
         procs = [subprocess.Popen(
             [sys.executable, '-m', f'abb_ros.nodes.{name}', '--ros-args', '--params-file',
              str(params), *extra], cwd=ROOT, stdout=subprocess.DEVNULL,

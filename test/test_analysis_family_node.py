@@ -11,6 +11,7 @@ import time
 import numpy as np
 from diagnostic_msgs.msg import DiagnosticStatus
 
+from abb_ros.io.drive_file import write_drive_yaml
 from abb_ros.model.params import DriveParams
 from test_analysis_node import OMEGA0, Probe, _start, _wrapped_deg
 
@@ -20,7 +21,7 @@ TEN_BALLS = DriveParams(c=0.66, n=10, m=0.03 * 0.026 * 2 / 10)
 
 def test_ten_balls_at_p3_are_reported_balanced_on_the_member_where_they_settled(tmp_path):
     params_file = tmp_path / 'p3_n10.yaml'
-    TEN_BALLS.to_yaml(params_file)
+    write_drive_yaml(TEN_BALLS, params_file)
     logs = {name: open(tmp_path / f'{name}.log', 'w+') for name in ('simulator', 'analysis')}
     procs = [_start('simulator', params_file, 'real_time_factor:=0.0', 'publish_rate_hz:=200',
                     f'spindle.initial_speed:={2.7 * OMEGA0}', log=logs['simulator']),

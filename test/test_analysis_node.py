@@ -29,6 +29,7 @@ from rclpy.parameter_client import AsyncParameterClient
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
+from abb_ros.io.drive_file import write_drive_yaml
 from abb_ros.model.params import DriveParams
 from abb_ros.testing.latency import status_delays
 
@@ -148,7 +149,7 @@ def _start(module, params_file, *params, log):
 def graph(tmp_path_factory):
     tmp = tmp_path_factory.mktemp('analysis')
     params_file = tmp / 'p3_metal.yaml'
-    P3.to_yaml(params_file)
+    write_drive_yaml(P3, params_file)
     logs = {name: open(tmp / f'{name}.log', 'w+') for name in ('simulator', 'analysis')}
     procs = {
         'simulator': _start('simulator', params_file, 'real_time_factor:=0.0',

@@ -1,5 +1,7 @@
-"""One parameter spec (abb_ros/model/param_spec.py): the shipped YAML files, the module
-defaults and docs/parameters.md agree with it; one check; the --set names of abb-sim."""
+"""The parameter specs: one check, the --set names of abb-sim, and what must agree with them.
+
+The shipped YAML files, the module defaults and docs/parameters.md agree with the specs.
+"""
 
 import math
 from pathlib import Path
@@ -8,9 +10,12 @@ import pytest
 import yaml
 
 from abb_ros.cli import main
-from abb_ros.model import param_spec
-from abb_ros.model.param_spec import SPECS, ParamError, specs_for
+from abb_ros.model import plant_spec
+from abb_ros.model.drive_spec import DRIVE_SPECS
+from abb_ros.model.param_spec import ParamError
 from abb_ros.model.params import DriveParams
+from abb_ros.nodes import parameter_table
+from abb_ros.nodes.parameter_table import SPECS, specs_for
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -43,8 +48,8 @@ def test_shipped_yaml_files_name_every_simulator_parameter_with_the_spec_default
 
 def test_docs_parameter_table_is_generated_from_the_spec():
     committed = (ROOT / 'docs' / 'parameters.md').read_text()
-    assert committed == param_spec.markdown(), \
-        'regenerate: python -m abb_ros.model.param_spec --markdown > docs/parameters.md'
+    assert committed == parameter_table.markdown(), \
+        'regenerate: python -m abb_ros.nodes.parameter_table --markdown > docs/parameters.md'
     for spec in SPECS:
         assert f'| `{spec.name}` |' in committed and spec.valid_text() in committed
 
@@ -53,7 +58,7 @@ def test_module_defaults_are_the_spec_defaults():
     from abb_ros.io.bag_writer import DEFAULT_CHUNK_SIZE
     from abb_ros.model.integrate import DEFAULT_DT
     from abb_ros.model.speed_bands import TABLE_POINTS
-    assert DriveParams().as_dict() == {s.short: s.default for s in param_spec.DRIVE_SPECS}
+    assert DriveParams().as_dict() == {s.short: s.default for s in DRIVE_SPECS}
     assert DEFAULT_DT == 1.0 / specs_for('simulator')['integration_rate_hz'].default
     assert TABLE_POINTS == specs_for('analysis')['table_points'].default
     assert DEFAULT_CHUNK_SIZE == specs_for('recorder')['chunk_size'].default
@@ -106,9 +111,9 @@ def test_open_and_closed_bounds_read_as_intervals():
 
 def test_cli_set_names_come_from_the_spec():
     assert {'k', 'n', 'imu.accel_noise_density', 'seed', 'spindle.tau'} <= set(
-        param_spec.cli_names('run'))
-    assert 'imu.accel_noise_density' not in param_spec.cli_names('stability')
-    assert 'real_time_factor' not in param_spec.cli_names('run')
+        plant_spec.cli_names('run'))
+    assert 'imu.accel_noise_density' not in plant_spec.cli_names('stability')
+    assert 'real_time_factor' not in plant_spec.cli_names('run')
 
 
 def test_stability_refuses_a_node_parameter_naming_the_valid_ones(capsys):

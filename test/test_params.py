@@ -4,6 +4,7 @@ import math
 
 import pytest
 
+from abb_ros.io.drive_file import read_drive_yaml, write_drive_yaml
 from abb_ros.model.params import METAL_C, DriveParams, ParamError, apply_settings
 
 TABLE1 = DriveParams()
@@ -59,15 +60,15 @@ def test_unknown_and_bad_dimensionless_settings_are_refused():
 def test_yaml_round_trip_and_table1_file(tmp_path):
     from pathlib import Path
     shipped = Path(__file__).resolve().parents[1] / 'config' / 'cdrom_table1.yaml'
-    assert DriveParams.from_yaml(shipped) == TABLE1
+    assert read_drive_yaml(shipped) == TABLE1
     custom = TABLE1.replace(c=METAL_C, n=10, m=1.5e-4)
     path = tmp_path / 'drive.yaml'
-    custom.to_yaml(path)
-    assert DriveParams.from_yaml(path) == custom
+    write_drive_yaml(custom, path)
+    assert read_drive_yaml(path) == custom
 
 
 def test_yaml_with_bad_value_is_refused(tmp_path):
     path = tmp_path / 'bad.yaml'
     path.write_text('/**:\n  ros__parameters:\n    drive:\n      k: -5.0\n')
     with pytest.raises(ParamError, match="'k'"):
-        DriveParams.from_yaml(path)
+        read_drive_yaml(path)

@@ -172,9 +172,9 @@ def test_the_pitch_pattern_has_zero_mean_the_rms_asked_for_and_comes_from_the_se
 
 
 def test_the_node_parameter_refuses_a_pitch_error_that_would_reorder_the_edges():
-    from abb_ros.model.param_spec import specs_for
     from abb_ros.model.params import ParamError
     from abb_ros.nodes.bench_settings import bench_settings
+    from abb_ros.nodes.parameter_table import specs_for
     values = {name: spec.default for name, spec in specs_for('simulator').items()}
     assert bench_settings(values).speed_sensor == SpeedSensorConfig()
     values['speed_sensor.pitch_error'] = 0.2

@@ -10,11 +10,14 @@ import contextlib
 import os
 from pathlib import Path
 
-from abb_ros.model.param_spec import ParamError, cli_names, spec_for_command
+from abb_ros.io.drive_file import read_drive_yaml
+from abb_ros.io.safe_yaml import YamlFileError, load_text
+from abb_ros.model.param_spec import STRING, ParamError, ParamSpec
 from abb_ros.model.params import DIMENSIONLESS_NAMES, PARAM_SPECS, DriveParams, parse_value
+from abb_ros.model.plant_spec import cli_names, spec_for_command
 
-__all__ = ['UsageError', 'CommandFailed', 'parse_settings', 'drive_params', 'check_output',
-           'output_files']
+__all__ = ['UsageError', 'CommandFailed', 'parse_settings', 'parse_spec_value', 'drive_params',
+           'check_output', 'output_files']
 
 
 class UsageError(Exception):
@@ -29,7 +32,7 @@ def parse_settings(items, command: str | None = None) -> dict:
     """``['k=4000', 'wbar=2.7']`` -> ``{'k': 4000.0, 'wbar': 2.7}``.
 
     Drive (SI and Eq. 39) values are checked later, together; with ``command`` the other
-    names it accepts (abb_ros/model/param_spec.py, e.g. ``imu.*`` for run) are parsed and
+    names it accepts (abb_ros/model/plant_spec.py, e.g. ``imu.*`` for run) are parsed and
     checked here, and an unknown name is an error listing the valid ones."""
     settings = {}
     for item in items or []:
@@ -44,8 +47,22 @@ def parse_settings(items, command: str | None = None) -> dict:
                 raise ParamError(key, text, 'a known name: ' + valid, 'unknown parameter')
             settings[key] = parse_value(key, text.strip())
         else:
-            settings[key] = spec.parse(text.strip(), key)
+            settings[key] = parse_spec_value(spec, text.strip(), key)
     return settings
+
+
+def parse_spec_value(spec: ParamSpec, text: str, name: str):
+    """Return the value of ``--set name=text`` (YAML syntax, as ``ros2 param set``), checked.
+
+    A string parameter takes ``text`` as it is; raises ParamError naming ``name``.
+    """
+    try:
+        value = load_text(text, where=name)
+    except YamlFileError:
+        value = text
+    if spec.type == STRING:
+        value = text
+    return spec.check(value, name)
 
 
 def drive_params(config) -> DriveParams:
@@ -54,7 +71,7 @@ def drive_params(config) -> DriveParams:
     if not config:
         return DriveParams()
     try:
-        return DriveParams.from_yaml(config)
+        return read_drive_yaml(config)
     except ParamError as exc:
         if exc.name == 'config':
             raise

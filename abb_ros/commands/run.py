@@ -43,7 +43,7 @@ def add_arguments(parser):
 
 def _run_options(node: dict) -> dict:
     """run_scenario's keyword arguments for the node parameters given with --set."""
-    from abb_ros.model.param_spec import check_rates, imu_config
+    from abb_ros.model.plant_spec import check_rates, imu_config
     check_rates(node)
     options = {}
     if 'integration_rate_hz' in node:
@@ -61,8 +61,8 @@ def _spindle(spindle, node: dict):
     """The scenario's spindle with spindle.max_accel / spindle.tau applied (a constant-speed
     spindle becomes the motor of the simulator node, with its defaults for the other)."""
     from abb_ros.model.integrate import SpindleMotor, TorqueMotor
-    from abb_ros.model.param_spec import specs_for
     from abb_ros.model.params import ParamError
+    from abb_ros.model.plant_spec import PLANT
     changes = {k[len('spindle.'):]: v for k, v in node.items() if k.startswith('spindle.')}
     if not changes:
         return spindle
@@ -71,8 +71,7 @@ def _spindle(spindle, node: dict):
         raise ParamError(f'spindle.{name}', changes[name], 'none: the scenario drives the '
                          'spindle by torque (spindle: model: torque)')
     if not isinstance(spindle, SpindleMotor):
-        specs = specs_for('simulator')
-        spindle = SpindleMotor(specs['spindle.max_accel'].default, specs['spindle.tau'].default)
+        spindle = SpindleMotor(PLANT['spindle.max_accel'].default, PLANT['spindle.tau'].default)
     return dataclasses.replace(spindle, **changes)
 
 

@@ -33,8 +33,10 @@ class YamlFileError(ValueError):
 
 
 class _PyLoader(yaml.SafeLoader):
-    """SafeLoader that stops scanning flow collections nested deeper than ``MAX_DEPTH`` (its
-    bookkeeping is quadratic in the flow depth); used where PyYAML has no libyaml."""
+    """SafeLoader that stops scanning flow collections nested deeper than ``MAX_DEPTH``.
+
+    Its bookkeeping is quadratic in the flow depth; used where PyYAML has no libyaml.
+    """
 
     def fetch_flow_collection_start(self, TokenClass):
         if self.flow_level >= MAX_DEPTH:
@@ -71,7 +73,7 @@ def _check_events(text: str) -> None:
 
 
 def load_text(text: str, where='<text>', max_bytes: int = MAX_BYTES):
-    """The YAML document in ``text``; :class:`YamlFileError` naming ``where`` if it is not one."""
+    """Return the YAML document in ``text``; :class:`YamlFileError` naming ``where`` if none."""
     if len(text) > max_bytes:
         raise YamlFileError(where, f'larger than {max_bytes} bytes')
     try:
@@ -82,7 +84,7 @@ def load_text(text: str, where='<text>', max_bytes: int = MAX_BYTES):
 
 
 def load_file(path, max_bytes: int = MAX_BYTES):
-    """The YAML document in the file ``path`` (None for an empty file)."""
+    """Return the YAML document in the file ``path`` (None for an empty file)."""
     path = Path(path)
     try:
         with open(path, 'rb') as f:

@@ -253,7 +253,7 @@ def _spindle(spec, params):
 
 def _torque_spindle(spec):
     """model: torque: a TorqueMotor (motor.* names, MOTOR_DEFAULTS) and timed currents [A]."""
-    from abb_ros.model.param_spec import MOTOR_DEFAULTS
+    from abb_ros.model.plant_spec import MOTOR_DEFAULTS
     spec = _mapping('scenario.spindle', spec, {'model', 'motor', 'commands'})
     given = _mapping('scenario.spindle.motor', spec.get('motor') or {}, set(MOTOR_DEFAULTS))
     values = {}

@@ -22,7 +22,7 @@ import numpy as np
 
 from abb_ros.model import kernels
 from abb_ros.model.dynamics import solver_buffers
-from abb_ros.model.param_spec import MOTOR_DEFAULTS
+from abb_ros.model.plant_spec import MOTOR_DEFAULTS
 from abb_ros.model.params import DriveParams, ParamError
 from abb_ros.model.state import StateLayout, wrap_angle
 
@@ -118,7 +118,7 @@ class TorqueMotor:
     FIELDS = dict(K_t='torque_constant', R_w='resistance', I_max='current_limit',
                   b_v='viscous_friction', T_c='coulomb_friction', omega_c='friction_smoothing',
                   V_s='voltage_limit')
-    """Field -> parameter name (``motor.<name>``, param_spec.MOTOR_DEFAULTS)."""
+    """Field -> parameter name (``motor.<name>``, plant_spec.MOTOR_DEFAULTS)."""
 
     @classmethod
     def from_values(cls, values) -> 'TorqueMotor':

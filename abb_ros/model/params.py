@@ -21,8 +21,8 @@ import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
-from abb_ros.model.param_spec import (DRIVE_SPECS, MAX_BALLS, METAL_C, RUBBER_C, ParamError,
-                                      ParamSpec)
+from abb_ros.model.drive_spec import DRIVE_SPECS, MAX_BALLS, METAL_C, RUBBER_C
+from abb_ros.model.param_spec import ParamError, ParamSpec
 
 __all__ = [
     'ParamError', 'DriveParams', 'PARAM_SPECS', 'DIMENSIONLESS_NAMES', 'METAL_C', 'RUBBER_C',
@@ -30,7 +30,7 @@ __all__ = [
 ]
 
 PARAM_SPECS: dict[str, ParamSpec] = {s.short: s for s in DRIVE_SPECS}
-"""{SI name: spec} of the drive parameters (abb_ros/model/param_spec.py)."""
+"""{SI name: spec} of the drive parameters (abb_ros/model/drive_spec.py)."""
 
 
 def _default(name):
@@ -89,7 +89,7 @@ class DriveParams:
         self._check_beyond_paper()
 
     def _check_beyond_paper(self):
-        """Consistency of the issue-12 terms: what needs a ball size, and whether balls fit."""
+        """Check the terms beyond the paper: what needs a ball size, and whether balls fit."""
         if float(self.ball_rotation) not in (0.0, 1.0):
             raise ParamError('ball_rotation', self.ball_rotation, '0 or 1')
         object.__setattr__(self, 'ball_rotation', int(self.ball_rotation))
@@ -106,8 +106,11 @@ class DriveParams:
 
     @property
     def beyond_paper(self) -> tuple[str, ...]:
-        """Names of the active issue-12 terms (contact, rolling resistance, ball rotation):
-        terms the paper's equations and its linear analysis do not have."""
+        """Return the names of the active terms beyond the paper.
+
+        Contact, rolling resistance, ball rotation: terms the paper's equations and its linear
+        analysis do not have.
+        """
         active = []
         if self.contact_E > 0:
             active.append('contact')
@@ -149,11 +152,6 @@ class DriveParams:
         return self.m / self.M
 
     @property
-    def total_mass(self) -> float:
-        """M + M_P + n m [kg], the translational mass of Eqs. (18)-(20)."""
-        return self.M + self.M_P + self.n * self.m
-
-    @property
     def can_balance(self) -> bool:
         """True when the balls can cancel the imbalance: n m R >= M eps (Eq. 26 solvable)."""
         return self.n * self.m * self.R >= self.M * self.eps
@@ -163,12 +161,12 @@ class DriveParams:
         return omega / self.omega0
 
     def dimensionless(self) -> dict[str, float]:
-        """The Eq. (39) parameters that do not depend on the speed."""
+        """Return the Eq. (39) parameters that do not depend on the speed."""
         return {'zeta': self.zeta, 'Dbar': self.Dbar, 'epsbar': self.epsbar,
                 'mbar': self.mbar, 'n': self.n}
 
     def replace(self, **changes) -> 'DriveParams':
-        """A validated copy with ``changes`` applied (SI names)."""
+        """Return a validated copy with ``changes`` applied (SI names)."""
         unknown = set(changes) - set(PARAM_SPECS)
         if unknown:
             name = sorted(unknown)[0]
@@ -177,9 +175,9 @@ class DriveParams:
         return dataclasses.replace(self, **changes)
 
     def as_dict(self) -> dict[str, float]:
+        """Return {SI name: value} of every field, in declaration order."""
         return dataclasses.asdict(self)
 
-    # ---- ROS 2 parameter YAML --------------------------------------------------------------
     @classmethod
     def from_mapping(cls, values: Mapping[str, Any], base: 'DriveParams | None' = None
                      ) -> 'DriveParams':
@@ -189,52 +187,6 @@ class DriveParams:
                 raise ParamError(str(key), values[key], 'one of ' + ', '.join(PARAM_SPECS),
                                  'unknown parameter')
         return (base or cls()).replace(**dict(values))
-
-    @classmethod
-    def from_yaml(cls, path, node: str | None = None) -> 'DriveParams':
-        """Load the ``drive.*`` parameters from a ROS 2 parameter file.
-
-        The file has the form ``<node or /**>: ros__parameters: drive: {a: ..., ...}``.
-        With ``node`` given, that node's section is used (falling back to ``/**``);
-        otherwise the first section that has ``drive``.
-        """
-        from abb_ros.io.safe_yaml import YamlFileError, load_file
-        try:
-            doc = load_file(path) or {}
-        except YamlFileError as exc:
-            raise ParamError('config', str(path), 'a ROS 2 parameter file', exc.why) from None
-        if not isinstance(doc, Mapping):
-            raise ParamError('config', str(path), 'a mapping <node>: ros__parameters: drive:',
-                             f'the document is a {type(doc).__name__}')
-        section = _find_drive_section(doc, node)
-        if section is None:
-            raise ParamError('drive', None, 'a mapping under <node>: ros__parameters: drive:',
-                             f'no drive parameters in {path}')
-        return cls.from_mapping(section)
-
-    def to_yaml(self, path, node: str = '/**') -> None:
-        """Write the parameters as a ROS 2 parameter file (``drive.*`` names)."""
-        import yaml
-        doc = {node: {'ros__parameters': {'drive': self.as_dict()}}}
-        with open(path, 'w', encoding='utf-8') as f:
-            f.write('# abb_ros drive parameters, SI units (see abb_ros/model/params.py)\n')
-            yaml.safe_dump(doc, f, sort_keys=False)
-
-
-def _find_drive_section(doc: Mapping, node: str | None):
-    candidates = []
-    if node is not None:
-        candidates += [node, '/' + node.lstrip('/')]
-    candidates += ['/**']
-    sections = [doc.get(key) for key in candidates]
-    if node is None:
-        sections += list(doc.values())
-    for sec in sections:
-        ros = sec.get('ros__parameters') if isinstance(sec, Mapping) else None
-        drive = ros.get('drive') if isinstance(ros, Mapping) else None
-        if isinstance(drive, Mapping):
-            return drive
-    return None
 
 
 def omega_from_wbar(params: DriveParams, wbar: float) -> float:

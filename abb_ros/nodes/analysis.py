@@ -4,7 +4,7 @@ Tells a controller, before the balls show it, whether the current operating poin
 balanced. A thin rclpy adapter over :mod:`abb_ros.model.speed_bands`:
 
 * parameters ``drive.*`` are declared exactly as the simulator declares them (one spec,
-  :mod:`abb_ros.model.param_spec`), so both load the same YAML; at start-up and whenever the
+  :mod:`abb_ros.model.drive_spec`), so both load the same YAML; at start-up and whenever the
   simulator (parameter ``simulator_node``, resolved in this node's namespace) declares or
   changes ``drive.*`` or ``max_spindle_speed``, the values are copied into this node's own
   parameters (from ``/parameter_events``, and once by GetParameters for a simulator that was
@@ -46,10 +46,11 @@ from std_msgs.msg import Float64
 from abb_ros.io import cdr, ros_messages
 from abb_ros.io.joint_speed import JointSpeedReader
 from abb_ros.model import speed_bands
-from abb_ros.model.param_spec import DRIVE_PREFIX, specs_for
+from abb_ros.model.param_spec import DRIVE_PREFIX
 from abb_ros.model.params import DriveParams, ParamError
 from abb_ros.nodes import ros_params
 from abb_ros.nodes.entry_point import run_node
+from abb_ros.nodes.parameter_table import specs_for
 from abb_ros.nodes.taps import Taps
 from abb_ros.model.table_worker import REFINE_TOL_RAD_S, TableWorker
 
@@ -60,7 +61,7 @@ WARN_THROTTLE_S = 5.0
 
 PARAMS = specs_for('analysis')
 """{ROS name: spec}: drive.* and max_spindle_speed as the simulator has them, then this
-node's own (abb_ros/model/param_spec.py)."""
+node's own (abb_ros/nodes/analysis_params.py)."""
 DRIVE_NAMES = tuple(name for name in PARAMS if name.startswith(DRIVE_PREFIX))
 FOLLOWED = DRIVE_NAMES + ('max_spindle_speed',)
 """Simulator parameters this node copies."""

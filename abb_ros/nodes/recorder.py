@@ -29,15 +29,16 @@ from rclpy.node import Node
 
 from abb_ros.io import cdr
 from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
-from abb_ros.model.param_spec import ParamError, specs_for
+from abb_ros.model.param_spec import ParamError
 from abb_ros.nodes import ros_params
 from abb_ros.nodes.entry_point import run_node
 from abb_ros.nodes.graph_recording import GraphRecording, resolve_topics
+from abb_ros.nodes.parameter_table import specs_for
 
 __all__ = ['Recorder', 'default_output', 'main']
 
 PARAMS = specs_for('recorder')
-"""{ROS name: spec} of the recorder's parameters (abb_ros/model/param_spec.py)."""
+"""{ROS name: spec} of the recorder's parameters (abb_ros/nodes/recorder_params.py)."""
 DIAGNOSTICS_PERIOD_S = 1.0
 DRAIN_PERIOD_S = 0.01
 """How often the subscription queues are emptied into the bag [s] (queue_depth messages must

@@ -1,5 +1,7 @@
-"""ROS parameters from the one spec (abb_ros/model/param_spec.py): descriptors, the declare
-loop of the nodes, int -> double coercion, and the simulator's validated settings.
+"""ROS parameters from the parameter specs: descriptors, declaring, int -> double coercion.
+
+Also the simulator's validated settings. The specs are collected by
+:mod:`abb_ros.nodes.parameter_table`.
 
 :func:`declare` declares a node's parameters with descriptors derived from their specs. It
 checks the start-up values (``-p``, ``--params-file``) against the spec before rclpy sees
@@ -17,16 +19,21 @@ import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
-from rcl_interfaces.msg import (FloatingPointRange, IntegerRange, ParameterDescriptor,
-                                SetParametersResult)
+from rcl_interfaces.msg import (
+    FloatingPointRange,
+    IntegerRange,
+    ParameterDescriptor,
+    SetParametersResult,
+)
 from rclpy.parameter import Parameter
 
-from abb_ros.model.param_spec import (DOUBLE, DOUBLE_ARRAY, DRIVE_PREFIX, INTEGER, ParamSpec,
-                                      check_rates, imu_config, specs_for)
 from abb_ros.model.integrate import SpindleMotor, TorqueMotor
+from abb_ros.model.param_spec import DOUBLE, DOUBLE_ARRAY, DRIVE_PREFIX, INTEGER, ParamSpec
 from abb_ros.model.params import DriveParams, ParamError
+from abb_ros.model.plant_spec import check_rates, imu_config
 from abb_ros.model.sensors import ImuConfig
 from abb_ros.nodes.bench_settings import BenchSettings, bench_settings
+from abb_ros.nodes.parameter_table import specs_for
 
 __all__ = ['DRIVE_PREFIX', 'SIMULATOR_PARAMS', 'SimSettings', 'declare', 'declare_all',
            'coerce_on_set', 'descriptor', 'settings_from', 'current_values', 'validate_change',
@@ -40,8 +47,11 @@ SIMULATOR_PARAMS: dict[str, ParamSpec] = specs_for('simulator')
 
 
 def descriptor(spec: ParamSpec) -> ParameterDescriptor:
-    """The ROS descriptor of ``spec``. ROS ranges are closed: an open bound (k > 0) is
-    checked by the spec in the set-parameters callback."""
+    """Return the ROS descriptor of ``spec``.
+
+    ROS ranges are closed: an open bound (k > 0) is checked by the spec in the set-parameters
+    callback.
+    """
     valid = spec.valid_text()
     text = f'{spec.description} [{spec.unit or "-"}]; valid {valid}'
     if spec.applies:
@@ -62,7 +72,8 @@ def declare(node, specs: Mapping[str, ParamSpec], defaults: Mapping[str, Any] = 
     """Declare ``specs`` on ``node`` ({ROS name: spec}; ``defaults`` replace spec defaults).
 
     The start-up overrides are checked first (strict types; an int for a double becomes the
-    double); raises ParamError naming the ROS parameter and what is valid."""
+    double); raises ParamError naming the ROS parameter and what is valid.
+    """
     defaults = defaults or {}
     overrides = node._parameter_overrides   # rclpy's -p / --params-file values, by name
     for name, spec in specs.items():
@@ -87,9 +98,11 @@ def declare(node, specs: Mapping[str, ParamSpec], defaults: Mapping[str, Any] = 
 
 
 def coerce_on_set(node, specs: Mapping[str, ParamSpec]) -> None:
-    """Accept an integer for a double parameter at run time too (``ros2 param set ... 4000``):
-    a pre-set callback re-types it as a double before rclpy compares it with the declared
-    type. Other wrong types are refused by rclpy's type check."""
+    """Accept an integer for a double parameter at run time too (``ros2 param set ... 4000``).
+
+    A pre-set callback re-types it as a double before rclpy compares it with the declared
+    type. Other wrong types are refused by rclpy's type check.
+    """
     int_types = {DOUBLE: Parameter.Type.INTEGER, DOUBLE_ARRAY: Parameter.Type.INTEGER_ARRAY}
 
     def coerce(parameters):
@@ -125,28 +138,33 @@ class SimSettings:
     motor: TorqueMotor = TorqueMotor()
 
     def spindle(self):
-        """The Simulation's spindle: the speed loop, or the motor in torque mode."""
+        """Return the Simulation's spindle: the speed loop, or the motor in torque mode."""
         if self.spindle_mode == 'torque':
             return self.motor
         return SpindleMotor(self.spindle_max_accel, self.spindle_tau)
 
     @property
     def dt_ns(self) -> int:
+        """The integration step [ns]."""
         return 1_000_000_000 // self.integration_rate_hz
 
     @property
     def publish_every(self) -> int:
+        """Steps between two published states."""
         return self.integration_rate_hz // self.publish_rate_hz
 
     @property
     def imu_every(self) -> int:
+        """Steps between two IMU readings."""
         return self.integration_rate_hz // int(self.imu.rate)
 
 
 def declare_all(node) -> tuple[DriveParams, SimSettings]:
-    """Declare every simulator parameter on ``node`` (overrides from --params-file / -p win
-    over the defaults) and return them validated; raises ParamError for invalid start-up
-    values."""
+    """Declare every simulator parameter on ``node`` and return them validated.
+
+    Overrides from --params-file / -p win over the defaults; raises ParamError for invalid
+    start-up values.
+    """
     drive_specs = {k: s for k, s in SIMULATOR_PARAMS.items() if k.startswith(DRIVE_PREFIX)}
     declare(node, drive_specs)
     drive = with_ros_names(DriveParams.from_mapping)(
@@ -158,12 +176,12 @@ def declare_all(node) -> tuple[DriveParams, SimSettings]:
 
 
 def current_values(node) -> dict[str, Any]:
-    """Every simulator parameter's current value, by ROS name."""
+    """Return every simulator parameter's current value, by ROS name."""
     return {name: node.get_parameter(name).value for name in SIMULATOR_PARAMS}
 
 
 def settings_from(values: Mapping[str, Any]) -> tuple[DriveParams, SimSettings]:
-    """Validated parameters from a flat {ROS name: value} mapping; raises ParamError."""
+    """Return validated parameters from a flat {ROS name: value} mapping; raises ParamError."""
     drive = DriveParams.from_mapping(
         {k[len(DRIVE_PREFIX):]: v for k, v in values.items() if k.startswith(DRIVE_PREFIX)})
     for name, spec in SIMULATOR_PARAMS.items():
@@ -188,7 +206,7 @@ def settings_from(values: Mapping[str, Any]) -> tuple[DriveParams, SimSettings]:
 
 
 def with_ros_names(function):
-    """``function`` whose ParamError names the ROS parameter (drive.k, not the SI name k)."""
+    """Wrap ``function`` so its ParamError names the ROS parameter (drive.k, not k)."""
     def wrapped(*args, **kwargs):
         try:
             return function(*args, **kwargs)
@@ -200,8 +218,11 @@ def with_ros_names(function):
 
 
 def validate_merged(values: dict, parameters, build) -> SetParametersResult:
-    """The proposed ``parameters`` merged into ``values`` ({ROS name: value}) must be accepted
-    by ``build(values)`` (which raises ParamError otherwise). No side effects."""
+    """Check that ``build`` accepts ``values`` with the proposed ``parameters`` merged in.
+
+    ``values`` is {ROS name: value}; ``build(values)`` raises ParamError for invalid ones.
+    No side effects.
+    """
     values = dict(values)
     for p in parameters:
         if p.name in values:
@@ -216,6 +237,9 @@ def validate_merged(values: dict, parameters, build) -> SetParametersResult:
 
 
 def validate_change(node, parameters) -> SetParametersResult:
-    """on-set-parameters callback body: the proposed values merged with the current ones
-    must make valid settings. No side effects."""
+    """Check a proposed change: the on-set-parameters callback body.
+
+    The proposed values merged with the current ones must make valid settings. No side
+    effects.
+    """
     return validate_merged(current_values(node), parameters, settings_from)

@@ -31,12 +31,12 @@ from std_msgs.msg import Float64
 
 from abb_ros.model import speed_bands
 from abb_ros.model.integrate import TorqueMotor
-from abb_ros.model.param_spec import specs_for
 from abb_ros.model.params import DriveParams, ParamError
 from abb_ros.model.run_up import RunUp, hold_speed
 from abb_ros.model.speed_loop import SpeedLoop, rotor_inertia
 from abb_ros.nodes import ros_params
 from abb_ros.nodes.entry_point import run_node
+from abb_ros.nodes.parameter_table import specs_for
 
 NODE_NAME = 'abb_spin_controller'
 QOS_DEPTH = 10
@@ -47,7 +47,7 @@ MOTOR_PREFIX = 'motor.'
 
 PARAMS = specs_for('spin_controller')
 """{ROS name: spec}: drive.*, motor.*, max_spindle_speed and the controller's own
-(abb_ros/model/param_spec.py)."""
+(abb_ros/nodes/spin_controller_params.py and the model's specs)."""
 
 
 class SpinController(Node):

@@ -40,6 +40,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from abb_ros.io.safe_yaml import YamlFileError, load_file
 from abb_ros.io.scenario import finite_number as _num
 from abb_ros.model.params import DIMENSIONLESS_NAMES, PARAM_SPECS, ParamError, apply_settings
 
@@ -90,7 +91,6 @@ DEFAULT_RBAR_LIMIT = 1.0e-3
 def load_yaml(path) -> object:
     """The YAML document at ``path``, read by the package's one loader (abb_ros/io/safe_yaml.py:
     size-capped at MAX_SPEC_BYTES, no aliases, nesting capped); ParamError 'spec' otherwise."""
-    from abb_ros.io.safe_yaml import YamlFileError, load_file
     try:
         return load_file(path, max_bytes=MAX_SPEC_BYTES)
     except YamlFileError as exc:

@@ -32,7 +32,7 @@ from dataclasses import fields
 
 import numpy as np
 
-from abb_ros.model.param_spec import MOTOR_DEFAULTS
+from abb_ros.model.plant_spec import MOTOR_DEFAULTS
 from abb_ros.model.params import DriveParams
 from abb_ros.model.state import rbar
 

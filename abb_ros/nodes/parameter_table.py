@@ -1,0 +1,108 @@
+"""Every parameter of abb_ros, collected from the specs beside what each configures.
+
+The drive's (:mod:`abb_ros.model.drive_spec`) and the plant's (:mod:`abb_ros.model.plant_spec`)
+live in the model, each node's own beside the node (``abb_ros/nodes/<node>_params.py``). This
+module joins them: :data:`SPECS`, :func:`specs_for` (what a node declares, in order) and
+:func:`markdown`, the table of docs/parameters.md
+(``python -m abb_ros.nodes.parameter_table --markdown > docs/parameters.md``). The names
+``abb-sim --set`` takes are the model's alone (:func:`abb_ros.model.plant_spec.cli_names`).
+"""
+
+from __future__ import annotations
+
+import sys
+from typing import Iterable
+
+from abb_ros.model.drive_spec import DRIVE_SPECS
+from abb_ros.model.param_spec import ParamSpec
+from abb_ros.nodes.analysis_params import ANALYSIS_SPECS
+from abb_ros.nodes.recorder_params import RECORDER_SPECS
+from abb_ros.nodes.simulator_params import SIMULATOR_SPECS
+from abb_ros.nodes.spin_controller_params import CONTROLLER_SPECS
+
+__all__ = ['NODES', 'SPECS', 'specs_for', 'markdown']
+
+NODES = ('simulator', 'analysis', 'recorder', 'spin_controller')
+"""Executables with ROS parameters (``ros2 run abb_ros <node>``)."""
+
+SPECS = DRIVE_SPECS + SIMULATOR_SPECS + ANALYSIS_SPECS + RECORDER_SPECS + CONTROLLER_SPECS
+"""Every parameter. A name may appear twice for different nodes (publish_rate_hz)."""
+
+
+def specs_for(node: str) -> dict[str, ParamSpec]:
+    """Return {ROS name: spec} of the parameters ``node`` (one of NODES) declares, in order."""
+    return {s.name: s for s in SPECS if node in s.nodes}
+
+
+def _default_text(spec: ParamSpec) -> str:
+    if spec.default is None:
+        return '(computed)'
+    if isinstance(spec.default, bool):
+        return str(spec.default).lower()
+    if isinstance(spec.default, str):
+        return f"'{spec.default}'"
+    if isinstance(spec.default, list):
+        return '[' + ', '.join(_default_text(ParamSpec('', x, '', '')) for x in
+                               spec.default) + ']'
+    return f'{spec.default:g}' if isinstance(spec.default, float) else str(spec.default)
+
+
+def _table(specs: Iterable[ParamSpec]) -> list[str]:
+    rows = ['| name | type | default | valid | applies | `abb-sim --set` | description |',
+            '|---|---|---|---|---|---|---|']
+    for s in specs:
+        applies = s.applies + (' (read-only)' if s.read_only else '')
+        cli = ', '.join(s.commands) if s.commands else '-'
+        rows.append(f'| `{s.name}` | {s.type} | {_default_text(s)} | {s.valid_text()} | '
+                    f'{applies} | {cli} | {s.description.replace("|", chr(92) + "|")} |')
+    return rows
+
+
+def markdown() -> str:
+    """Return docs/parameters.md: one table per node, generated from SPECS."""
+    lines = ['# Parameters', '',
+             'Generated from the parameter specs (the drive\'s and the plant\'s in',
+             '`abb_ros/model/drive_spec.py` and `abb_ros/model/plant_spec.py`, each node\'s',
+             'own in `abb_ros/nodes/<node>_params.py`) by',
+             '`python -m abb_ros.nodes.parameter_table --markdown > docs/parameters.md`;',
+             'do not edit by hand (test/test_param_spec.py compares).', '',
+             'Ranges: `[` `]` include the bound, `(` `)` exclude it. ROS nodes take the '
+             'parameters with `--ros-args -p name:=value` or `--params-file` '
+             '(config/cdrom_table1.yaml, config/simulator.yaml); an integer literal for a '
+             'double is taken as that double, at start-up and at run time. Invalid values '
+             'or types at start-up end the node with exit code 2 and one line naming the '
+             'parameter; at run time an invalid value is refused with the same text (a wrong '
+             'type with rclpy\'s type error). '
+             '`abb-sim` subcommands take the names in the `abb-sim --set` column (drive '
+             'parameters without `drive.`), besides `omega` [rad/s] and the Eq. (39) names '
+             'wbar, zeta, Dbar, epsbar, mbar.', '']
+    titles = {'drive': 'Drive (`drive.*`, simulator, analysis and controller nodes)',
+              'simulator': 'Simulator node (`abb_simulator`)',
+              'analysis': 'Analysis node (`abb_analysis`)',
+              'recorder': 'Recorder node (`abb_recorder`)',
+              'controller': 'Example controller (`abb_spin_controller`, executable '
+                            '`spin_controller`)'}
+    groups = {'drive': DRIVE_SPECS, 'simulator': SIMULATOR_SPECS,
+              'analysis': ANALYSIS_SPECS, 'recorder': RECORDER_SPECS,
+              'controller': CONTROLLER_SPECS}
+    for key, specs in groups.items():
+        lines += ['## ' + titles[key], ''] + _table(specs) + ['']
+    lines.append('The analysis node and the example controller also declare `drive.*` and '
+                 '`max_spindle_speed` (above); the analysis node copies them from the '
+                 'simulator it follows; the example controller also declares `motor.*` '
+                 '(simulator, above), which must be the simulator\'s in torque mode.')
+    return '\n'.join(lines) + '\n'
+
+
+def main(argv=None) -> int:
+    """Print docs/parameters.md (``--markdown``); return the exit code."""
+    argv = sys.argv[1:] if argv is None else argv
+    if argv != ['--markdown']:
+        print('usage: python -m abb_ros.nodes.parameter_table --markdown', file=sys.stderr)
+        return 2
+    sys.stdout.write(markdown())
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())

@@ -1,0 +1,110 @@
+"""The simulator node's parameters: the plant's, and those only the node has.
+
+:data:`SIMULATOR_SPECS` is the node's list, in declaration order: the drive is declared
+first (:mod:`abb_ros.model.drive_spec`), then these. The plant's parameters (rates, spindle,
+seed, IMU, motor; :mod:`abb_ros.model.plant_spec`) are shared with ``abb-sim run``; pacing,
+the bench (FG speed sensor, faults, disturbances, markers) and recording are the node's own.
+"""
+
+from __future__ import annotations
+
+import math
+
+from abb_ros.model.param_spec import BOOL, DOUBLE_ARRAY, INTEGER, STRING, STRING_ARRAY, ParamSpec
+from abb_ros.model.plant_spec import (
+                                      IMU_SPECS,
+                                      MAX_SPINDLE_SPEED,
+                                      MOTOR_SPECS,
+                                      SEED,
+                                      SPINDLE_SPECS,
+                                      STEP_SPECS,
+)
+
+__all__ = ['SIMULATOR_SPECS', 'SPINDLE_MODE']
+
+_INF = math.inf
+_AT_STEP = 'at the next step'
+_SIM = ('simulator',)
+
+_PACING = (
+    ParamSpec('real_time_factor', 1.0, '', 'simulated seconds per wall second (1 = wall '
+              'clock, HIL); 0 = as fast as possible', low=0.0, high=1000.0, applies=_AT_STEP,
+              nodes=_SIM),
+    ParamSpec('start_paused', False, '', 'start with integration paused (use ~/pause, ~/step)',
+              BOOL, read_only=True, applies='at start-up', nodes=_SIM),
+)
+
+_BENCH = (
+    # FG speed sensor, faults, disturbances, markers (nodes/bench_settings.py),
+    # pacing limits, recording
+    ParamSpec('speed_sensor.pulses_per_rev', 6, '', 'FG pulses per spindle revolution (3 per '
+              'pole pair of a BLDC motor)', INTEGER, 1, 1000, applies='on ~/reset', nodes=_SIM),
+    ParamSpec('speed_sensor.timer_hz', 1.0e6, 'Hz', 'FG edge capture timer clock '
+              '(quantisation)', low=0.0, low_open=True, high=_INF, applies='on ~/reset',
+              nodes=_SIM),
+    ParamSpec('speed_sensor.edge_jitter', 1.0e-6, 's', 'FG edge time jitter, standard '
+              'deviation', low=0.0, high=_INF, applies='on ~/reset', nodes=_SIM),
+    ParamSpec('speed_sensor.timeout', 0.1, 's', 'no FG edge for this long reads 0 rad/s: '
+              'below 2 pi / (pulses_per_rev timeout), 10.47 rad/s by default, the reading drops '
+              'to 0 between edges',
+              low=0.0, low_open=True, high=_INF, applies='on ~/reset', nodes=_SIM),
+    ParamSpec('speed_sensor.pitch_error', 0.0, 'rad', 'FG pole-pitch error, RMS over the '
+              'edges of a revolution: a zero-mean pattern drawn from the seed, repeating every '
+              'revolution; below pi / pulses_per_rev^1.5', low=0.0, high=_INF,
+              applies='on ~/reset', nodes=_SIM),
+    ParamSpec('fault.imu_dropout', False, '', 'IMU dropout: no deck/imu messages while true',
+              BOOL, applies=_AT_STEP, nodes=_SIM),
+    ParamSpec('fault.imu_stuck', False, '', 'IMU stuck: deck/imu repeats its last reading '
+              'while true', BOOL, applies=_AT_STEP, nodes=_SIM),
+    ParamSpec('fault.imu_accel_bias_step', [0.0, 0.0, 0.0], 'm/s^2', 'bias step added to '
+              'deck/imu specific force, deck axes', DOUBLE_ARRAY, length=3, applies=_AT_STEP,
+              nodes=_SIM),
+    ParamSpec('fault.imu_gyro_bias_step', [0.0, 0.0, 0.0], 'rad/s', 'bias step added to '
+              'deck/imu angular rate, deck axes', DOUBLE_ARRAY, length=3, applies=_AT_STEP,
+              nodes=_SIM),
+    ParamSpec('fault.speed_dropout', False, '', 'speed sensor dropout: no spindle/speed while '
+              'true', BOOL, applies=_AT_STEP, nodes=_SIM),
+    ParamSpec('fault.speed_noise', 0.0, 'rad/s', 'white noise added to spindle/speed, std',
+              low=0.0, high=_INF, applies=_AT_STEP, nodes=_SIM),
+    ParamSpec('disturbance.shock_velocity', [0.0] * 6, 'm/s, rad/s', 'deck twist step of '
+              '~/apply_shock, deck axes [vx, vy, vz, wx, wy, wz]', DOUBLE_ARRAY, length=6,
+              applies='on ~/apply_shock', nodes=_SIM),
+    ParamSpec('disturbance.disc_eps', 0.25e-3, 'm', 'eccentricity eps of the disc put in by '
+              '~/swap_disc (becomes drive.eps)', low=0.0, high=1.0, applies='on ~/swap_disc',
+              nodes=_SIM),
+    ParamSpec('disturbance.disc_angle_deg', 0.0, 'deg', 'imbalance angle of the disc put in '
+              'by ~/swap_disc, relative to the current one', low=-360.0, high=360.0,
+              applies='on ~/swap_disc', nodes=_SIM),
+    ParamSpec('visualization.rate_hz', 20.0, 'Hz', 'visualization/markers rate, simulated '
+              'time; 0 = off', low=0.0, high=1000.0, applies=_AT_STEP, nodes=_SIM),
+    ParamSpec('visualization.exaggeration', 100.0, '', 'deck displacement and tilt scale '
+              'factor in visualization/markers', low=0.0, high=1.0e6, applies=_AT_STEP,
+              nodes=_SIM),
+    ParamSpec('max_stamp_lag', 0.1, 's', 'largest lag of a stamp behind its schedule (the wall '
+              'clock at real_time_factor 1); a later plant drops the excess (counted in slips) '
+              'and reports ERROR', low=0.001, high=3600.0, applies=_AT_STEP, nodes=_SIM),
+    ParamSpec('realtime_priority', 0, '', 'SCHED_FIFO priority of the integrating thread '
+              'while paced (real_time_factor > 0); 0 = the normal scheduler. Needs '
+              'CAP_SYS_NICE or an rtprio limit; refused: one warning, normal scheduler',
+              INTEGER, 0, 99, applies=_AT_STEP, nodes=_SIM),
+    ParamSpec('record.path', '', '', 'bag directory the node records what it publishes to '
+              '(must not exist); empty: no recording at start (~/start_recording uses it, or '
+              'abb_bag_<date>-<time>)', STRING, applies='at start-up', nodes=_SIM),
+    ParamSpec('record.topics', [], '', "other topics recorded into the node's bag, taken from "
+              'the middleware as the recorder node takes them (e.g. stability/margin, '
+              '/diagnostics, spindle/speed_cmd); a topic this node also publishes is then '
+              "recorded from the middleware with the others' messages", STRING_ARRAY,
+              applies='at start-up', nodes=_SIM),
+)
+
+SPINDLE_MODE = ParamSpec(
+    'spindle.mode', 'speed', '', 'speed: theta prescribed, spindle/speed_cmd through the '
+    'speed loop above; torque: theta free, driven by the motor.* motor from '
+    'spindle/current_cmd (docs/torque_mode.md)', STRING, choices=('speed', 'torque'),
+    applies=_AT_STEP, nodes=_SIM)
+"""How the spindle is driven: by the speed loop or by the motor's torque."""
+
+
+SIMULATOR_SPECS = (*STEP_SPECS, *_PACING, MAX_SPINDLE_SPEED, *SPINDLE_SPECS, SEED, *_BENCH,
+                   *IMU_SPECS, SPINDLE_MODE, *MOTOR_SPECS)
+"""The simulator node's parameters besides ``drive.*`` (config/simulator.yaml)."""
