@@ -33,7 +33,8 @@ def parse_settings(items, command: str | None = None) -> dict:
 
     Drive (SI and Eq. 39) values are checked later, together; with ``command`` the other
     names it accepts (abb_ros/model/plant_spec.py, e.g. ``imu.*`` for run) are parsed and
-    checked here, and an unknown name is an error listing the valid ones."""
+    checked here, and an unknown name is an error listing the valid ones.
+    """
     settings = {}
     for item in items or []:
         if '=' not in item:
@@ -66,8 +67,10 @@ def parse_spec_value(spec: ParamSpec, text: str, name: str):
 
 
 def drive_params(config) -> DriveParams:
-    """The ``--config`` parameter file's drive parameters (Table 1 without one); an error
-    names the file."""
+    """Read the drive parameters of the ``--config`` parameter file.
+
+    Table 1 without one; an error names the file.
+    """
     if not config:
         return DriveParams()
     try:
@@ -96,8 +99,11 @@ def check_output(option: str, path, suffixes=None) -> Path:
 
 @contextlib.contextmanager
 def output_files(*paths):
-    """Yield temporary names beside ``paths`` (same suffix); on success they replace the
-    paths together, on any error they are removed, so no partial file is left behind."""
+    """Yield temporary names beside ``paths`` (same suffix).
+
+    On success they replace the paths together, on any error they are removed, so no
+    partial file is left behind.
+    """
     paths = [Path(p) for p in paths]
     temps = [p.with_name(f'.{p.stem}.partial{p.suffix}') for p in paths]
     try:

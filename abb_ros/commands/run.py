@@ -23,6 +23,7 @@ DEFAULT_SCENARIO = 'p3'
 
 
 def add_arguments(parser):
+    """Add the options of ``abb-sim run`` to ``parser``."""
     parser.add_argument('--config', help='ROS 2 parameter file with drive.* parameters '
                         '(default: Table 1, config/cdrom_table1.yaml)')
     parser.add_argument('--scenario', default=DEFAULT_SCENARIO,
@@ -58,8 +59,11 @@ def _run_options(node: dict) -> dict:
 
 
 def _spindle(spindle, node: dict):
-    """The scenario's spindle with spindle.max_accel / spindle.tau applied (a constant-speed
-    spindle becomes the motor of the simulator node, with its defaults for the other)."""
+    """Apply spindle.max_accel / spindle.tau to the scenario's spindle.
+
+    A constant-speed spindle becomes the motor of the simulator node, with its defaults for
+    the other.
+    """
     from abb_ros.model.integrate import SpindleMotor, TorqueMotor
     from abb_ros.model.params import ParamError
     from abb_ros.model.plant_spec import PLANT
@@ -76,17 +80,18 @@ def _spindle(spindle, node: dict):
 
 
 def _why(exc: OSError) -> str:
-    """What the system said, without the path (the message names the option)."""
+    """Return what the system said, without the path (the message names the option)."""
     return os.strerror(exc.errno) if exc.errno else str(exc)
 
 
 def run(args) -> dict:
-    from abb_ros.commands.api import CommandFailed, UsageError, drive_params, parse_settings
+    """Run the scenario headless (a bag with ``--out``) and return the summary."""
     from abb_ros.app.headless import check_duration, run_scenario
+    from abb_ros.commands.api import CommandFailed, UsageError, drive_params, parse_settings
+    from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
     from abb_ros.io.scenario import load_scenario
     from abb_ros.model.integrate import StateError
     from abb_ros.model.params import ParamError
-    from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
     from abb_ros.model.state import StateLayout, wrap_degrees
 
     base = drive_params(args.config) if args.config else None

@@ -70,11 +70,14 @@ class CurrentCommand:
 
     @property
     def value(self) -> float:
+        """The command of Simulation.set_command."""
         return self.current
 
 
 @dataclass
 class Scenario:
+    """A named run: drive, spindle, start state, duration and commands."""
+
     name: str
     description: str
     params: DriveParams
@@ -86,7 +89,7 @@ class Scenario:
     commands: list = field(default_factory=list)
 
     def with_settings(self, settings: dict) -> 'Scenario':
-        """A copy with ``--set`` style settings applied (SI or Eq. 39 names)."""
+        """Return a copy with ``--set`` style settings applied (SI or Eq. 39 names)."""
         params, omega = apply_settings(self.params, settings, self.omega)
         phi0 = self.phi0
         if phi0 is not None and len(phi0) != params.n:
@@ -108,6 +111,7 @@ def scenario_dir() -> Path:
 
 
 def list_scenarios() -> list[str]:
+    """Return the names of the shipped scenarios (config/scenarios/*.yaml)."""
     return sorted(p.stem for p in scenario_dir().glob('*.yaml'))
 
 
@@ -162,8 +166,11 @@ def _numbers(where, value, count, what, **bounds) -> list:
 
 
 def _initial_deck(value) -> tuple:
-    """X, Y, Z within +-MAX_TRANSLATION and alpha, beta, gamma within +-MAX_ANGLE: outside the
-    envelope of kernels.check_state the small-angle model means nothing (it stops at t = 0)."""
+    """Check the start deck state: X, Y, Z within +-MAX_TRANSLATION, angles within +-MAX_ANGLE.
+
+    Outside the envelope of the kernels' state check the small-angle model means nothing
+    (it stops at t = 0).
+    """
     deck = _numbers('scenario.initial.deck', value, 6, 'numbers X, Y, Z [m], alpha, beta, '
                     'gamma [rad]')
     for i, (name, v) in enumerate(zip(('X', 'Y', 'Z', 'alpha', 'beta', 'gamma'), deck)):
@@ -173,9 +180,12 @@ def _initial_deck(value) -> tuple:
 
 
 def load_scenario(name_or_path: str, base: DriveParams | None = None) -> Scenario:
-    """Load a scenario by name (config/scenarios/<name>.yaml) or path, checked against the
-    schema of this module's docstring: unknown keys at any level, wrong types and initial
-    states outside the model's envelope are a :class:`ParamError` naming the field."""
+    """Load a scenario by name (config/scenarios/<name>.yaml) or path.
+
+    It is checked against the schema of this module's docstring: unknown keys at any level,
+    wrong types and initial states outside the model's envelope are a :class:`ParamError`
+    naming the field.
+    """
     path = Path(name_or_path)
     if not (path.suffix in ('.yaml', '.yml') or os.sep in str(name_or_path)):
         path = scenario_dir() / f'{name_or_path}.yaml'

@@ -89,8 +89,11 @@ DEFAULT_RBAR_LIMIT = 1.0e-3
 # ---- YAML ------------------------------------------------------------------------------------
 
 def load_yaml(path) -> object:
-    """The YAML document at ``path``, read by the package's one loader (abb_ros/io/safe_yaml.py:
-    size-capped at MAX_SPEC_BYTES, no aliases, nesting capped); ParamError 'spec' otherwise."""
+    """Read the YAML document at ``path`` with the package's one loader.
+
+    That is abb_ros/io/safe_yaml.py: size-capped at MAX_SPEC_BYTES, no aliases, nesting
+    capped; a ParamError naming 'spec' otherwise.
+    """
     try:
         return load_file(path, max_bytes=MAX_SPEC_BYTES)
     except YamlFileError as exc:
@@ -146,10 +149,12 @@ class SweepSpec:
 
     @property
     def grid(self) -> dict:
+        """Grid parameters and their values, {name: [values]}."""
         return {k: v['values'] for k, v in self.parameters.items() if v['dist'] == 'grid'}
 
     @property
     def drawn(self) -> list:
+        """Names of the parameters drawn at random (not on the grid)."""
         return [k for k, v in self.parameters.items() if v['dist'] != 'grid']
 
     @property
@@ -159,9 +164,11 @@ class SweepSpec:
 
     @property
     def partitions(self) -> int:
+        """Number of partitions (Parquet files) of the sweep."""
         return -(-self.total // self.partition_size)
 
     def partition_bounds(self, i: int) -> tuple[int, int]:
+        """Return the [start, stop) point indices of partition ``i``."""
         start = i * self.partition_size
         return start, min(start + self.partition_size, self.total)
 
@@ -303,7 +310,7 @@ def _speeds(st, omega0, operating):
 
 
 def _check_value(where, name, value, nominal):
-    """A value of parameter ``name`` must make a valid drive from the nominal one."""
+    """Check that a value of parameter ``name`` makes a valid drive from the nominal one."""
     if isinstance(value, bool) or not isinstance(value, (int, float)) \
             or not math.isfinite(value):
         raise ParamError(where, value, 'a finite number')

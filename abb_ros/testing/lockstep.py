@@ -32,8 +32,8 @@ from dataclasses import fields
 
 import numpy as np
 
-from abb_ros.model.plant_spec import MOTOR_DEFAULTS
 from abb_ros.model.params import DriveParams
+from abb_ros.model.plant_spec import MOTOR_DEFAULTS
 from abb_ros.model.state import rbar
 
 __all__ = ['LockstepPlant', 'LockstepTimeout', 'Trace', 'drive_parameters', 'DEADLINE_S']
