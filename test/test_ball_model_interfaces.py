@@ -1,5 +1,6 @@
-"""Issue 12: the beyond-the-paper parameters flow through every interface (CLI run, stability,
-scenarios, ROS parameter descriptors of the simulator and analysis nodes)."""
+"""The ball model beyond the paper (ball radius, Hertzian contact, rolling resistance, ball
+rotation) through every interface: CLI run, stability, scenarios, and the ROS parameters the
+simulator and analysis nodes declare."""
 
 import json
 
