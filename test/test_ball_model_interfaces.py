@@ -38,8 +38,11 @@ def test_stability_says_which_terms_the_linear_analysis_ignores(capsys):
 
 
 def test_stability_of_the_paper_model_has_no_note(capsys):
-    main(['stability', '--set', 'mbar=0.03', '--set', 'wbar=2.7', '--json'])
-    assert 'note' not in json.loads(capsys.readouterr().out)
+    code = main(['stability', '--set', 'mbar=0.03', '--set', 'wbar=2.7', '--json'])
+    out = json.loads(capsys.readouterr().out)
+    assert code == 0
+    assert out['verdict'] == 'balanced'
+    assert 'note' not in out
 
 
 def test_bad_beyond_paper_value_exits_2_naming_it(abb_sim):
