@@ -1,16 +1,25 @@
 """The ball model beyond the paper (ball radius, Hertzian contact, rolling resistance, ball
 rotation) through every interface: CLI run, stability, scenarios, and the ROS parameters the
-simulator and analysis nodes declare."""
+simulator and analysis nodes declare (read from real nodes over DDS)."""
 
 import json
+import math
+import threading
+import time
 
 import numpy as np
 import pytest
+import rclpy
+from rcl_interfaces.msg import ParameterType
+from rcl_interfaces.srv import DescribeParameters, GetParameters
+from rclpy.executors import SingleThreadedExecutor
+from rclpy.node import Node
 
 from abb_ros.cli import main
 from abb_ros.io.scenario import load_scenario
 from abb_ros.model.params import PARAM_SPECS, DriveParams
-from abb_ros.nodes import ros_params
+from abb_ros.nodes.analysis import AnalysisNode
+from abb_ros.nodes.simulator import SimulatorNode, make_executor
 
 STEEL_P1 = ['--set', 'r_ball=2.873e-3', '--set', 'contact_E=2e11', '--set', 'rolling_mu=1e-6',
             '--set', 'ball_rotation=1']
@@ -56,18 +65,107 @@ def test_scenario_settings_take_the_new_parameters():
     assert scenario.params.beyond_paper == ('contact',)
 
 
-@pytest.mark.parametrize('name', ['r_ball', 'contact_E', 'contact_nu', 'contact_damping',
-                                  'rolling_mu', 'rolling_stick_rate', 'ball_rotation'])
-def test_node_parameter_descriptor_matches_the_default_type(name):
-    """drive.<name> is declared by the simulator and analysis nodes from DriveParams: an integer
-    parameter (ball_rotation) gets an integer range, the others a floating-point range."""
-    assert name in PARAM_SPECS
-    d = ros_params.descriptor(PARAM_SPECS[name])
+BALL_MODEL_NAMES = ['r_ball', 'contact_E', 'contact_nu', 'contact_damping', 'rolling_mu',
+                    'rolling_stick_rate', 'ball_rotation']
+NODE_NAMES = ['abb_simulator', 'abb_analysis']
+DEADLINE_S = 30.0   # generous: the machine is shared; a healthy call takes milliseconds
+
+
+class _DriveNodes:
+    """The simulator and analysis nodes spinning in a background thread, and a client node
+    that calls their parameter services over DDS (what ``ros2 param describe`` does)."""
+
+    def __init__(self):
+        self.ctx = rclpy.Context()
+        rclpy.init(context=self.ctx)
+        self.nodes = [SimulatorNode(context=self.ctx), AnalysisNode(context=self.ctx)]
+        self.executor = make_executor(self.ctx)
+        for node in self.nodes:
+            self.executor.add_node(node)
+        self.client = Node('test_parameter_client', context=self.ctx)
+        self.client_executor = SingleThreadedExecutor(context=self.ctx)
+        self.client_executor.add_node(self.client)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    def _spin(self):
+        while not self._stop.is_set() and self.ctx.ok():
+            self.executor.spin_once(timeout_sec=0.05)
+
+    def call(self, kind, name, request):
+        client = self.client.create_client(kind, name)
+        deadline = time.monotonic() + DEADLINE_S
+        while not client.service_is_ready():
+            if time.monotonic() > deadline:
+                pytest.fail(f'timed out after {DEADLINE_S} s waiting for service {name}')
+            self.client_executor.spin_once(timeout_sec=0.05)
+        future = client.call_async(request)
+        while not future.done():
+            if time.monotonic() > deadline:
+                pytest.fail(f'timed out after {DEADLINE_S} s waiting for a reply of {name}')
+            self.client_executor.spin_once(timeout_sec=0.05)
+        self.client.destroy_client(client)
+        return future.result()
+
+    def close(self):
+        self._stop.set()
+        self._thread.join(timeout=10)
+        self.executor.shutdown()
+        for node in self.nodes:
+            node.destroy_node()
+        self.client.destroy_node()
+        rclpy.shutdown(context=self.ctx)
+
+
+@pytest.fixture(scope='module')
+def drive_nodes():
+    nodes = _DriveNodes()
+    yield nodes
+    nodes.close()
+
+
+@pytest.fixture(scope='module')
+def declared(drive_nodes):
+    """{node name: {ROS name: (descriptor, value)}} of the ball-model parameters, read by the
+    nodes' describe_parameters and get_parameters services."""
+    names = [f'drive.{name}' for name in BALL_MODEL_NAMES]
+    found = {}
+    for node in NODE_NAMES:
+        described = drive_nodes.call(DescribeParameters, f'/{node}/describe_parameters',
+                                     DescribeParameters.Request(names=names)).descriptors
+        values = drive_nodes.call(GetParameters, f'/{node}/get_parameters',
+                                  GetParameters.Request(names=names)).values
+        found[node] = dict(zip(names, zip(described, values)))
+    return found
+
+
+@pytest.mark.ros
+@pytest.mark.parametrize('node', NODE_NAMES)
+@pytest.mark.parametrize('name', BALL_MODEL_NAMES)
+def test_node_parameter_descriptor_matches_the_default_type(declared, node, name):
+    """drive.<name> as the running simulator and analysis nodes declare it: the type of
+    DriveParams' default (ball_rotation an integer, the others doubles), that default as the
+    value, and the spec's bounds as an integer or a floating-point range, never both."""
+    spec = PARAM_SPECS[name]
+    descriptor, value = declared[node][f'drive.{name}']
+    assert descriptor.name == f'drive.{name}'
     default = getattr(DriveParams(), name)
+    high = math.inf if spec.high is None else spec.high
     if isinstance(default, int):
-        assert d.integer_range and not d.floating_point_range
+        assert descriptor.type == value.type == ParameterType.PARAMETER_INTEGER
+        assert value.integer_value == default
+        assert not descriptor.floating_point_range
+        (bounds,) = descriptor.integer_range
+        assert isinstance(bounds.from_value, int)
     else:
-        assert d.floating_point_range and not d.integer_range
+        assert descriptor.type == value.type == ParameterType.PARAMETER_DOUBLE
+        assert value.double_value == default
+        assert not descriptor.integer_range
+        (bounds,) = descriptor.floating_point_range
+    assert (bounds.from_value, bounds.to_value, bounds.step) == (spec.low, high, 0)
+    assert not descriptor.read_only
+    assert spec.valid_text() in descriptor.description
 
 
 def test_overlapping_start_with_contact_exits_2_naming_phi0(abb_sim):
