@@ -535,6 +535,7 @@ def test_a_change_of_n_waits_for_reset(plant_factory):
 
 
 @pytest.mark.parametrize('rate_hz, warned', [(2000, True), (10000, False)])
+@pytest.mark.slow
 def test_contact_at_a_step_outside_the_verified_range_is_a_warning(plant_factory, rate_hz,
                                                                    warned):
     """Steel balls touching, 2 kHz steps (5e-4 s, beyond the tested 1e-5..2e-4 s): the plant
