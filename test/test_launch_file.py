@@ -152,9 +152,10 @@ def ament_prefix(tmp_path, monkeypatch) -> Path:
     lib = prefix / 'lib' / 'abb_ros'
     lib.mkdir(parents=True)
     for exe in EXECUTABLES:
-        script = Path(sys.executable).with_name(exe)
-        assert script.exists(), f'{script} missing: scripts/ensure-venv installs it'
-        (lib / exe).symlink_to(script)
+        script = Path(sys.executable).with_name(exe)     # the venv's, else the one on PATH
+        found = script if script.exists() else shutil.which(exe)
+        assert found, f'no console script {exe}: scripts/ensure-venv installs it in .venv/bin'
+        (lib / exe).symlink_to(found)
     monkeypatch.setenv('AMENT_PREFIX_PATH', str(prefix))
     monkeypatch.setenv('ROS_LOG_DIR', str(tmp_path / 'log'))
     return prefix
