@@ -9,6 +9,7 @@ import subprocess
 import time
 
 import numpy as np
+import pytest
 from diagnostic_msgs.msg import DiagnosticStatus
 
 from abb_ros.io.drive_file import write_drive_yaml
@@ -19,6 +20,7 @@ TEN_BALLS = DriveParams(c=0.66, n=10, m=0.03 * 0.026 * 2 / 10)
 """P3's drive (metal washers) with ten balls of the two balls' total mass."""
 
 
+@pytest.mark.slow
 def test_ten_balls_at_p3_are_reported_balanced_on_the_member_where_they_settled(tmp_path):
     params_file = tmp_path / 'p3_n10.yaml'
     write_drive_yaml(TEN_BALLS, params_file)

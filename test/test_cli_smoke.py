@@ -12,6 +12,13 @@ import sys
 import time
 
 import pytest
+import yaml
+from mcap.reader import make_reader
+from mcap_ros2.decoder import DecoderFactory
+
+from abb_ros.io.bag_reader import bag_files, read_bag
+from abb_ros.io.bag_writer import topic_name
+from abb_ros.io.topics import sampled_topics
 
 ABB_SIM = os.path.join(os.path.dirname(sys.executable), 'abb-sim')
 
@@ -23,18 +30,58 @@ def abb_sim(*args):
     return json.loads(proc.stdout), proc.stderr
 
 
+DURATION_S = 0.2
+
+
 @pytest.fixture(scope='module')
-def p3_bag(tmp_path_factory):
+def p3_run(tmp_path_factory):
+    """(bag directory, summary) of ``abb-sim run --scenario p3 --duration 0.2 --out ...``."""
     out = tmp_path_factory.mktemp('smoke') / 'p3'
-    summary, _ = abb_sim('run', '--scenario', 'p3', '--duration', '0.2', '--out', str(out),
-                         '--no-progress')
+    summary, _ = abb_sim('run', '--scenario', 'p3', '--duration', str(DURATION_S),
+                         '--out', str(out), '--no-progress')
     assert summary['scenario'] == 'p3' and summary['messages'] > 0
-    return out
+    assert summary['bag'] == str(out)
+    return out, summary
+
+
+@pytest.fixture(scope='module')
+def p3_bag(p3_run):
+    return p3_run[0]
 
 
 @pytest.mark.slow
-def test_abb_sim_run_writes_a_bag(p3_bag):
-    assert (p3_bag / 'metadata.yaml').exists()
+def test_abb_sim_run_writes_a_rosbag2_mcap_bag_of_every_sample(p3_run):
+    """metadata.yaml is rosbag2 (v9, MCAP) metadata of the sampled topics that counts the
+    messages the summary reports; the MCAP file, read by the mcap library, holds that many,
+    each decodable, in time order over the run's 0.2 s."""
+    bag, summary = p3_run
+    info = yaml.safe_load((bag / 'metadata.yaml').read_text())['rosbag2_bagfile_information']
+    assert info['version'] == 9 and info['storage_identifier'] == 'mcap'
+    assert info['message_count'] == summary['messages']
+    assert info['duration']['nanoseconds'] == round(DURATION_S * 1e9)
+    expected = [(topic_name(t.name), t.type) for t in sampled_topics()]
+    listed = [(e['topic_metadata']['name'], e['topic_metadata']['type'])
+              for e in info['topics_with_message_count']]
+    assert listed == expected
+    assert sum(e['message_count'] for e in info['topics_with_message_count']) \
+        == summary['messages']
+    (mcap_file,) = bag_files(bag)        # abb_ros's reader resolves relative_file_paths
+    assert mcap_file.parent == bag
+
+    with open(mcap_file, 'rb') as f:
+        reader = make_reader(f, validate_crcs=True, decoder_factories=[DecoderFactory()])
+        decoded = list(reader.iter_decoded_messages())
+    assert len(decoded) == summary['messages']
+    assert {c.topic for _, c, _, _ in decoded} == {name for name, _ in expected}
+    assert {s.name for s, _, _, _ in decoded} == {kind for _, kind in expected}
+    by_topic = {}
+    for _, channel, message, _ in decoded:
+        by_topic.setdefault(channel.topic, []).append(message.log_time)
+    for topic, times in by_topic.items():
+        assert all(b > a for a, b in zip(times, times[1:])), topic
+        assert times[0] == 0 and times[-1] == round(DURATION_S * 1e9), topic
+    # rclpy deserialises every message too (the types ROS nodes use).
+    assert sum(1 for _ in read_bag(bag)) == summary['messages']
 
 
 @pytest.mark.slow

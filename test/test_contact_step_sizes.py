@@ -43,6 +43,7 @@ def speeds_after(params, y0, dt, spindle):
 
 @pytest.mark.parametrize('dt', STEPS)
 @pytest.mark.parametrize('speed', SPEEDS)
+@pytest.mark.slow
 def test_an_elastic_impact_rebounds_and_keeps_its_energy_at_every_step_and_speed(speed, dt):
     """Rebound speeds against the fine run and the energy's error (as a speed, sqrt of twice
     the kinetic energy over the mass, minus the approach speed) within the documented

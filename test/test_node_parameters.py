@@ -48,6 +48,7 @@ def _start_fails(node, *params):
     ('simulator', 'record.topics:=[1, 2]', "'record.topics' = [1, 2]"),
     ('recorder', "topics:=['bad name']", "'topics' = 'bad name' is invalid"),
 ])
+@pytest.mark.slow
 def test_wrong_start_up_type_or_value_exits_2_with_one_line_naming_it(node, param, needle):
     code, err = _start_fails(node, param)
     assert code == 2, err

@@ -88,6 +88,7 @@ def test_p3_out_of_plane_motion_decays_either_way(which, p3, p3_without_abb):
     assert np.abs(_last(result.y[:, 3:6], result.t)).max() < 1e-12 * start / 0.3e-3
 
 
+@pytest.mark.slow
 def test_p4_not_balanced_but_far_smaller_residual_than_without_abb():
     """Fig. 14: the imbalance exceeds the balls' capacity (n m R < M eps): rbar stays finite,
     yet well below the drive without balls (measured: about 5x)."""

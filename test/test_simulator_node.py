@@ -347,6 +347,7 @@ def test_spin_up_from_p1_to_p3_moves_balls_from_imbalance_side_to_phi_star_as_rb
     assert rbar_p3 < 0.01 * rbar_p1, (rbar_p1, rbar_p3)
 
 
+@pytest.mark.slow
 def test_bad_speed_commands_are_refused_and_integration_goes_on(plant_factory):
     plant = plant_factory(real_time_factor=0.0, publish_rate_hz=100, **{'imu.rate_hz': 100})
     states = plant.collect(JointState, 'joint_states')
@@ -534,6 +535,7 @@ def test_a_change_of_n_waits_for_reset(plant_factory):
 
 
 @pytest.mark.parametrize('rate_hz, warned', [(2000, True), (10000, False)])
+@pytest.mark.slow
 def test_contact_at_a_step_outside_the_verified_range_is_a_warning(plant_factory, rate_hz,
                                                                    warned):
     """Steel balls touching, 2 kHz steps (5e-4 s, beyond the tested 1e-5..2e-4 s): the plant

@@ -179,6 +179,7 @@ def test_recording_in_the_node_takes_the_other_nodes_topics_from_the_graph(plant
     assert lost.get('/stability/margin') == 0, lost
 
 
+@pytest.mark.slow
 def test_an_empty_record_topics_list_in_a_parameter_file_is_no_extra_topic(tmp_path):
     """rcl reads ``topics: []`` in a parameter file as no value; it means no other topic."""
     params = tmp_path / 'params.yaml'

@@ -22,6 +22,7 @@ def torque_plant():
     plant.close()
 
 
+@pytest.mark.slow
 def test_current_commands_are_refused_or_saturated_and_the_torque_is_the_effort(torque_plant):
     plant = torque_plant
     states = plant.collect(JointState, 'joint_states')

@@ -327,6 +327,7 @@ def test_a_pitch_error_raises_the_minimum_speed_to_that_of_the_widest_edge_inter
 
 
 @pytest.mark.ros
+@pytest.mark.slow
 def test_the_simulator_node_states_the_fg_below_its_minimum_speed_on_diagnostics():
     """A real simulator node over rclpy/DDS: turning at 2 rad/s (an edge every 0.5 s, timeout
     0.1 s) the simulation status says so (WARN while spindle/speed reads 0), at 300 rad/s it

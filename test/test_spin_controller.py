@@ -90,6 +90,7 @@ def test_a_target_inside_an_unbalanced_band_is_held_at_the_nearest_balanced_spee
     assert time_in_bands(run.t, run.omega, bands) < 0.3
 
 
+@pytest.mark.slow
 def test_a_mode_other_than_speed_or_torque_exits_with_code_2_and_one_line_naming_it():
     result = subprocess.run(
         [sys.executable, '-m', 'abb_ros.nodes.spin_controller', '--ros-args', '-p',

@@ -160,6 +160,7 @@ def run_up(current_limit, duration, params=None, every=100):
     return np.arange(1, len(y) + 1) * every * DT, y[:, 7 + params.n]
 
 
+@pytest.mark.slow
 def test_a_weak_motor_is_captured_at_the_deck_resonance_and_a_strong_one_is_not():
     """Sommerfeld effect. The weak motor (0.05 A, 5e-4 N m) stays within 10 % of the
     translational natural frequency from 3 s to 5 s, although without any imbalance (eps
