@@ -19,13 +19,13 @@ from __future__ import annotations
 
 import json
 
-from rclpy._rclpy_pybind11 import RCLError
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
 from abb_ros.io import msgdefs
 from abb_ros.io.bag_writer import BagWriter
 from abb_ros.model.param_spec import ParamError
+from abb_ros.nodes.rclpy_access import RCLError
 from abb_ros.nodes.taps import Taps
 
 __all__ = ['GraphRecording', 'LossCounter', 'request_qos', 'resolve_topics',

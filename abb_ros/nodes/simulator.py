@@ -33,7 +33,6 @@ import sys
 import time
 
 from diagnostic_msgs.msg import DiagnosticStatus
-from rclpy._rclpy_pybind11 import RCLError
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from std_msgs.msg import Float64
@@ -49,6 +48,7 @@ from abb_ros.nodes import ros_params
 from abb_ros.nodes.bench import BenchIO
 from abb_ros.nodes.entry_point import make_executor, run_node, spin
 from abb_ros.nodes.graph_recording import GraphRecording, resolve_topics
+from abb_ros.nodes.rclpy_access import RCLError
 from abb_ros.nodes.realtime import FifoScheduling
 from abb_ros.nodes.recorder import DRAIN_PERIOD_S, default_output
 
