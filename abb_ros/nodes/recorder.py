@@ -19,7 +19,10 @@ with several publishers cannot be checked: ``abb_ros.loss_unchecked`` lists it).
 
 from __future__ import annotations
 
-import sys
+if __name__ == '__main__':   # python -m: the stop handlers first, then the imports below
+    from abb_ros.nodes.script import run_module
+    run_module('abb_ros.nodes.recorder')
+
 
 import rclpy
 import rclpy.logging
@@ -115,6 +118,3 @@ def main(args=None) -> int:
     """Run the recorder until SIGINT/SIGTERM or a write failure; return the exit code."""
     return run_node('abb_recorder', Recorder, args, usage_errors=(ParamError, BagError, OSError))
 
-
-if __name__ == '__main__':
-    sys.exit(main())

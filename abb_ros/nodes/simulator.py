@@ -20,8 +20,11 @@ headless run writes them), with the other nodes' topics ``record.topics``.
 
 from __future__ import annotations
 
+if __name__ == '__main__':   # python -m: the stop handlers first, then the imports below
+    from abb_ros.nodes.script import run_module
+    run_module('abb_ros.nodes.simulator')
+
 import math
-import sys
 import time
 
 from rclpy.clock import Clock, ClockType
@@ -417,7 +420,3 @@ def _warm_up(sim: Simulation) -> None:
 def main(args=None):
     """Run the simulator node until SIGINT/SIGTERM; return the exit code."""
     return run_node(NODE_NAME, SimulatorNode, args)
-
-
-if __name__ == '__main__':
-    sys.exit(main())
