@@ -27,6 +27,7 @@ import time
 
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+from std_srvs.srv import Trigger
 
 from abb_ros.io import msgdefs
 from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
@@ -321,6 +322,28 @@ class InProcessRecording:
         self._param = param
         self._discovery_s = discovery_s
         self._timers = []
+
+    def serve(self, path_param: str, prepare=None) -> None:
+        """Offer ``~/start_recording`` and ``~/stop_recording`` (std_srvs/Trigger).
+
+        A start records to the parameter ``path_param`` (a directory), or to
+        :func:`default_output` when it is empty, with the topics of the parameter this
+        object was made for.
+        """
+        def start(request, response):
+            path = self.node.get_parameter(path_param).value or default_output()
+            error = self.start(path, self.node.get_parameter(self._param).value, prepare)
+            response.success = not error
+            response.message = error or f'recording to {self.current.bag.path}'
+            return response
+
+        def stop(request, response):
+            response.success = self.current is not None
+            response.message = self.stop()
+            return response
+
+        self.node.create_service(Trigger, '~/start_recording', start)
+        self.node.create_service(Trigger, '~/stop_recording', stop)
 
     def start(self, path: str, topics=(), prepare=None) -> str:
         """Record the node's messages from now on, and ``topics``, to a new bag at ``path``.

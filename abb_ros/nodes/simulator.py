@@ -24,7 +24,6 @@ if __name__ == '__main__':   # python -m: the stop handlers first, then the impo
     from abb_ros.nodes.script import run_module
     run_module('abb_ros.nodes.simulator')
 
-import math
 import time
 
 from rclpy.clock import Clock, ClockType
@@ -43,8 +42,9 @@ from abb_ros.nodes.entry_point import make_executor, run_node, spin
 from abb_ros.nodes.pacing import Pacer
 from abb_ros.nodes.rclpy_access import RCLError
 from abb_ros.nodes.realtime import FifoScheduling
-from abb_ros.nodes.recording import InProcessRecording, default_output, resolve_topics
+from abb_ros.nodes.recording import InProcessRecording, resolve_topics
 from abb_ros.nodes.simulator_diagnostics import simulation_status
+from abb_ros.nodes.spindle_commands import SpindleCommands
 
 NODE_NAME = 'abb_simulator'
 QOS_DEPTH = 10
@@ -78,13 +78,12 @@ class SimulatorNode(Node):
         self.pending_drive = self.drive
         self.fault = ''
         self.paused = s.start_paused
-        self.counters = dict(commands_accepted=0, commands_refused=0, commands_saturated=0)
+        self.commands = SpindleCommands(s.initial_speed)
+        self.counters = self.commands.counters
         self.scheduling = FifoScheduling()   # of the thread that integrates (its timer's)
         self.published = dict.fromkeys(ros_messages.TOPIC_TYPES, 0)
         self.recorder = InProcessRecording(self, PUBLISH_DEPTH, 'record.topics',
                                            RECORD_DISCOVERY_S)
-        self.speed_cmd = s.initial_speed
-        self.current_cmd = 0.0
         if s.spindle_mode == 'torque':
             self.sim.set_command(0.0)
         self._params_changed = False
@@ -100,15 +99,15 @@ class SimulatorNode(Node):
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(SetBool, '~/pause', self._on_pause)
         self.create_service(Trigger, '~/step', self._on_step)
-        self.create_service(Trigger, '~/start_recording', self._on_start_recording)
-        self.create_service(Trigger, '~/stop_recording', self._on_stop_recording)
+        self.recorder.serve('record.path', prepare=self._prepare_bag)
         self.add_on_set_parameters_callback(lambda ps: ros_params.validate_change(self, ps))
         self.add_post_set_parameters_callback(self._on_parameters_set)
 
         resolve_topics(self, self.get_parameter('record.topics').value, 'record.topics')
         path = self.get_parameter('record.path').value
         if path:
-            error = self.start_recording(path)
+            error = self.recorder.start(path, self.get_parameter('record.topics').value,
+                                        self._prepare_bag)
             if error:
                 raise ParamError('record.path', path, 'a directory that does not exist yet, '
                                  'in a writable place', error)
@@ -126,12 +125,17 @@ class SimulatorNode(Node):
         self._publish(self.sampler.sample_now())
         self._restart_pacing()
 
-    # ---- time ---------------------------------------------------------------------------
     @property
-    def owns_time(self) -> bool:
-        """Whether stamps are simulated time: then /clock is published."""
-        return self.pacer.owns_time
+    def speed_cmd(self) -> float:
+        """The spindle speed command in force [rad/s]."""
+        return self.commands.speed
 
+    @property
+    def current_cmd(self) -> float:
+        """The motor current command in force [A]."""
+        return self.commands.current
+
+    # ---- time ---------------------------------------------------------------------------
     def stamp_ns(self, steps: int | None = None) -> int:
         """Stamp of the state after ``steps`` steps (default: now) [ns]."""
         return self.pacer.stamp_ns(self.sim.steps if steps is None else steps)
@@ -163,33 +167,28 @@ class SimulatorNode(Node):
         paced = self.settings.real_time_factor > 0
         self.scheduling.want(self.get_parameter('realtime_priority').value if paced else 0)
 
-    def _apply_scheduling(self) -> None:
-        """Give this (the integrating) thread the wanted policy; a refusal is one warning."""
-        warning = self.scheduling.apply()
-        if warning:
-            self.get_logger().warning(warning)
-        elif self.scheduling.applied:
-            self.get_logger().info(f'integrating under {self.scheduling.state}')
-
     # ---- integration ---------------------------------------------------------------------
-    def _tick_paced(self) -> None:
-        """Integrate the publish periods due on the wall clock."""
+    def _tick_starts(self) -> bool:
+        """Apply what changed since the last tick; whether the plant still runs."""
         self._apply_parameters()
         if self._timer is None:
+            return False
+        if self.scheduling.pending:   # in this (the integrating) thread
+            self.scheduling.apply_logged(self.get_logger())
+        return True
+
+    def _tick_paced(self) -> None:
+        """Integrate the publish periods due on the wall clock."""
+        if not self._tick_starts():
             return
-        if self.scheduling.pending:
-            self._apply_scheduling()
         for _ in range(self.pacer.due(self.sim.steps)):
             if not self._integrate_period():
                 return
 
     def _tick_fast(self) -> None:
         """Integrate publish periods for ``BATCH_WALL_S`` of wall time."""
-        self._apply_parameters()
-        if self._timer is None:
+        if not self._tick_starts():
             return
-        if self.scheduling.pending:
-            self._apply_scheduling()
         end = time.perf_counter() + BATCH_WALL_S
         while time.perf_counter() < end:
             if not self._integrate_period():
@@ -241,25 +240,8 @@ class SimulatorNode(Node):
         self.publish_diagnostics()
 
     # ---- in-process recording ---------------------------------------------------------------
-    def start_recording(self, path: str) -> str:
-        """Record every message published from now on to a new bag at ``path``.
-
-        Returns '' or why not.
-        """
-        return self.recorder.start(path, self.get_parameter('record.topics').value,
-                                   prepare=lambda bag: bag.set_drive_params(self.drive))
-
-    def _on_start_recording(self, request, response):
-        path = self.get_parameter('record.path').value or default_output()
-        error = self.start_recording(path)
-        response.success = not error
-        response.message = error or f'recording to {self.recorder.current.bag.path}'
-        return response
-
-    def _on_stop_recording(self, request, response):
-        response.success = self.recorder.current is not None
-        response.message = self.recorder.stop()
-        return response
+    def _prepare_bag(self, bag) -> None:
+        bag.set_drive_params(self.drive)
 
     def close(self) -> None:
         """Finish a bag being written (entry_point calls this before destroy_node)."""
@@ -273,46 +255,23 @@ class SimulatorNode(Node):
 
     # ---- inputs --------------------------------------------------------------------------
     def _on_speed_cmd(self, msg: Float64) -> None:
-        """Take spindle/speed_cmd [rad/s]: outside [0, max_spindle_speed] refused."""
-        value = msg.data
-        limit = self.settings.max_spindle_speed
-        if not (math.isfinite(value) and 0.0 <= value <= limit):
-            self.counters['commands_refused'] += 1
-            self.get_logger().warning(
-                f'refused spindle/speed_cmd {value!r}: valid range [0, {limit:g}] rad/s '
-                f'(max_spindle_speed); keeping {self.speed_cmd:g} rad/s',
-                throttle_duration_sec=WARN_THROTTLE_S)
-            return
-        self.counters['commands_accepted'] += 1
-        self.speed_cmd = value
-        if self.settings.spindle_mode == 'speed':
-            self.sim.set_speed_command(value)
+        refusal = self.commands.take_speed(msg.data, self.settings.max_spindle_speed)
+        if refusal:
+            self.get_logger().warning(refusal, throttle_duration_sec=WARN_THROTTLE_S)
+        elif self.settings.spindle_mode == 'speed':
+            self.sim.set_speed_command(msg.data)
 
     def _on_current_cmd(self, msg: Float64) -> None:
-        """Take spindle/current_cmd [A] (torque mode): NaN/inf refused.
-
-        Beyond +-current_limit it is saturated at the limit (as a real drive does) and
-        counted.
-        """
-        value = msg.data
-        limit = self.settings.motor.I_max
-        if not math.isfinite(value):
-            self.counters['commands_refused'] += 1
-            self.get_logger().warning(
-                f'refused spindle/current_cmd {value!r}: a finite current in A is valid; '
-                f'keeping {self.current_cmd:g} A', throttle_duration_sec=WARN_THROTTLE_S)
-            return
-        self.counters['commands_accepted'] += 1
-        if abs(value) > limit:
-            self.counters['commands_saturated'] += 1
-        self.current_cmd = value
-        if self.settings.spindle_mode == 'torque':
-            self.sim.set_command(value)
+        refusal = self.commands.take_current(msg.data, self.settings.motor.I_max)
+        if refusal:
+            self.get_logger().warning(refusal, throttle_duration_sec=WARN_THROTTLE_S)
+        elif self.settings.spindle_mode == 'torque':
+            self.sim.set_command(msg.data)
 
     def _set_spindle(self, s) -> None:
         """Give the simulation the spindle of settings ``s``, with the command of its mode."""
         self.sim.set_spindle(s.spindle())
-        self.sim.set_command(self.current_cmd if s.spindle_mode == 'torque' else self.speed_cmd)
+        self.sim.set_command(self.commands.of_mode(s.spindle_mode))
 
     def _on_parameters_set(self, parameters) -> None:
         # Validated already; applied at the next step boundary by _apply_parameters.
@@ -351,8 +310,7 @@ class SimulatorNode(Node):
         s = self.settings
         self.drive = self.pending_drive
         self.sim.reset(y0=initial_state(self.drive, s.initial_speed), params=self.drive)
-        self.speed_cmd = s.initial_speed
-        self.current_cmd = 0.0
+        self.commands.reset(s.initial_speed)
         self._set_spindle(s)
         self.imu.seed = s.seed
         self.imu.reset()
