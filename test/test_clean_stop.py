@@ -6,11 +6,14 @@ first seconds (imports, construction, kernel loading, discovery, steady running)
 exit 0 with no 'Traceback' and no 'FATAL' in its output, and both bags being written must be
 finished (summary written) with metadata.yaml counting exactly the messages the file holds.
 
-"Any moment" starts once the interpreter runs the package's first line (abb_ros.nodes installs
-the stop handler): before that, during the interpreter's own start-up (site, .pth files;
-0.05 s on an idle machine, up to ~0.5 s on this loaded one), Python's default handlers apply
-and nothing in the package can change that. The test waits until the process has begun
-importing rclpy (its shared library is mapped), which comes after that line.
+"Any moment" starts once the interpreter runs the node module's first lines (run as
+``python -m abb_ros.nodes.<node>``, the module installs the stop handler before its imports):
+before that, during the interpreter's own start-up (site, .pth files; 0.05 s on an idle
+machine, up to ~0.5 s on this loaded one), Python's default handlers apply and nothing in the
+package can change that. The test waits until the process has begun importing rclpy (its
+shared library is mapped), which comes after those lines.
+
+Importing a node module, by contrast, installs no handler at all.
 """
 
 import random
@@ -30,6 +33,15 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow]
 ROOT = Path(__file__).resolve().parents[1]
 ROUNDS = 3
 LATEST_SIGNAL_S = 6.0
+NODE_MODULES = ('simulator', 'analysis', 'recorder', 'spin_controller')
+
+
+@pytest.mark.parametrize('module', NODE_MODULES)
+def test_importing_a_node_module_leaves_the_signal_handlers_as_they_were(module):
+    code = (f'import signal, abb_ros.nodes.{module}\n'
+            'assert signal.getsignal(signal.SIGINT) is signal.default_int_handler\n'
+            'assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL\n')
+    subprocess.run([sys.executable, '-c', code], cwd=ROOT, check=True, timeout=120)
 
 
 def node(module, *params):

@@ -214,7 +214,7 @@ def test_topics_arrive_at_their_rates_with_frames_names_and_units_in_real_time(t
                     'deck/imu': 500}
         for topic, rate in expected.items():
             measured = (len(arrivals[topic]) - start[topic]) / window
-            # The requirement: each rate within 5 % over a few seconds.
+            # Each rate within 5 % over a few seconds.
             assert measured == pytest.approx(rate, rel=0.05), (topic, measured)
         # Then the contents, by typed subscriptions (deserialising 3.5 kHz of messages in the
         # same Python executor as the counters would slow the counting down).

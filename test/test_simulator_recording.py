@@ -144,7 +144,7 @@ def test_recording_in_the_node_takes_the_other_nodes_topics_from_the_graph(plant
     status = p.node.create_publisher(DiagnosticArray, '/diagnostics', 10)
     p.sim.set_parameters([Parameter('record.path', value=str(bag))])
     assert p.call(Trigger, '/abb_simulator/start_recording', Trigger.Request()).success
-    p.wait(lambda: p.sim.graph.subscriptions.get('/stability/margin') is not None,
+    p.wait(lambda: p.sim.recorder.current.graph.subscriptions.get('/stability/margin') is not None,
            'the subscription to stability/margin', timeout=10.0)
     sent = []
     for k in range(40):

@@ -31,8 +31,11 @@ balanced. A thin rclpy adapter over :mod:`abb_ros.model.speed_bands`:
 
 from __future__ import annotations
 
+if __name__ == '__main__':   # python -m: the stop handlers first, then the imports below
+    from abb_ros.nodes.script import run_module
+    run_module('abb_ros.nodes.analysis')
+
 import math
-import sys
 import time
 
 from rcl_interfaces.msg import ParameterEvent, SetParametersResult
@@ -293,6 +296,3 @@ def _resolve(name: str, namespace: str) -> str:
 def main(args=None):
     return run_node(NODE_NAME, AnalysisNode, args)
 
-
-if __name__ == '__main__':
-    sys.exit(main())

@@ -33,7 +33,7 @@ class BenchIO:
     """The bench's sensors, faults, disturbances and markers of a simulator node.
 
     See the module docstring. ``node`` must have ``sim``, ``sampler``, ``settings``,
-    ``drive``, ``stamp_ns()`` and ``_dt_ns``/``_epoch_ns``.
+    ``drive``, ``stamp_ns()`` and ``pacer``.
     """
 
     def __init__(self, node, qos_depth: int):
@@ -128,7 +128,7 @@ class BenchIO:
         rate = self.bench.visualization_rate_hz
         if rate <= 0.0 or sample is None or sample.y is None:
             return
-        stamp_ns = sample.stamp_ns(self.node._dt_ns, self.node._epoch_ns)
+        stamp_ns = sample.stamp_ns(self.node.pacer.dt_ns, self.node.pacer.epoch_ns)
         slot = stamp_ns // round(1e9 / rate)
         if slot == self._marker_slot:
             return

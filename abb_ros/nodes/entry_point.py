@@ -15,21 +15,23 @@ import signal
 import sys
 
 import rclpy
-from rclpy._rclpy_pybind11 import RCLError
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.signals import SignalHandlerOptions
 
 from abb_ros.model.params import ParamError
 from abb_ros.nodes import stop as stop_request
+from abb_ros.nodes.rclpy_access import RCLError
 
 SPIN_TIMEOUT_S = 0.1
 """Longest wait in one spin_once: how late a stop request is seen at worst."""
 
 
 def make_executor(context):
-    """rclpy's EventsExecutor (a C++ event loop: about a third of the per-callback overhead
-    of SingleThreadedExecutor, which at 1 kHz decides whether a node keeps real time);
-    ABB_ROS_EXECUTOR=single selects the classic one."""
+    """Make rclpy's EventsExecutor for ``context``; ABB_ROS_EXECUTOR=single: the classic one.
+
+    The EventsExecutor is a C++ event loop: about a third of the per-callback overhead of the
+    SingleThreadedExecutor, which at 1 kHz decides whether a node keeps real time.
+    """
     if os.environ.get('ABB_ROS_EXECUTOR', 'events') == 'single':
         return SingleThreadedExecutor(context=context)
     from rclpy.experimental import EventsExecutor
@@ -37,9 +39,11 @@ def make_executor(context):
 
 
 def spin(node, stop=None) -> None:
-    """Spin ``node`` until ``stop`` is set, the context shuts down, or the node sets
-    ``exit_code``. Timed spin_once calls: the EventsExecutor's own blocking spin does not
-    return on a signal (Jazzy)."""
+    """Spin ``node`` until ``stop`` is set, the context shuts down, or it sets ``exit_code``.
+
+    Timed spin_once calls: the EventsExecutor's own blocking spin does not return on a
+    signal (Jazzy).
+    """
     executor = make_executor(node.context)
     executor.add_node(node)
     try:
@@ -50,9 +54,12 @@ def spin(node, stop=None) -> None:
 
 
 def run_node(name: str, factory, args=None, usage_errors=(ParamError,)) -> int:
-    """Run the node made by ``factory()`` until SIGINT/SIGTERM or shutdown; return the exit
-    code: 0, the node's ``exit_code`` if it set one (a runtime failure), or 2 with one line
-    on stderr when construction raises one of ``usage_errors`` (invalid parameters)."""
+    """Run the node made by ``factory()`` until SIGINT/SIGTERM or shutdown.
+
+    Installs the stop handlers (:mod:`abb_ros.nodes.stop`) for the time it runs. Returns the
+    exit code: 0, the node's ``exit_code`` if it set one (a runtime failure), or 2 with one
+    line on stderr when construction raises one of ``usage_errors`` (invalid parameters).
+    """
     stop = stop_request.REQUEST
     previous = stop_request.install()
     node = None

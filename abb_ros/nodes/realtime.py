@@ -33,6 +33,7 @@ class FifoScheduling:
         self._tried = 0         # the last priority tried (not retried until it changes)
 
     def want(self, priority: int) -> None:
+        """Want SCHED_FIFO at ``priority`` (0: the normal policy) from the next apply."""
         self.wanted = int(priority)
 
     @property
@@ -41,8 +42,10 @@ class FifoScheduling:
         return self.wanted != self._tried
 
     def apply(self) -> str:
-        """Set the calling thread's policy to what is wanted, once per change. Returns ''
-        or a one-line warning (the system refused; the thread keeps its policy)."""
+        """Set the calling thread's policy to what is wanted, once per change.
+
+        Returns '' or a one-line warning (the system refused; the thread keeps its policy).
+        """
         if not self.pending:
             return ''
         self._tried = self.wanted
@@ -61,3 +64,11 @@ class FifoScheduling:
         self.applied = self.wanted
         self.state = f'SCHED_FIFO {self.wanted}' if self.wanted else 'normal'
         return ''
+
+    def apply_logged(self, logger) -> None:
+        """Apply the wanted policy to the calling thread; log a refusal as one warning."""
+        warning = self.apply()
+        if warning:
+            logger.warning(warning)
+        elif self.applied:
+            logger.info(f'integrating under {self.state}')

@@ -20,8 +20,11 @@ command, so lockstep runs stay deterministic). Parameters: docs/ros_api.md.
 
 from __future__ import annotations
 
+if __name__ == '__main__':   # python -m: the stop handlers first, then the imports below
+    from abb_ros.nodes.script import run_module
+    run_module('abb_ros.nodes.spin_controller')
+
 import math
-import sys
 from dataclasses import fields
 
 from rcl_interfaces.msg import SetParametersResult
@@ -183,6 +186,3 @@ def main(args=None):
     # loop lets SIGINT through.
     return run_node(NODE_NAME, SpinController, args)
 
-
-if __name__ == '__main__':
-    sys.exit(main())

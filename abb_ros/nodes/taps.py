@@ -1,4 +1,4 @@
-"""Subscriptions read in batches, not by callbacks: a hidden helper node that no executor spins.
+"""Subscriptions read in batches, not by callbacks: a hidden helper node no executor spins.
 
 At 1 kHz, one Python callback per message is most of a node's CPU (the executor dispatch
 costs more than the work). A node that needs the messages in batches (the recorder) or only
@@ -11,6 +11,8 @@ EventsExecutor does not pass to callbacks (Jazzy).
 from __future__ import annotations
 
 from rclpy.node import Node
+
+from abb_ros.nodes.rclpy_access import take_message
 
 
 def _never_called(data) -> None:
@@ -26,14 +28,14 @@ class Taps:
                          enable_rosout=False)
 
     def subscribe(self, msg_type, topic: str, qos):
-        """A raw subscription whose CDR bytes are read with :meth:`take`."""
+        """Subscribe raw to ``topic``: its CDR bytes are read with :meth:`take`."""
         return self.node.create_subscription(msg_type, topic, _never_called, qos, raw=True)
 
     @staticmethod
     def take(sub):
-        """The next queued message as (CDR bytes, info dict), or None."""
-        with sub.handle:
-            return sub.handle.take_message(sub.msg_type, True)
+        """Take the next queued message as (CDR bytes, info dict), or None."""
+        return take_message(sub)
 
     def destroy(self) -> None:
+        """Destroy the helper node and its subscriptions."""
         self.node.destroy_node()
