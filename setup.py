@@ -27,11 +27,11 @@ setup(
     tests_require=['pytest'],
     entry_points={
         'console_scripts': [
-            'simulator = abb_ros.nodes.simulator:main',
-            'analysis = abb_ros.nodes.analysis:main',
-            'recorder = abb_ros.nodes.recorder:main',
+            'simulator = abb_ros.nodes.script:simulator',
+            'analysis = abb_ros.nodes.script:analysis',
+            'recorder = abb_ros.nodes.script:recorder',
             'abb-sim = abb_ros.cli:main',
-            'spin_controller = abb_ros.nodes.spin_controller:main',
+            'spin_controller = abb_ros.nodes.script:spin_controller',
             'warmup = abb_ros.model.warmup:main',
         ],
         'pytest11': ['abb_ros = abb_ros.testing.pytest_plugin'],

@@ -6,8 +6,10 @@ first seconds (imports, construction, kernel loading, discovery, steady running)
 exit 0 with no 'Traceback' and no 'FATAL' in its output, and both bags being written must be
 finished (summary written) with metadata.yaml counting exactly the messages the file holds.
 
-"Any moment" starts once the interpreter runs the node module's first lines (run as
-``python -m abb_ros.nodes.<node>``, the module installs the stop handler before its imports):
+"Any moment" starts once the interpreter runs the package's first lines: the simulator runs
+as ``python -m abb_ros.nodes.simulator`` (the module installs the stop handler before its
+imports), the analysis node and the recorder as their console scripts, what ``ros2 run``
+starts (abb_ros.nodes.script installs it before importing the node module):
 before that, during the interpreter's own start-up (site, .pth files; 0.05 s on an idle
 machine, up to ~0.5 s on this loaded one), Python's default handlers apply and nothing in the
 package can change that. The test waits until the process has begun importing rclpy (its
@@ -44,8 +46,11 @@ def test_importing_a_node_module_leaves_the_signal_handlers_as_they_were(module)
     subprocess.run([sys.executable, '-c', code], cwd=ROOT, check=True, timeout=120)
 
 
-def node(module, *params):
-    cmd = [sys.executable, '-m', f'abb_ros.nodes.{module}', '--ros-args']
+def node(module, *params, console_script=False):
+    if console_script:
+        cmd = [str(Path(sys.executable).with_name(module)), '--ros-args']
+    else:
+        cmd = [sys.executable, '-m', f'abb_ros.nodes.{module}', '--ros-args']
     for p in params:
         cmd += ['-p', p]
     return subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
@@ -83,8 +88,8 @@ def test_a_signal_at_a_random_moment_under_load_exits_0_without_traceback_or_fat
     for k in range(ROUNDS):
         sim_bag, rec_bag = tmp_path / f'sim{k}', tmp_path / f'rec{k}'
         procs = {'simulator': node('simulator', 'drive.n:=10', f'record.path:={sim_bag}'),
-                 'analysis': node('analysis'),
-                 'recorder': node('recorder', f'output:={rec_bag}')}
+                 'analysis': node('analysis', console_script=True),
+                 'recorder': node('recorder', f'output:={rec_bag}', console_script=True)}
         wait_for_package_code(procs.values())
         delay = rng.uniform(0.0, LATEST_SIGNAL_S)
         time.sleep(delay)

@@ -85,8 +85,11 @@ def test_the_recording_covers_every_topic_the_bench_nodes_publish():
 
 
 def test_every_node_in_the_launch_file_is_a_console_script_of_this_package():
+    from abb_ros.nodes.script import NODE_MODULES
     setup = (ROOT / 'setup.py').read_text()
-    scripts = dict(re.findall(r"'(\w+) = (abb_ros\.nodes\.\w+):main'", setup))
+    entry = dict(re.findall(r"'(\w+) = abb_ros\.nodes\.script:(\w+)'", setup))
+    assert all(entry[name] == name for name in NODE_MODULES), entry
+    scripts = {name: NODE_MODULES[name] for name in entry}
     calls = node_calls()
     assert {c['executable'] for c in calls} == {'simulator', 'analysis', 'spin_controller',
                                                 'recorder'}

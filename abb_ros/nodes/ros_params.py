@@ -34,6 +34,7 @@ from abb_ros.model.plant_spec import check_rates, imu_config
 from abb_ros.model.sensors import ImuConfig
 from abb_ros.nodes.bench_settings import BenchSettings, bench_settings
 from abb_ros.nodes.parameter_table import specs_for
+from abb_ros.nodes.rclpy_access import parameter_overrides
 
 __all__ = ['DRIVE_PREFIX', 'SIMULATOR_PARAMS', 'SimSettings', 'declare', 'declare_all',
            'coerce_on_set', 'descriptor', 'settings_from', 'current_values', 'validate_change',
@@ -75,7 +76,7 @@ def declare(node, specs: Mapping[str, ParamSpec], defaults: Mapping[str, Any] = 
     double); raises ParamError naming the ROS parameter and what is valid.
     """
     defaults = defaults or {}
-    overrides = node._parameter_overrides   # rclpy's -p / --params-file values, by name
+    overrides = parameter_overrides(node)   # rclpy's -p / --params-file values, by name
     for name, spec in specs.items():
         default = defaults.get(name, spec.default)
         value = default
