@@ -32,7 +32,7 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from sensor_msgs.msg import JointState
 
-from abb_ros.io import ros_messages
+from abb_ros.io import cdr
 from abb_ros.model.integrate import DEFAULT_DT, Simulation, SpindleMotor
 from abb_ros.model.params import DriveParams
 from abb_ros.model.sampling import PlantSampler
@@ -135,7 +135,7 @@ def measure_node(ns: str, seconds: float, rtf: float, subscribe: bool):
 
 def headless(seconds: float, with_messages: bool) -> float:
     """Real-time factor of the model alone: Simulation.advance in publish periods (1 ms at the
-    default step), optionally with the node's sampler (IMU) and message building."""
+    default step), optionally with the node's sampler (IMU) and CDR encoding."""
     p = DriveParams(n=N_BALLS)
     sim = Simulation(p, 2.7 * p.omega0, DEFAULT_DT, spindle=SpindleMotor(2000.0, 0.05))
     imu = ImuModel(TYPICAL_IMU)
@@ -147,8 +147,7 @@ def headless(seconds: float, with_messages: bool) -> float:
         for _ in range(100):
             if with_messages:
                 for sample in sampler.next_period():
-                    ros_messages.sample_messages(sample, int(DEFAULT_DT * 1e9), imu.config,
-                                                 0, True)
+                    cdr.sample_cdr(sample, int(DEFAULT_DT * 1e9), imu.config, 0, True)
             else:
                 sim.advance(STEPS_PER_MS)
     return (sim.t - sim0) / (time.perf_counter() - wall0)
@@ -180,7 +179,7 @@ def main():
     print(f'\n[as fast as possible, {fast["window"]:.0f} s window, no subscriber]')
     print(f'  node real-time factor                       {fast["rtf"]:.2f}')
     print(f'  headless Simulation.advance ({STEPS_PER_MS} steps/call) {base:.2f}')
-    print(f'  headless + sampler + messages (no DDS)      {base_msgs:.2f}')
+    print(f'  headless + sampler + CDR bytes (no DDS)     {base_msgs:.2f}')
     print(f'  node / headless advance                     {fast["rtf"] / base:.3f}')
     print(f'  CPU of the node process                     {100 * fast["cpu"]:.1f} %')
 

@@ -1,7 +1,7 @@
 """Fast, exact CDR encoding of the simulator's messages, straight from their plain contents.
 
 The bytes are those of the tests' reference encoder (test/cdr_reference.py, rosbags' CDR)
-applied to the rclpy message that :mod:`abb_ros.io.ros_messages` builds from the same contents
+applied to an rclpy message filled with the same contents of :mod:`abb_ros.io.ros_messages`
 (test/test_cdr.py checks it byte for byte), that is what a raw subscription receives over Fast
 DDS: the encapsulation header ``00 01 00 00`` (CDR, little-endian, XCDR1), then the fields in
 order, each primitive aligned to its size relative to the byte after the header, zero padding,
@@ -201,7 +201,7 @@ def diagnostic_array(sec: int, nanosec: int, content) -> bytes:
 
 
 def diagnostics(stamp_ns: int, name: str, level: bytes, message: str, values: dict) -> bytes:
-    """Return the CDR bytes of ros_messages.diagnostics (one status).
+    """Return the CDR bytes of a DiagnosticArray of one status.
 
     Publishing them skips building and converting an rclpy DiagnosticArray of some thirty
     key/values.
@@ -220,7 +220,7 @@ def sample_cdr(sample, dt_ns: int, imu_config, epoch_ns: int = 0, with_clock: bo
                ) -> tuple[int, list[tuple[str, bytes]]]:
     """Return (stamp [ns], [(topic, CDR bytes)]) of one sample.
 
-    The bytes and order are those of ros_messages.sample_messages serialised.
+    The bytes and order are those of the sample's rclpy messages serialised.
     """
     stamp_ns, contents = sample_contents(sample, dt_ns, imu_config, epoch_ns, with_clock)
     sec, nanosec = divmod(stamp_ns, 1_000_000_000)
