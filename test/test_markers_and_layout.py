@@ -15,7 +15,7 @@ from abb_ros.io.markers import (DECK_THICKNESS, ROTOR_HEIGHT, ball_radius, marke
 from abb_ros.model.integrate import initial_state
 from abb_ros.model.params import DriveParams
 from abb_ros.model.sensors import euler_quaternion, euler_rotation
-from abb_ros.nodes.bench import MARKERS_TOPIC
+from abb_ros.nodes.hil_io import MARKERS_TOPIC
 
 ROOT = Path(__file__).resolve().parents[1]
 LAYOUT = ROOT / 'config' / 'foxglove_layout.json'

@@ -173,15 +173,15 @@ def test_the_pitch_pattern_has_zero_mean_the_rms_asked_for_and_comes_from_the_se
 
 def test_the_node_parameter_refuses_a_pitch_error_that_would_reorder_the_edges():
     from abb_ros.model.params import ParamError
-    from abb_ros.nodes.bench_settings import bench_settings
+    from abb_ros.nodes.hil_settings import hil_settings
     from abb_ros.nodes.parameter_table import specs_for
     values = {name: spec.default for name, spec in specs_for('simulator').items()}
-    assert bench_settings(values).speed_sensor == SpeedSensorConfig()
+    assert hil_settings(values).speed_sensor == SpeedSensorConfig()
     values['speed_sensor.pitch_error'] = 0.2
-    assert bench_settings(values).speed_sensor.pitch_error == 0.2
+    assert hil_settings(values).speed_sensor.pitch_error == 0.2
     values['speed_sensor.pulses_per_rev'] = 12
     with pytest.raises(ParamError, match=r"'speed_sensor.pitch_error'.*0\.0755"):
-        bench_settings(values)
+        hil_settings(values)
 
 
 def test_each_edge_interval_reads_omega_pitch_over_pitch_plus_its_pitch_error_difference():

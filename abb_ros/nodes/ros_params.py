@@ -32,7 +32,7 @@ from abb_ros.model.param_spec import DOUBLE, DOUBLE_ARRAY, DRIVE_PREFIX, INTEGER
 from abb_ros.model.params import DriveParams, ParamError
 from abb_ros.model.plant_spec import check_rates, imu_config
 from abb_ros.model.sensors import ImuConfig
-from abb_ros.nodes.bench_settings import BenchSettings, bench_settings
+from abb_ros.nodes.hil_settings import HilSettings, hil_settings
 from abb_ros.nodes.parameter_table import specs_for
 from abb_ros.nodes.rclpy_access import parameter_overrides
 
@@ -134,7 +134,7 @@ class SimSettings:
     spindle_tau: float
     seed: int
     imu: ImuConfig
-    bench: BenchSettings = BenchSettings()
+    hil: HilSettings = HilSettings()
     spindle_mode: str = 'speed'
     motor: TorqueMotor = TorqueMotor()
 
@@ -202,7 +202,7 @@ def settings_from(values: Mapping[str, Any]) -> tuple[DriveParams, SimSettings]:
         spindle_max_accel=float(values['spindle.max_accel']),
         spindle_tau=float(values['spindle.tau']), seed=int(values['seed']),
         imu=imu_config(values), spindle_mode=str(values['spindle.mode']),
-        motor=TorqueMotor.from_values(values), bench=bench_settings(values))
+        motor=TorqueMotor.from_values(values), hil=hil_settings(values))
     return drive, settings
 
 

@@ -37,7 +37,7 @@ from abb_ros.model.params import ParamError
 from abb_ros.model.sampling import PlantSampler
 from abb_ros.model.sensors import ImuModel
 from abb_ros.nodes import ros_params
-from abb_ros.nodes.bench import BenchIO
+from abb_ros.nodes.hil_io import HilIO
 from abb_ros.nodes.entry_point import make_executor, run_node, spin
 from abb_ros.nodes.pacing import Pacer
 from abb_ros.nodes.rclpy_access import RCLError
@@ -92,7 +92,7 @@ class SimulatorNode(Node):
                       for topic, kind in ros_messages.TOPIC_TYPES.items()}
         self._bag_topics = {topic: (pub.topic_name, _type_name(ros_messages.TOPIC_TYPES[topic]),
                                     pub.qos_profile) for topic, pub in self._pubs.items()}
-        self.bench = BenchIO(self, QOS_DEPTH)   # FG, faults, disturbances, markers
+        self.hil = HilIO(self, QOS_DEPTH)   # FG, faults, disturbances, markers
         self.create_subscription(Float64, 'spindle/speed_cmd', self._on_speed_cmd, QOS_DEPTH)
         self.create_subscription(Float64, 'spindle/current_cmd', self._on_current_cmd,
                                  QOS_DEPTH)
@@ -217,7 +217,7 @@ class SimulatorNode(Node):
                                            pacer.epoch_ns, pacer.owns_time)
         for topic, data in encoded:
             self._send(topic, data, stamp_ns)
-        self.bench.on_sample(sample)
+        self.hil.on_sample(sample)
 
     def _send(self, topic: str, data: bytes, stamp_ns: int) -> None:
         """Publish the CDR bytes of one message (and record them when recording)."""
@@ -297,7 +297,7 @@ class SimulatorNode(Node):
         self.sampler.set_rates(s.publish_every, s.imu_every)
         self.pacer.reconfigure(s.real_time_factor, self.sampler.publish_every,
                                self._max_stamp_lag_ns())
-        self.bench.apply(s.bench)
+        self.hil.apply(s.hil)
         self._want_scheduling()
         if (s.real_time_factor, s.publish_rate_hz) != (old.real_time_factor,
                                                        old.publish_rate_hz):
@@ -314,7 +314,7 @@ class SimulatorNode(Node):
         self._set_spindle(s)
         self.imu.seed = s.seed
         self.imu.reset()
-        self.bench.reset(s.seed)
+        self.hil.reset(s.seed)
         cleared = self.fault
         self.fault = ''
         # Nothing is published now: this step's stamp went out already (with the old state);
@@ -350,14 +350,14 @@ class SimulatorNode(Node):
 
     # ---- diagnostics ---------------------------------------------------------------------
     def publish_diagnostics(self) -> None:
-        """Publish the simulation status (and the bench's) on /diagnostics."""
+        """Publish the simulation status (and the HIL I/O's) on /diagnostics."""
         window = self.pacer.close_window(self.sim.steps, not (self.paused or self.fault))
         level, message, values = simulation_status(self, window)
         stamp_ns = self.stamp_ns()
         self._send('/diagnostics', cdr.diagnostics(
             stamp_ns, f'{self.get_fully_qualified_name()}: simulation', level, message, values),
             stamp_ns)
-        self.bench.publish_diagnostics()
+        self.hil.publish_diagnostics()
 
 
 def _type_name(cls) -> str:

@@ -85,7 +85,7 @@ def simulation_status(node, window: PacingWindow) -> tuple[bytes, str, dict]:
     and slips, counters, the plant's state, the FG's state, recording and publishing counts.
     """
     sim, pacer, settings = node.sim, node.pacer, node.settings
-    fg = node.bench.speed
+    fg = node.hil.speed
     fg_state = fg.state(sim.omega)
     max_stamp_lag = node.get_parameter('max_stamp_lag').value
     recording = node.recorder.current

@@ -3,7 +3,7 @@
 :data:`SIMULATOR_SPECS` is the node's list, in declaration order: the drive is declared
 first (:mod:`abb_ros.model.drive_spec`), then these. The plant's parameters (rates, spindle,
 seed, IMU, motor; :mod:`abb_ros.model.plant_spec`) are shared with ``abb-sim run``; pacing,
-the bench (FG speed sensor, faults, disturbances, markers) and recording are the node's own.
+the HIL I/O (FG speed sensor, faults, disturbances, markers) and recording are the node's own.
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ _PACING = (
 )
 
 _BENCH = (
-    # FG speed sensor, faults, disturbances, markers (nodes/bench_settings.py),
+    # FG speed sensor, faults, disturbances, markers (nodes/hil_settings.py),
     # pacing limits, recording
     ParamSpec('speed_sensor.pulses_per_rev', 6, '', 'FG pulses per spindle revolution (3 per '
               'pole pair of a BLDC motor)', INTEGER, 1, 1000, applies='on ~/reset', nodes=_SIM),

@@ -1,4 +1,4 @@
-"""The simulator's bench I/O over real rclpy and DDS: spindle/speed, shock, disc swap, sensor
+"""The simulator's HIL I/O over real rclpy and DDS: spindle/speed, shock, disc swap, sensor
 faults on /diagnostics, visualization/markers.
 
 Lockstep (paused, ~/step) so that every message is accounted for. Faults are shown against a
@@ -54,7 +54,7 @@ def wait_counts(plant, *expected):
                'message counts ' + str([n for _, n in expected]))
 
 
-def bench_status(plant, ns):
+def hil_status(plant, ns):
     return plant.diag.get(f'{ns}/abb_simulator: faults and disturbances')
 
 
@@ -112,9 +112,9 @@ def test_a_shock_steps_the_published_deck_twist(plants):
     # give or take a tenth of a radian of the stiffest (tilt) modes' phase
     jump = published - np.array(ros_messages.deck_pose_twist_content(calm.y, 2)[1])
     np.testing.assert_allclose(jump, step, rtol=0.1)
-    plant.wait(lambda: bench_status(plant, '') is not None and 'shocks' in {
-        kv.key for kv in bench_status(plant, '').values}, 'faults and disturbances status')
-    values = {kv.key: kv.value for kv in bench_status(plant, '').values}
+    plant.wait(lambda: hil_status(plant, '') is not None and 'shocks' in {
+        kv.key for kv in hil_status(plant, '').values}, 'faults and disturbances status')
+    values = {kv.key: kv.value for kv in hil_status(plant, '').values}
     assert values['shocks'] == '1' and values['last_disturbance'].startswith('shock')
 
 
@@ -164,15 +164,15 @@ def test_imu_and_speed_faults_show_in_the_published_data_and_in_diagnostics(plan
     step_both(plant, 20, states)
     wait_counts(plant, (imu[B], 40))
     assert len(imu[A]) == 20 and len(states[A]) == 40
-    plant.wait(lambda: bench_status(plant, A) is not None
-               and bench_status(plant, A).level == DiagnosticStatus.WARN, 'WARN status')
-    assert 'imu_dropout' in bench_status(plant, A).message
+    plant.wait(lambda: hil_status(plant, A) is not None
+               and hil_status(plant, A).level == DiagnosticStatus.WARN, 'WARN status')
+    assert 'imu_dropout' in hil_status(plant, A).message
     plant.set_params(A, **{'fault.imu_dropout': False})
     step_both(plant, 5, states)
     wait_counts(plant, (imu[A], 25), (imu[B], 45))
     assert [m.linear_acceleration.x for m in imu[A][-5:]] == \
         [m.linear_acceleration.x for m in imu[B][-5:]]
-    plant.wait(lambda: bench_status(plant, A).level == DiagnosticStatus.OK, 'OK again')
+    plant.wait(lambda: hil_status(plant, A).level == DiagnosticStatus.OK, 'OK again')
 
     # stuck: the last reading repeated
     plant.set_params(A, **{'fault.imu_stuck': True})
@@ -198,7 +198,7 @@ def test_imu_and_speed_faults_show_in_the_published_data_and_in_diagnostics(plan
         wa, wb = a.angular_velocity, b.angular_velocity
         np.testing.assert_allclose([wa.x - wb.x, wa.y - wb.y, wa.z - wb.z], gyro_step,
                                    atol=1e-9)
-    plant.wait(lambda: 'imu_accel_bias_step' in bench_status(plant, A).message, 'bias listed')
+    plant.wait(lambda: 'imu_accel_bias_step' in hil_status(plant, A).message, 'bias listed')
 
     # speed dropout: no spindle/speed; noise: the readings scatter by its std
     wait_counts(plant, (speed[A], 65), (speed[B], 65))
@@ -211,8 +211,8 @@ def test_imu_and_speed_faults_show_in_the_published_data_and_in_diagnostics(plan
     wait_counts(plant, (speed[A], 265), (speed[B], 275))
     diff = np.array([a.data - b.data for a, b in zip(speed[A][-200:], speed[B][-200:])])
     assert np.std(diff) == pytest.approx(20.0, rel=0.2)
-    plant.wait(lambda: 'speed_noise' in bench_status(plant, A).message, 'noise listed')
-    assert bench_status(plant, B).level == DiagnosticStatus.OK
+    plant.wait(lambda: 'speed_noise' in hil_status(plant, A).message, 'noise listed')
+    assert hil_status(plant, B).level == DiagnosticStatus.OK
 
 
 def _euler_from_quaternion(o):

@@ -1,9 +1,9 @@
-"""The simulator's bench parameters, validated: FG speed sensor, faults, disturbances, markers.
+"""The simulator's HIL I/O parameters, validated: FG speed sensor, faults, disturbances, markers.
 
 Their declarations (defaults, units, ranges) are the ``speed_sensor.*``, ``fault.*``,
 ``disturbance.*`` and ``visualization.*`` entries of
-:data:`abb_ros.nodes.ros_params.NODE_PARAMS`; :func:`bench_settings` turns their values into
-a :class:`BenchSettings` or raises ParamError naming the parameter. Semantics:
+:data:`abb_ros.nodes.ros_params.NODE_PARAMS`; :func:`hil_settings` turns their values into
+a :class:`HilSettings` or raises ParamError naming the parameter. Semantics:
 docs/ros_api.md, 'Bench: measured speed, faults, disturbances, markers'.
 """
 
@@ -16,12 +16,12 @@ from typing import Any, Mapping
 from abb_ros.model.params import ParamError
 from abb_ros.model.speed_sensor import SpeedSensorConfig
 
-__all__ = ['BenchSettings', 'bench_settings']
+__all__ = ['HilSettings', 'hil_settings']
 
 
 @dataclass(frozen=True)
-class BenchSettings:
-    """Validated bench parameters (SI; the disc angle in degrees as given)."""
+class HilSettings:
+    """Validated HIL I/O parameters (SI; the disc angle in degrees as given)."""
 
     speed_sensor: SpeedSensorConfig = SpeedSensorConfig()
     imu_dropout: bool = False
@@ -44,8 +44,8 @@ def _vector(values: Mapping[str, Any], name: str, size: int, unit: str) -> tuple
     return tuple(float(x) for x in v)
 
 
-def bench_settings(values: Mapping[str, Any]) -> BenchSettings:
-    """Build BenchSettings from a flat {ROS name: value} mapping; raises ParamError."""
+def hil_settings(values: Mapping[str, Any]) -> HilSettings:
+    """Build HilSettings from a flat {ROS name: value} mapping; raises ParamError."""
     for name in ('speed_sensor.timer_hz', 'speed_sensor.timeout'):
         if not values[name] > 0:
             raise ParamError(name, values[name], '(0, inf)')
@@ -54,7 +54,7 @@ def bench_settings(values: Mapping[str, Any]) -> BenchSettings:
                               edge_jitter=float(values['speed_sensor.edge_jitter']),
                               timeout=float(values['speed_sensor.timeout']),
                               pitch_error=float(values['speed_sensor.pitch_error']))
-    return BenchSettings(
+    return HilSettings(
         speed_sensor=speed,
         imu_dropout=bool(values['fault.imu_dropout']),
         imu_stuck=bool(values['fault.imu_stuck']),

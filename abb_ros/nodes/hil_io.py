@@ -1,8 +1,8 @@
-"""The simulator node's bench I/O: FG speed sensor, sensor faults, disturbances, markers.
+"""The simulator node's HIL I/O: FG speed sensor, sensor faults, disturbances, markers.
 
 Wiring only (the logic is in :mod:`abb_ros.model.speed_sensor`,
 :mod:`abb_ros.model.sensor_faults`, :mod:`abb_ros.model.disturbances` and
-:mod:`abb_ros.io.markers`). :class:`BenchIO` attaches to a
+:mod:`abb_ros.io.markers`). :class:`HilIO` attaches to a
 :class:`abb_ros.nodes.simulator.SimulatorNode`: it puts the FG and the fault filters into
 the node's PlantSampler, serves ``~/apply_shock`` and ``~/swap_disc``, publishes
 ``visualization/markers`` and the ``faults and disturbances`` status on ``/diagnostics``.
@@ -22,15 +22,15 @@ from abb_ros.io import cdr, markers
 from abb_ros.model import disturbances
 from abb_ros.model.sensor_faults import ImuFaults, SpeedFaults
 from abb_ros.model.speed_sensor import SpeedSensor
-from abb_ros.nodes.bench_settings import BenchSettings
+from abb_ros.nodes.hil_settings import HilSettings
 
-__all__ = ['BenchIO', 'MARKERS_TOPIC']
+__all__ = ['HilIO', 'MARKERS_TOPIC']
 
 MARKERS_TOPIC = 'visualization/markers'
 
 
-class BenchIO:
-    """The bench's sensors, faults, disturbances and markers of a simulator node.
+class HilIO:
+    """The HIL sensors, faults, disturbances and markers of a simulator node.
 
     See the module docstring. ``node`` must have ``sim``, ``sampler``, ``settings``,
     ``drive``, ``stamp_ns()`` and ``pacer``.
@@ -39,7 +39,7 @@ class BenchIO:
     def __init__(self, node, qos_depth: int):
         self.node = node
         s = node.settings
-        self.speed = SpeedSensor(s.bench.speed_sensor, s.seed)
+        self.speed = SpeedSensor(s.hil.speed_sensor, s.seed)
         self.imu_faults = ImuFaults()
         self.speed_faults = SpeedFaults(seed=s.seed)
         sampler = node.sampler
@@ -53,15 +53,15 @@ class BenchIO:
         node.create_service(Trigger, '~/apply_shock', self._on_shock)
         node.create_service(Trigger, '~/swap_disc', self._on_swap)
         self._active = {}
-        self.apply(s.bench)
+        self.apply(s.hil)
 
     # ---- parameters ----------------------------------------------------------------------
-    def apply(self, b: BenchSettings) -> None:
-        """Apply new bench parameters (at a step boundary).
+    def apply(self, b: HilSettings) -> None:
+        """Apply new HIL I/O parameters (at a step boundary).
 
         A change of the active faults is reported on /diagnostics at once.
         """
-        self.bench = b
+        self.config = b
         self.speed.reconfigure(b.speed_sensor)
         f = self.imu_faults
         f.dropout, f.stuck = b.imu_dropout, b.imu_stuck
@@ -87,7 +87,7 @@ class BenchIO:
     def _on_shock(self, request, response):
         self.node._apply_parameters()   # the parameters just set, not those of the last tick
         sim = self.node.sim
-        step = self.bench.shock_velocity
+        step = self.config.shock_velocity
         try:
             y = disturbances.apply_shock(sim.y, sim.params.n, step)
         except np.linalg.LinAlgError as err:   # singular L (cos(alpha) = 0): change nothing
@@ -102,7 +102,7 @@ class BenchIO:
 
     def _on_swap(self, request, response):
         self.node._apply_parameters()
-        node, sim, b = self.node, self.node.sim, self.bench
+        node, sim, b = self.node, self.node.sim, self.config
         result = node.set_parameters([Parameter('drive.eps', value=b.disc_eps)])[0]
         if not result.successful:
             response.success = False
@@ -125,7 +125,7 @@ class BenchIO:
 
         The slots are 1 / visualization.rate_hz long, in simulated time.
         """
-        rate = self.bench.visualization_rate_hz
+        rate = self.config.visualization_rate_hz
         if rate <= 0.0 or sample is None or sample.y is None:
             return
         stamp_ns = sample.stamp_ns(self.node.pacer.dt_ns, self.node.pacer.epoch_ns)
@@ -134,7 +134,7 @@ class BenchIO:
             return
         self._marker_slot = slot
         self._markers_pub.publish(markers.marker_array(
-            stamp_ns, sample.y, self.node.sim.params, self.bench.visualization_exaggeration))
+            stamp_ns, sample.y, self.node.sim.params, self.config.visualization_exaggeration))
 
     def publish_diagnostics(self) -> None:
         """Publish the 'faults and disturbances' status: WARN with the active faults, else OK."""
