@@ -34,7 +34,7 @@ import time
 import numpy as np
 
 from abb_ros.io.scenario import load_scenario
-from abb_ros.model.beyond import with_steel_balls
+from abb_ros.model.ball_materials import with_steel_balls
 from abb_ros.model.integrate import DEFAULT_DT, ConstantSpeed, Simulation, initial_state
 
 

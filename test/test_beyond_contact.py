@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from abb_ros.model import kernels
-from abb_ros.model.beyond import STEEL_E, clamped_race, collision_state, race_energy_ledger
+from abb_ros.model.ball_materials import STEEL_E, clamped_race, collision_state, race_energy_ledger
 from abb_ros.model.dynamics import solver_buffers
 from abb_ros.model.integrate import ConstantSpeed, Ramp, Simulation, initial_state
 from abb_ros.model.params import DriveParams, ParamError

@@ -24,7 +24,7 @@ import pytest
 import lagrange_sympy as L
 from abb_ros.io.scenario import load_scenario
 from abb_ros.model import kernels
-from abb_ros.model.beyond import with_steel_balls
+from abb_ros.model.ball_materials import with_steel_balls
 from abb_ros.model.dynamics import solver_buffers
 from abb_ros.model.integrate import ConstantSpeed, Simulation, initial_state
 

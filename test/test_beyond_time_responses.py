@@ -1,6 +1,6 @@
 """Issue 12: the paper's time responses with steel balls of finite size (contact, rolling).
 
-Balls: solid steel of the scenario's mass (abb_ros.model.beyond.with_steel_balls; r_ball =
+Balls: solid steel of the scenario's mass (abb_ros.model.ball_materials.with_steel_balls; r_ball =
 2.873 mm for m = 0.78 g), Hertzian contact, no contact damping unless said. Numbers quoted in
 docs/beyond_the_paper.md come from scripts/beyond_the_paper.py (same runs).
 """
@@ -13,7 +13,7 @@ import pytest
 
 from abb_ros.app.headless import run_scenario
 from abb_ros.io.scenario import load_scenario
-from abb_ros.model.beyond import with_steel_balls
+from abb_ros.model.ball_materials import with_steel_balls
 from abb_ros.model.equilibrium import phi_star_two_balls
 
 

@@ -11,7 +11,7 @@ import pytest
 
 from abb_ros.io.scenario import load_scenario
 from abb_ros.model import kernels
-from abb_ros.model.beyond import clamped_race, collision_state, with_steel_balls
+from abb_ros.model.ball_materials import clamped_race, collision_state, with_steel_balls
 from abb_ros.model.dynamics import solver_buffers
 from abb_ros.model.integrate import ConstantSpeed, Simulation, TorqueMotor, initial_state
 from abb_ros.model.params import DriveParams

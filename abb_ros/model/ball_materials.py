@@ -1,7 +1,8 @@
-"""Beyond the paper (issue 12): material presets for balls with size, contact and rolling.
+"""Steel balls of finite size: material presets, a clamped race, and its energy ledger.
 
-The terms themselves live in :mod:`abb_ros.model.kernels` (``add_ball_rotation``,
-``contact_forces``, ``accel_rolling``, ``contact_substeps``) and are switched on by the
+The terms themselves live in :mod:`abb_ros.model.kernels` (``ball_size.add_ball_rotation``,
+``contact.contact_forces``, ``rolling_resistance.accel_rolling``,
+``contact_steps.contact_substeps``) and are switched on by the
 DriveParams fields ``r_ball``, ``contact_E``, ``contact_nu``, ``contact_damping``,
 ``rolling_mu``, ``rolling_stick_rate`` and ``ball_rotation`` (all zero: the paper's model).
 docs/beyond_the_paper.md states the laws, the assumptions and the measurements.
@@ -59,8 +60,11 @@ def clamped_race(n: int = 2, m: float = 0.78e-3, **changes) -> DriveParams:
 
 
 def collision_state(params: DriveParams, omega: float, gap: float, speed: float):
-    """State: ball 1 at phi = 0 moving at ``speed`` [m/s] towards ball 2, at rest ``gap`` [m]
-    beyond contact; deck at rest at the origin; spindle at omega [rad/s]."""
+    """Return a state of two balls about to collide.
+
+    Ball 1 at phi = 0 moving at ``speed`` [m/s] towards ball 2, at rest ``gap`` [m] short of
+    contact; deck at rest at the origin; spindle at omega [rad/s].
+    """
     from abb_ros.model.integrate import initial_state
     sep = params.contact_separation + gap / params.R
     y = initial_state(params, omega, phi0=[0.0, sep], deck0=(0.0,) * 6)
