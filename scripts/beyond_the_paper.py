@@ -192,7 +192,8 @@ def study_spinup():
 
 def study_collision():
     """Clamped race: an elastic head-on impact (momentum) and a damped one with rolling
-    resistance (energy ledger). Figures collision.png and energy_ledger.png."""
+    resistance (energy ledger). Figures collision.png and energy_ledger.png.
+    """
     from abb_ros.model.ball_materials import clamped_race, collision_state, race_energy_ledger
     from abb_ros.model.integrate import ConstantSpeed, Simulation
     plt = _plt()

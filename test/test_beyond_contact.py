@@ -154,14 +154,13 @@ def test_slip_to_stick_switch_is_located_at_the_instant_the_ball_enters_the_stic
     y = initial_state(params, omega, phi0=[0.3], deck0=(0.0,) * 6)
     y[8 + 7] = rate0
     P, S = kernels.pack_params(params), ConstantSpeed().pack(omega)
-    stages = [np.empty(y.size) for _ in range(5)]
+    stages = kernels.stage_buffers(1)
     events, cache = np.empty((kernels.MAX_SWITCHES, 1 + 1 + y.size)), np.zeros((3, y.size))
     bufs = solver_buffers(1)
     located = []
     steps = 150
     for s in range(steps):
-        k = kernels.JIT.rk4_rolling_substep(s * dt, dt, y, 1, P, S, *stages, events, cache,
-                                            *bufs)
+        k = kernels.JIT.rolling_substep(s * dt, dt, y, 1, P, S, stages, bufs, events, cache)
         located += [(s * dt + events[i, 0], events[i, 1], events[i, 2 + 8 + 7])
                     for i in range(k)]
     print(f'analytic switch {t_star:.15f} s; located {located}')

@@ -45,10 +45,10 @@ def replay(params, y0, omega, dt, nsteps):
     K = kernels.JIT
     P = kernels.pack_params(params)
     S = ConstantSpeed().pack(omega)
-    stages = [np.empty(N2) for _ in range(5)]
+    stages = kernels.stage_buffers(n)
     events = np.empty((kernels.MAX_SWITCHES, 1 + n + N2))
     cache = np.zeros((3, N2))
-    qdd, Qf, bufs = np.empty(N2 // 2), np.empty(n), solver_buffers(n)
+    bufs = solver_buffers(n)
     rolling = params.rolling_mu > 0
     trace = np.empty((2 * kernels.MAX_SUBSTEPS, 2 + N2))
     y = np.array(y0, dtype=float)
@@ -57,7 +57,7 @@ def replay(params, y0, omega, dt, nsteps):
         sub, impact = K.contact_regime(y, n, P, dt) if params.contact_E > 0 else (1, False)
         if sub > 1 and not rolling:
             start = y.copy()
-            rows = K.contact_step(s * dt, dt, y, start, n, P, S, sub, impact, trace, qdd, *bufs)
+            rows = K.contact_step(s * dt, dt, y, start, n, P, S, (sub, impact), trace, bufs)
             assert rows <= len(trace)
             for t, h, *end in trace[:rows]:
                 pieces.append((t, h, None, start, np.array(end)))
@@ -68,12 +68,12 @@ def replay(params, y0, omega, dt, nsteps):
             t = s * dt + j * h
             start = y.copy()
             if not rolling:
-                K.rk4_substep(t, h, y, n, P, S, *stages[:4], stages[4], qdd, *bufs)
+                K.rk4_substep(t, h, y, n, P, S, stages, bufs)
                 pieces.append((t, h, None, start, y.copy()))
                 continue
             mode = np.empty(n)
-            K.rolling_deriv(t, start, n, P, S, mode, False, stages[0], qdd, Qf, *bufs)
-            k = K.rk4_rolling_substep(t, h, y, n, P, S, *stages, events, cache, *bufs)
+            K.rolling_deriv(t, start, n, P, S, mode, False, stages.k1, bufs)
+            k = K.rolling_substep(t, h, y, n, P, S, stages, bufs, events, cache)
             offsets = [0.0, *events[:k, 0], h]
             modes = [mode, *events[:k, 1:1 + n].copy()]
             states = [start, *events[:k, 1 + n:].copy(), y.copy()]
@@ -92,27 +92,26 @@ def samples(params, omega, pieces):
     K = kernels.JIT
     P = kernels.pack_params(params)
     S = ConstantSpeed().pack(omega)
-    stages = [np.empty(N2) for _ in range(5)]
+    stages = kernels.stage_buffers(n)
     bufs = solver_buffers(n)
-    qdd, Qf = np.empty(N2 // 2), np.empty(n)
     rows = 3 * len(pieces)
     ts, ys, qdds, Qfs = np.empty(rows), np.empty((rows, N2)), np.empty((rows, N2 // 2)), \
         np.zeros((rows, n))
     for p, (t, h, mode, start, end) in enumerate(pieces):
         mid = start.copy()
         if mode is None:
-            K.rk4_substep(t, 0.5 * h, mid, n, P, S, *stages[:4], stages[4], qdd, *bufs)
+            K.rk4_substep(t, 0.5 * h, mid, n, P, S, stages, bufs)
         else:
-            K.rolling_deriv(t, start, n, P, S, mode.copy(), True, stages[0], qdd, Qf, *bufs)
-            K.rk4_frozen(t, 0.5 * h, start, n, P, S, mode.copy(), *stages, mid, qdd, Qf, *bufs)
+            K.rolling_deriv(t, start, n, P, S, mode.copy(), True, stages.k1, bufs)
+            K.rk4_after_k1(t, 0.5 * h, start, mid, n, P, S, mode.copy(), stages, bufs)
         for r, (tk, yk) in enumerate(((t, start), (t + 0.5 * h, mid), (t + h, end))):
             k = 3 * p + r
             ts[k], ys[k] = tk, yk
             if mode is None:
-                K.accel(tk, yk, n, P, S, qdds[k], *bufs)
+                K.accel(tk, yk, n, P, S, qdds[k], bufs)
             else:
-                K.rolling_deriv(tk, yk, n, P, S, mode.copy(), True, stages[4], qdds[k],
-                                Qfs[k], *bufs)
+                K.rolling_deriv(tk, yk, n, P, S, mode.copy(), True, stages.yt, bufs)
+                qdds[k], Qfs[k] = bufs.qdd, bufs.Qf[:n]
     return ts, ys, qdds, Qfs
 
 

@@ -14,6 +14,7 @@ from abb_ros.model import kernels
 from abb_ros.model.ball_materials import clamped_race, collision_state, with_steel_balls
 from abb_ros.model.dynamics import solver_buffers
 from abb_ros.model.integrate import ConstantSpeed, Simulation, TorqueMotor, initial_state
+from abb_ros.model.kernels.layout import STAT_REFINED, W_STATS
 from abb_ros.model.params import DriveParams
 
 K = kernels.JIT
@@ -40,11 +41,12 @@ def test_velocity_coupling_is_the_derivative_of_the_accelerations_in_the_ball_ra
     n, N = params.n, 7 + params.n
     P = kernels.pack_params(params)
     y, S = p3_state(params)
-    A, W, f, B, fb, u = solver_buffers(n)
+    solver = solver_buffers(n)
     qdd = np.empty(N)
-    K.accel(0.0, y, n, P, S, qdd, A, W, f, B, fb, u)
+    K.accel(0.0, y, n, P, S, qdd, solver)
     Jv = np.empty((N, n))
-    K.velocity_coupling(y, n, P, 1.0 / K.ball_inertia(P), np.linalg.inv(A), W, B, Jv)
+    K.velocity_coupling(y, n, P, 1.0 / K.ball_inertia(P), np.linalg.inv(solver.A), solver.W,
+                        solver.B, Jv)
     step = 1.0
     for b in range(n):
         rows = []
@@ -52,7 +54,7 @@ def test_velocity_coupling_is_the_derivative_of_the_accelerations_in_the_ball_ra
             yb = y.copy()
             yb[N + 7 + b] += sign * step
             q = np.empty(N)
-            K.accel(0.0, yb, n, P, S, q, *solver_buffers(n))
+            K.accel(0.0, yb, n, P, S, q, solver_buffers(n))
             rows.append(q)
         fd = (rows[0] - rows[1]) / (2.0 * step)
         np.testing.assert_allclose(Jv[:, b], fd, rtol=1e-7, atol=1e-9 * np.abs(fd).max())
@@ -71,13 +73,11 @@ def test_multirate_step_of_an_impact_agrees_with_fine_rk4_sub_steps():
     y, S = p3_state(params)
     dt = 1e-4
     bufs = solver_buffers(n)
-    stages = [np.empty(2 * N) for _ in range(5)]
-    qdd = np.empty(N)
+    stages = kernels.stage_buffers(n)
 
     def rk4(y, t, sub):
         for j in range(sub):
-            K.rk4_substep(t + j * dt / sub, dt / sub, y, n, P, S, *stages[:4], stages[4], qdd,
-                          *bufs)
+            K.rk4_substep(t + j * dt / sub, dt / sub, y, n, P, S, stages, bufs)
 
     s = 0
     while True:                     # up to the step in which ball 1 loses most of its rate
@@ -91,7 +91,7 @@ def test_multirate_step_of_an_impact_agrees_with_fine_rk4_sub_steps():
     assert K.contact_regime(y, n, P, dt)[1] and sub > 1
     coarse, mis = y.copy(), y.copy()
     rk4(coarse, s * dt, sub)
-    K.mis_contact_step(s * dt, dt, mis, n, P, S, sub, np.empty((0, 2 * N)), qdd, *bufs)
+    K.mis_contact_step(s * dt, dt, mis, n, P, S, sub, np.empty((0, 2 * N)), bufs)
     ball_rk4 = np.abs(coarse - ref)[N + 7:].max()
     ball_mis = np.abs(mis - ref)[N + 7:].max()
     deck_mis = np.abs(mis - ref)[N + 1:N + 7].max()
@@ -113,8 +113,8 @@ def test_multirate_steps_of_the_python_twin_agree_with_the_compiled_kernels():
     for kern in (kernels.JIT, kernels.PY):
         y = y0.copy()
         work = kernels.make_work(n)
-        assert kern.rk4_advance(y, 0.0, 1e-4, 0, 8, n, P, S, work)[0] == 8
-        out.append((y, work[6, 0]))
+        assert kern.advance(y, 0.0, 1e-4, 0, 8, P, S, work)[0] == 8
+        out.append((y, work[W_STATS, STAT_REFINED]))
     assert out[0][1] == out[1][1] > 0                   # refined steps, multirate
     np.testing.assert_allclose(out[1][0], out[0][0], rtol=1e-12, atol=1e-15)
 
@@ -160,7 +160,7 @@ def test_slow_impacts_take_fewer_sub_steps_than_fast_ones_would_at_their_speed(m
         P = kernels.pack_params(params)
         counts[speed] = [K.mis_substeps(y0, 2, P, 1e-4)]
         with monkeypatch.context() as patch:
-            patch.setattr(kernels, 'CONTACT_RELAX_MAX', 1.0)
+            patch.setattr(kernels.contact_steps, 'CONTACT_RELAX_MAX', 1.0)
             counts[speed].append(kernels.PY.mis_substeps(y0, 2, P, 1e-4))
     print(f'sub-steps (relaxed, relative rule): {counts}')
     assert counts[0.01][0] < 0.55 * counts[0.01][1]
@@ -197,11 +197,11 @@ def test_an_impact_caught_near_its_peak_is_not_taken_for_a_resting_contact():
     rest = start.copy()
     bufs = solver_buffers(n)
     S = ConstantSpeed().pack(0.0)
-    K.mis_contact_step(1e-4, 1e-4, rest, n, P, S, sub, np.empty((0, 2 * N)), np.empty(N), *bufs)
+    K.mis_contact_step(1e-4, 1e-4, rest, n, P, S, sub, np.empty((0, 2 * N)), bufs)
     assert K.resting_misjudged(start, rest, n, P, 1e-4)
     kept = start.copy()
-    rows = K.contact_step(1e-4, 1e-4, kept, start, n, P, S, sub, impact, np.empty((0, 2 * N)),
-                          np.empty(N), *bufs)
+    rows = K.contact_step(1e-4, 1e-4, kept, start, n, P, S, (sub, impact),
+                          np.empty((0, 2 * N)), bufs)
     forced = K.contact_regime_as(start, n, P, 1e-4, True)[0]
     print(f'contact sub-steps as resting {sub}, as an impact {forced}; the step kept: {rows} '
           'fast sub-steps (merged where the balls are apart)')
@@ -245,25 +245,24 @@ def test_a_resting_chain_is_never_taken_again(dt):
     """The gathered chain, continued at steps of dt: over the next 1000 steps every step has
     contacts resolved as resting (in sub-steps, or in one RK4 step at 1e-5 s: omega_c dt ~
     0.5) and none is taken again: its first multirate step at mis_substeps, or its one RK4
-    step, leaves retake_substeps at 0 (as rk4_step_located decides)."""
+    step, leaves retake_substeps at 0 (as kernels.stepper.step decides)."""
     params, t0, y0 = gathered_chain()
     sim = Simulation(params, 0.8 * params.omega0, dt=dt, y0=y0, t0=t0)
     n, N = params.n, 7 + params.n
     P = kernels.pack_params(params)
     S = sim.spindle.pack(sim.omega_cmd)
     bufs = solver_buffers(n)
-    stages = [np.empty(2 * N) for _ in range(5)]
+    stages = kernels.stage_buffers(n)
     retaken = resting = 0
     for _ in range(1000):
         start = sim.y.copy()
         sub, impact, rests = K.contact_regimes(start, n, P, dt, False)
         first = start.copy()
         if sub == 1:
-            K.rk4_substep(sim.t, dt, first, n, P, S, *stages, np.empty(N), *bufs)
+            K.rk4_substep(sim.t, dt, first, n, P, S, stages, bufs)
         else:
             sub = K.mis_substeps(start, n, P, dt)
-            K.mis_contact_step(sim.t, dt, first, n, P, S, sub, np.empty((0, 2 * N)),
-                               np.empty(N), *bufs)
+            K.mis_contact_step(sim.t, dt, first, n, P, S, sub, np.empty((0, 2 * N)), bufs)
         retaken += K.retake_substeps(start, first, n, P, dt, impact, sub,
                                      kernels.MIS_IMPACT_REFINE) > 0
         resting += rests and not impact

@@ -14,6 +14,7 @@ import pytest
 from abb_ros.model import kernels
 from abb_ros.model.dynamics import solver_buffers
 from abb_ros.model.integrate import ConstantSpeed, Simulation, TorqueMotor
+from abb_ros.model.kernels.layout import STAT_REFINED, W_STATS
 from test_contact_multirate import head_on
 
 SPEEDS = (0.001, 0.01, 0.05, 0.5)
@@ -77,7 +78,7 @@ def test_the_step_across_an_impacts_peak_is_taken_again(torque):
     CONTACT_REST_IMBALANCE of it), so the step is taken again as an impact."""
     dt = 1e-5
     params, y0 = head_on(0.05, 15 / 16, dt)
-    n, N = 2, 9
+    n = 2
     P = kernels.pack_params(params)
     K = kernels.JIT
     spindle = TorqueMotor() if torque else ConstantSpeed()
@@ -87,9 +88,8 @@ def test_the_step_across_an_impacts_peak_is_taken_again(torque):
     sub, impact, resting = K.contact_regimes(start, n, P, dt, False)
     assert (sub, impact, resting) == (1, False, True)
     whole = start.copy()
-    stages = [np.empty(2 * N) for _ in range(5)]
-    K.rk4_substep(sim.t, dt, whole, n, P, sim.spindle.pack(0.0), *stages, np.empty(N),
-                  *solver_buffers(n))
+    K.rk4_substep(sim.t, dt, whole, n, P, sim.spindle.pack(0.0), kernels.stage_buffers(n),
+                  solver_buffers(n))
     Kc, mb, _ = K.contact_scales(P)
     ends = [K.pair_state(y, n, P, 0, 1)[:2] for y in (start, whole)]
     for delta, rate in ends:
@@ -120,8 +120,8 @@ def test_the_python_twin_takes_the_same_steps_at_a_fine_step(torque):
     for kern in (kernels.JIT, kernels.PY):
         y = y0.copy()
         work = kernels.make_work(n)
-        assert kern.rk4_advance(y, 0.0, dt, 0, 6, n, P, S, work)[0] == 6
-        out.append((y, work[6, 0]))
+        assert kern.advance(y, 0.0, dt, 0, 6, P, S, work)[0] == 6
+        out.append((y, work[W_STATS, STAT_REFINED]))
     assert out[0][1] == out[1][1] >= 3
     np.testing.assert_array_equal(out[1][0], out[0][0])
 

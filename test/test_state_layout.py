@@ -1,4 +1,4 @@
-"""The state layout (model/state.py), the kernel builder (model/jit.py) and the topic list."""
+"""The state layout (model/state.py) and the topic list."""
 
 import math
 
@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 
 from abb_ros.io import topics
-from abb_ros.model import jit
 from abb_ros.model.state import DECK, PHI, THETA, StateLayout, n_coords, wrap_angle, wrap_degrees
 
 
@@ -50,23 +49,6 @@ def test_wrapped_ball_angles_lie_in_minus_pi_excluded_to_pi_included():
     got = wrap_angle(phi)
     np.testing.assert_allclose(got, [math.pi, math.pi, math.pi, 0.1, 7.0 - 2 * math.pi])
     np.testing.assert_allclose(wrap_degrees(phi), np.degrees(got))
-
-
-def test_kernel_set_builds_a_compiled_and_a_python_namespace_of_the_same_functions():
-    kernel = jit.KernelSet(error_model='numpy')
-
-    @kernel
-    def twice(x):
-        return 2.0 * x
-
-    @kernel
-    def four_times(x):
-        return twice(twice(x))   # a kernel calling a kernel
-
-    JIT, PY = kernel.build()
-    assert PY.four_times is four_times and not PY.compiled and PY.names == ('twice', 'four_times')
-    assert JIT.four_times(1.5) == PY.four_times(1.5) == 6.0
-    assert JIT.compiled == jit.enabled()
 
 
 def test_every_topic_has_one_entry_and_the_derived_lists_keep_its_order():

@@ -74,7 +74,7 @@ def test_torque_mode_accelerations_solve_every_first_order_equation(n):
         Q = kernels.PY.spindle_torque(w, S)
         for kern in (kernels.PY, kernels.JIT):
             kern.accel(0.0, y, n, kernels.pack_params(params), S, qdd,
-                       *dynamics.solver_buffers(n))
+                       dynamics.solver_buffers(n))
             rows = L.first_order_residual(params, y, qdd) / scales(params, w)
             _, first = L.theta_residuals(params, y, qdd)
             assert np.max(np.abs(rows)) < ROUND_OFF, rows

@@ -48,7 +48,7 @@ def bookkeeping(params, motor, current, y0, duration):
     def fun(t, z):
         y = np.ascontiguousarray(z[:2 * N])
         dz = np.empty(2 * N + 3)
-        kernels.JIT.deriv(t, y, n, P, S, dz[:2 * N], qdd, *bufs)
+        kernels.JIT.deriv(t, y, n, P, S, dz[:2 * N], bufs)
         w = y[N]
         i = kernels.JIT.motor_current(w, S)
         dz[2 * N] = motor.K_t * i * w
@@ -69,7 +69,7 @@ def bookkeeping(params, motor, current, y0, duration):
     p_tr = np.empty(ts.size)
     for j, t in enumerate(ts):
         y = np.ascontiguousarray(sol.sol(t)[:2 * N])
-        kernels.JIT.accel(t, y, n, P, S, qdd, *bufs)
+        kernels.JIT.accel(t, y, n, P, S, qdd, bufs)
         rows = L.exact_residual(params, y, qdd)
         e_theta, _ = L.theta_residuals(params, y, qdd)
         p_tr[j] = (y[N] * (e_theta - kernels.JIT.spindle_torque(y[N], S))

@@ -83,7 +83,7 @@ def holding_torque(sim, S_speed):
     n = sim.params.n
     P = kernels.pack_params(sim.params)
     qdd = np.empty(7 + n)
-    kernels.JIT.accel(sim.t, sim.y, n, P, S_speed, qdd, *sim._solver)
+    kernels.JIT.accel(sim.t, sim.y, n, P, S_speed, qdd, sim._solver)
     a, col = np.empty(6), np.empty(6)
     kernels.JIT.theta_row(sim.y, n, P, a, col)
     return a @ qdd[1:7] + sim.params.m * sim.params.R ** 2 * np.sum(qdd[7:])

@@ -22,6 +22,8 @@ import numpy as np
 
 from abb_ros.model import kernels
 from abb_ros.model.dynamics import solver_buffers
+from abb_ros.model.kernels.layout import (STAT_MOST_SUBSTEPS, STAT_REFINED, STAT_SUBSTEPS,
+                                          STAT_SWITCHES, W_STATS)
 from abb_ros.model.param_spec import MOTOR_DEFAULTS
 from abb_ros.model.params import DriveParams, ParamError
 from abb_ros.model.state import StateLayout, wrap_angle
@@ -163,7 +165,7 @@ class StateError(RuntimeError):
 def default_phi0(n: int, separation: float = 0.0) -> np.ndarray:
     """Initial ball angles [rad]: Section 5's +-60 deg; for n > 2 the balls alternate
     between the two groups, each group spread by 1 deg steps (identical balls started at the
-    same angle would move as one), or, with contact (issue 12), by the balls' contact
+    same angle would move as one), or, with contact, by the balls' contact
     ``separation`` [rad] plus 0.1 deg when that is wider: the balls then start side by side,
     just apart."""
     step = 1.0
@@ -192,7 +194,7 @@ def initial_state(params: DriveParams, omega: float, phi0=None, deck0=INITIAL_DE
 
 
 def _check_no_overlap(params: DriveParams, phi) -> None:
-    """With contact (issue 12) balls may not start closer than 2 asin(r_ball / R)."""
+    """With contact balls may not start closer than 2 asin(r_ball / R)."""
     if params.contact_E <= 0 or params.n < 2:
         return
     d = np.subtract.outer(phi, phi)
@@ -325,8 +327,8 @@ class Simulation:
     def advance(self, nsteps: int) -> None:
         """Advance by nsteps steps; raises :class:`StateError` on a bad state (the last good
         state is kept and time stops there)."""
-        done, status = self.kern.rk4_advance(self.y, self.t0, self.dt, self.steps, int(nsteps),
-                                             self.params.n, self._P, self._S, self._work)
+        done, status = self.kern.advance(self.y, self.t0, self.dt, self.steps, int(nsteps),
+                                         self._P, self._S, self._work)
         self.steps += int(done)
         if status != kernels.OK:
             raise StateError(int(status), self.t)
@@ -336,9 +338,9 @@ class Simulation:
         (nsteps // every, 2N). Raises :class:`StateError` like :meth:`advance`."""
         rows = int(nsteps) // int(every)
         out = np.empty((rows, self.y.size))
-        done, got, status = self.kern.rk4_trajectory(
-            self.y, self.t0, self.dt, self.steps, int(nsteps), int(every), self.params.n,
-            self._P, self._S, self._work, out)
+        done, got, status = self.kern.trajectory(
+            self.y, self.t0, self.dt, self.steps, int(nsteps), int(every), self._P, self._S,
+            self._work, out)
         self.steps += int(done)
         if status != kernels.OK:
             raise StateError(int(status), self.t)
@@ -348,7 +350,7 @@ class Simulation:
     def accelerations(self) -> np.ndarray:
         """q'' at the current state, shape (N,) (a new array; the solver scratch is reused)."""
         qdd = np.empty(self.N)
-        self.kern.accel(self.t, self.y, self.params.n, self._P, self._S, qdd, *self._solver)
+        self.kern.accel(self.t, self.y, self.params.n, self._P, self._S, qdd, self._solver)
         return qdd
 
     @property
@@ -357,25 +359,25 @@ class Simulation:
 
     @property
     def refined_steps(self) -> int:
-        """Steps integrated in contact sub-steps since the last parameter change (issue 12:
-        the step is refined automatically while balls touch)."""
-        return int(self._work[6, 0])
+        """Steps integrated in contact sub-steps since the last parameter change (the step is
+        refined automatically while balls touch)."""
+        return int(self._work[W_STATS, STAT_REFINED])
 
     @property
     def substeps(self) -> int:
         """RK4 sub-steps taken in the refined steps since the last parameter change."""
-        return int(self._work[6, 2])
+        return int(self._work[W_STATS, STAT_SUBSTEPS])
 
     @property
     def rolling_switches(self) -> int:
         """Rolling-resistance regime switches (stick, slip, break-free) located inside steps
-        since the last parameter change (issue 12: event-located Coulomb switching)."""
-        return int(self._work[6, 3])
+        since the last parameter change (event-located Coulomb switching)."""
+        return int(self._work[W_STATS, STAT_SWITCHES])
 
     @property
     def max_substeps(self) -> int:
         """Most sub-steps taken in one step since the last parameter change (1: none)."""
-        return max(1, int(self._work[6, 1]))
+        return max(1, int(self._work[W_STATS, STAT_MOST_SUBSTEPS]))
 
     @property
     def theta(self) -> float:
@@ -479,12 +481,11 @@ def reference_solution(params: DriveParams, y0, t_span, spindle=None, t_eval=Non
     P = kernels.pack_params(params)
     S = (spindle or ConstantSpeed()).pack(float(layout.omega(y0)))
     kern = kern or kernels.JIT
-    qdd = np.empty(layout.N)
     bufs = solver_buffers(n)
 
     def fun(t, y):
         dy = np.empty(layout.size)
-        kern.deriv(t, np.ascontiguousarray(y), n, P, S, dy, qdd, *bufs)
+        kern.deriv(t, np.ascontiguousarray(y), n, P, S, dy, bufs)
         return dy
 
     return solve_ivp(fun, t_span, np.asarray(y0, dtype=float), method=method, rtol=rtol,

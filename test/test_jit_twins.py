@@ -1,15 +1,16 @@
-"""The compiled kernels and their pure-Python twins run the same statements: they agree."""
+"""Kernels built twice (model/jit.py): compiled and pure-Python twins agree bit for bit."""
 
 import numpy as np
 import pytest
 
-from abb_ros.model import kernels
+from abb_ros.model import jit, kernels
 from abb_ros.model.dynamics import accelerations, lagrange_residual
 from abb_ros.model.integrate import SpindleMotor, initial_state
+from abb_ros.model.kernels.layout import STAT_SWITCHES, W_STATS
 from abb_ros.model.params import METAL_C, DriveParams, apply_settings
 from abb_ros.model.state import StateLayout
 
-pytestmark = pytest.mark.skipif(not kernels.JIT.compiled, reason='numba not available')
+needs_numba = pytest.mark.skipif(not kernels.JIT.compiled, reason='numba not available')
 
 
 def _state(n, seed):
@@ -23,29 +24,31 @@ def _state(n, seed):
     return params, omega, y
 
 
+@needs_numba
 @pytest.mark.parametrize('n', [0, 2, 10])
 def test_compiled_and_python_accelerations_agree(n):
     params, omega, y = _state(n, seed=n)
     S = SpindleMotor(max_accel=800.0, tau=0.05).pack(omega * 1.1)
     fast = accelerations(params, y, 0.0, S, kern=kernels.JIT)
     slow = accelerations(params, y, 0.0, S, kern=kernels.PY)
-    # Same operations in the same order; LLVM may contract a*b+c into FMAs: round-off only.
-    np.testing.assert_allclose(fast, slow, rtol=1e-12, atol=1e-12 * np.abs(slow).max())
+    np.testing.assert_array_equal(fast, slow)          # the same operations in the same order
 
 
+@needs_numba
 def test_compiled_and_python_rk4_agree_over_many_steps():
     params, omega, y0 = _state(2, seed=7)
     S = SpindleMotor().pack(omega)
     outs = []
     for kern in (kernels.JIT, kernels.PY):
         y = y0.copy()
-        done, status = kern.rk4_advance(y, 0.0, 1e-4, 0, 200, 2, kernels.pack_params(params), S,
-                                        kernels.make_work(2))
+        done, status = kern.advance(y, 0.0, 1e-4, 0, 200, kernels.pack_params(params), S,
+                                    kernels.make_work(2))
         assert (done, status) == (200, kernels.OK)
         outs.append(y)
-    np.testing.assert_allclose(outs[0], outs[1], rtol=1e-10, atol=1e-15)
+    np.testing.assert_array_equal(outs[0], outs[1])
 
 
+@needs_numba
 @pytest.mark.parametrize('n', [1, 2, 5])
 def test_accelerations_solve_the_equations_of_motion(n):
     """The elimination of the ball accelerations is exact: q'' satisfies all 6 + n equations."""
@@ -58,24 +61,26 @@ def test_accelerations_solve_the_equations_of_motion(n):
     assert np.abs(res).max() < 1e-12 * scale
 
 
+@needs_numba
 def test_bad_state_stops_integration_and_keeps_last_good_state():
     params, omega, y = _state(2, seed=3)
     s = StateLayout(2)
     y[s.translation_slice.start] = 0.5 * kernels.MAX_TRANSLATION
     y[s.deck_rate_slice.start] = 1e9        # X' absurd: the next step leaves the envelope
     y_before = y.copy()
-    done, status = kernels.JIT.rk4_advance(y, 0.0, 1e-4, 0, 10, 2, kernels.pack_params(params),
-                                           np.zeros(kernels.N_SPINDLE), kernels.make_work(2))
+    done, status = kernels.JIT.advance(y, 0.0, 1e-4, 0, 10, kernels.pack_params(params),
+                                       np.zeros(kernels.N_SPINDLE), kernels.make_work(2))
     assert status == kernels.ENVELOPE and done == 0
     np.testing.assert_array_equal(y, y_before)
     y[2] = np.nan
-    done, status = kernels.JIT.rk4_advance(y, 0.0, 1e-4, 0, 10, 2, kernels.pack_params(params),
-                                           np.zeros(kernels.N_SPINDLE), kernels.make_work(2))
+    done, status = kernels.JIT.advance(y, 0.0, 1e-4, 0, 10, kernels.pack_params(params),
+                                       np.zeros(kernels.N_SPINDLE), kernels.make_work(2))
     assert status == kernels.NONFINITE
 
 
+@needs_numba
 def test_compiled_and_python_rk4_agree_across_located_rolling_switches():
-    """Rolling resistance (issue 12): with one ball thrown at 30 rad/s the balls change
+    """Rolling resistance: with one ball thrown at 30 rad/s the balls change
     between slip and stick within these 30 ms, so switches are located inside steps; both
     builds locate the same number and end in the same state."""
     params = apply_settings(DriveParams(n=2), {'mbar': 0.03, 'c': METAL_C, 'wbar': 2.7})[0]
@@ -87,10 +92,35 @@ def test_compiled_and_python_rk4_agree_across_located_rolling_switches():
     outs, switches = [], []
     for kern in (kernels.JIT, kernels.PY):
         y, work = y0.copy(), kernels.make_work(2)
-        done, status = kern.rk4_advance(y, 0.0, 1e-4, 0, 300, 2, kernels.pack_params(params), S,
-                                        work)
+        done, status = kern.advance(y, 0.0, 1e-4, 0, 300, kernels.pack_params(params), S, work)
         assert (done, status) == (300, kernels.OK)
         outs.append(y)
-        switches.append(work[6, 3])
+        switches.append(work[W_STATS, STAT_SWITCHES])
     assert switches[0] == switches[1] > 0
-    np.testing.assert_allclose(outs[0], outs[1], rtol=1e-10, atol=1e-12)
+    np.testing.assert_array_equal(outs[0], outs[1])
+
+
+def test_kernel_set_builds_a_compiled_and_a_python_namespace_of_the_same_functions():
+    kernel = jit.KernelSet(error_model='numpy')
+
+    @kernel
+    def twice(x):
+        return 2.0 * x
+
+    @kernel
+    def four_times(x):
+        return twice(twice(x))   # a kernel calling a kernel
+
+    JIT, PY = kernel.build()
+    assert PY.four_times is four_times and not PY.compiled and PY.names == ('twice', 'four_times')
+    assert JIT.four_times(1.5) == PY.four_times(1.5) == 6.0
+    assert JIT.compiled == jit.enabled()
+
+
+def test_every_kernel_is_in_both_builds_and_takes_at_most_ten_arguments():
+    """The package registers each kernel once; none has a long positional list."""
+    import inspect
+    assert kernels.JIT.names == kernels.PY.names and len(kernels.PY.names) > 50
+    widest = max(len(inspect.signature(getattr(kernels.PY, name)).parameters)
+                 for name in kernels.PY.names)
+    assert widest <= 10
