@@ -1,7 +1,7 @@
 """Issue 12: the multirate contact step (kernels.mis_contact_step, docs/beyond_the_paper.md).
 
-Its energy closure over a collision is in test_beyond_energy; its momentum along the race in
-test_beyond_contact (the head-on collision runs through it).
+Its energy closure over a collision is in test_contact_rolling_energy; its momentum along the
+race in test_contact_rolling (the head-on collision runs through it).
 """
 
 import functools
@@ -121,7 +121,7 @@ def test_multirate_steps_of_the_python_twin_agree_with_the_compiled_kernels():
 
 def head_on(speed, onset, dt=1e-4):
     """The clamped race's head-on collision at ``speed`` [m/s] whose contact begins at the
-    fraction ``onset`` of the first step of dt (10 kHz: test_beyond_contact.clamped)."""
+    fraction ``onset`` of the first step of dt (10 kHz: test_contact_rolling.clamped)."""
     params = clamped_race(2, 0.78e-3)
     return params, collision_state(params, 0.0, gap=speed * dt * onset, speed=speed)
 

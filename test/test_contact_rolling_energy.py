@@ -15,7 +15,7 @@ does not vanish): a P3 run leaves ~1e-4 of the input work over 0.5 s whatever th
 Counting the work of the dropped terms closes the balance to 1e-6, for the paper's model and,
 with the switches located, with rolling resistance; without the deck the clamped race closes to
 1e-6 directly:
-test_beyond_contact.test_energy_of_a_collision_with_contact_damping_and_rolling_resistance_closes.
+test_contact_rolling.test_energy_of_a_collision_with_contact_damping_and_rolling_resistance_closes.
 """
 
 import numpy as np
