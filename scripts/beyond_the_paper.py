@@ -1,5 +1,7 @@
 #!/usr/bin/env python3
-"""Issue 12 studies: the figures of docs/beyond_the_paper.md and the numbers quoted there.
+"""Studies of steel balls with contact and rolling resistance (docs/beyond_the_paper.md).
+
+The figures of docs/beyond_the_paper.md and the numbers quoted there::
 
     .venv/bin/python scripts/beyond_the_paper.py p1        # contact at P1 (~2 min)
     .venv/bin/python scripts/beyond_the_paper.py rolling   # rbar residual vs rolling_mu (~15 min)

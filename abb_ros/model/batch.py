@@ -58,8 +58,9 @@ kernel = KernelSet(nogil=True, error_model='numpy')
 
 @kernel
 def rk4_metrics_batch(Y, P, S, t0, dt, step0, nsteps, rbar_limit, metrics, status):
-    """Advance each row Y[b] (a state, shape (2N,)) by nsteps RK4 steps of dt from
-    t = t0 + step0 dt with parameters P[b] and spindle profile S[b], updating metrics[b]
+    """Advance each row Y[b] (a state, shape (2N,)) by nsteps RK4 steps of dt, in place.
+
+    From t = t0 + step0 dt with parameters P[b] and spindle profile S[b], updating metrics[b]
     (:data:`METRICS`) after every step. Rows with status[b] != OK are left alone; a row that
     goes bad gets its status and keeps its last good state. All in place.
     """
@@ -142,22 +143,24 @@ class BatchRun:
         self.steps += int(nsteps)
 
     def set_omega_cmd(self, omega_cmd) -> None:
-        """New commanded spindle speed(s) [rad/s] for a motor profile (S[:, S_OMEGA_CMD])."""
+        """Set the commanded spindle speed(s) [rad/s] of a motor profile (S[:, S_OMEGA_CMD])."""
         self.S[:, S_OMEGA_CMD] = omega_cmd
 
     @property
     def t(self) -> float:
+        """Simulated time [s]."""
         return self.steps * self.dt
 
     @property
     def rbar(self) -> np.ndarray:
-        """rbar of the current (or last good) state of each run."""
+        """The rbar of the current (or last good) state of each run."""
         return np.sqrt(self.Y[:, 1] ** 2 + self.Y[:, 2] ** 2 + self.Y[:, 3] ** 2) / self.R
 
     @property
     def settle_time(self) -> np.ndarray:
-        """Time [s] after which rbar stayed at or below the limit to the end; NaN when the run
-        ends above the limit or failed, 0 when it never exceeded it.
+        """Time [s] after which rbar stayed at or below the limit to the end.
+
+        NaN when the run ends above the limit or failed, 0 when it never exceeded it.
         """
         last = self.metrics[:, LAST_ABOVE]
         out = np.where(np.isfinite(last), last, 0.0)

@@ -87,8 +87,11 @@ def lagrange_residual(params: DriveParams, y, qdd, kern=None) -> np.ndarray:
 
 def accelerations(params: DriveParams, y, t: float = 0.0, spindle=None, kern=None
                   ) -> np.ndarray:
-    """q'' at state y and time t, shape (N,). ``spindle`` is a packed profile (see
-    :mod:`abb_ros.model.kernels`), default constant speed (theta'' = 0)."""
+    """Return q'' at state y and time t, shape (N,).
+
+    ``spindle`` is a packed profile (see :mod:`abb_ros.model.kernels.layout`), default
+    constant speed (theta'' = 0).
+    """
     kern = kern or kernels.JIT
     y = _check(params, y)
     n = params.n

@@ -34,7 +34,7 @@ NO_JIT_ENV = 'ABB_ROS_NO_JIT'
 
 
 def enabled() -> bool:
-    """True when kernels are compiled: numba importable and ABB_ROS_NO_JIT unset or empty."""
+    """Return True when kernels are compiled: numba importable, ABB_ROS_NO_JIT unset or empty."""
     if os.environ.get(NO_JIT_ENV):
         return False
     try:
@@ -80,9 +80,12 @@ class KernelSet:
         self._kernels = {}
 
     def __call__(self, func=None, /, **entry_options):
-        """Mark ``func`` as a kernel (returned unchanged). ``entry_options`` are added to
-        ``options`` only where ``func`` is compiled as an entry point of ``JIT`` (e.g.
-        ``parallel=True``, ``fastmath=True``), not where it is compiled into a caller."""
+        """Mark ``func`` as a kernel (returned unchanged).
+
+        ``entry_options`` are added to ``options`` only where ``func`` is compiled as an entry
+        point of ``JIT`` (e.g. ``parallel=True``, ``fastmath=True``), not where it is compiled
+        into a caller.
+        """
         if func is None:
             return lambda f: self(f, **entry_options)
         if register_jitable is not None:   # (numba's decorator takes options or a function)
