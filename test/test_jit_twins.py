@@ -27,6 +27,7 @@ def _state(n, seed):
 @needs_numba
 @pytest.mark.parametrize('n', [0, 2, 10])
 def test_compiled_and_python_accelerations_agree(n):
+    """Check that compiled and python accelerations agree."""
     params, omega, y = _state(n, seed=n)
     S = SpindleMotor(max_accel=800.0, tau=0.05).pack(omega * 1.1)
     fast = accelerations(params, y, 0.0, S, kern=kernels.JIT)
@@ -36,6 +37,7 @@ def test_compiled_and_python_accelerations_agree(n):
 
 @needs_numba
 def test_compiled_and_python_rk4_agree_over_many_steps():
+    """Check that compiled and python rk4 agree over many steps."""
     params, omega, y0 = _state(2, seed=7)
     S = SpindleMotor().pack(omega)
     outs = []
@@ -63,6 +65,7 @@ def test_accelerations_solve_the_equations_of_motion(n):
 
 @needs_numba
 def test_bad_state_stops_integration_and_keeps_last_good_state():
+    """Check that bad state stops integration and keeps last good state."""
     params, omega, y = _state(2, seed=3)
     s = StateLayout(2)
     y[s.translation_slice.start] = 0.5 * kernels.MAX_TRANSLATION
@@ -80,9 +83,12 @@ def test_bad_state_stops_integration_and_keeps_last_good_state():
 
 @needs_numba
 def test_compiled_and_python_rk4_agree_across_located_rolling_switches():
-    """Rolling resistance: with one ball thrown at 30 rad/s the balls change
-    between slip and stick within these 30 ms, so switches are located inside steps; both
-    builds locate the same number and end in the same state."""
+    """Check that compiled and python rk4 agree across located rolling switches.
+
+    Rolling resistance: with one ball thrown at 30 rad/s the balls change between slip and stick
+    within these 30 ms, so switches are located inside steps; both builds locate the same number
+    and end in the same state.
+    """
     params = apply_settings(DriveParams(n=2), {'mbar': 0.03, 'c': METAL_C, 'wbar': 2.7})[0]
     params = params.replace(r_ball=2.873e-3, rolling_mu=1e-6, ball_rotation=1)
     omega = 2.7 * params.omega0
@@ -101,6 +107,7 @@ def test_compiled_and_python_rk4_agree_across_located_rolling_switches():
 
 
 def test_kernel_set_builds_a_compiled_and_a_python_namespace_of_the_same_functions():
+    """Check that kernel set builds a compiled and a python namespace of the same functions."""
     kernel = jit.KernelSet(error_model='numpy')
 
     @kernel
