@@ -66,7 +66,8 @@ def test_a_disc_swap_moves_the_kernel_s_imbalance_force_by_delta():
 
     def force_angle(state):
         solver = kernels.solver_scratch(0)
-        kernels.PY.assemble(state, 0, kernels.pack_params(p), 0.0, solver)
+        kernels.PY.assemble(state, 0, kernels.pack_params(p), 0.0, solver.A, solver.W, solver.f,
+                            solver.B, solver.fb)
         return math.atan2(solver.f[1], solver.f[0])
 
     turned = force_angle(swap_disc(y, 0, delta)) - force_angle(y)

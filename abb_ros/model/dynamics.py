@@ -74,8 +74,8 @@ def lagrange_residual(params: DriveParams, y, qdd, kern=None) -> np.ndarray:
     qdd = np.asarray(qdd, dtype=float)
     n = params.n
     solver = solver_buffers(n)
-    kern.assemble(y, n, kernels.pack_params(params), float(qdd[0]), solver)
     A, W, f, B, fb = solver.A, solver.W, solver.f, solver.B, solver.fb
+    kern.assemble(y, n, kernels.pack_params(params), float(qdd[0]), A, W, f, B, fb)
     layout = StateLayout(n)
     u = qdd[layout.deck_slice]
     phidd = qdd[layout.phi_slice]

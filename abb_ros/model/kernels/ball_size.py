@@ -16,14 +16,13 @@ SPIN_INERTIA = 0.4
 
 
 @kernel
-def add_ball_rotation(y, n, P, thdd, solver):
-    """Add the rolling balls' spin inertia to the assembled rows (``solver``), in place.
+def add_ball_rotation(y, n, P, thdd, A, W, f, B, fb):
+    """Add the rolling balls' spin inertia to the assembled rows, in place.
 
     J_b (R/r)^2 = 2/5 m R^2 adds to the ball row's phi_i'' (7/5 in all), J_b R/r = 2/5 m R r
     to the gamma'' and theta'' couplings, J_b to the deck's rotational inertias, and the spin
     terms J_b Omega beta', -J_b Omega alpha' (like J_z) to the alpha and beta rows.
     """
-    A, W, f, B, fb = solver.A, solver.W, solver.f, solver.B, solver.fb
     N = PHI + n
     R, m, r = P[P_R], P[P_m], P[P_R_BALL]
     Jb = SPIN_INERTIA * m * r * r

@@ -40,8 +40,8 @@ from abb_ros.model.state import DECK, PHI, THETA
 
 
 @kernel
-def assemble(y, n, P, thdd, solver):
-    """Fill the rows of Eqs. (18)-(24), generalised to theta(t), into ``solver``.
+def assemble(y, n, P, thdd, A, W, f, B, fb):
+    """Fill the rows of Eqs. (18)-(24), generalised to theta(t), into A, W, f, B, fb.
 
     Deck rows (X, Y, Z, alpha, beta, gamma): A @ u + W @ phi'' = f, with u the deck
     accelerations; ball rows: B @ u + m R^2 phi'' = fb. The rotor's mass centre G is
@@ -52,7 +52,6 @@ def assemble(y, n, P, thdd, solver):
     (:func:`abb_ros.model.kernels.contact.contact_forces`) and, for rolling balls, their spin
     (:func:`abb_ros.model.kernels.ball_size.add_ball_rotation`).
     """
-    A, W, f, B, fb = solver.A, solver.W, solver.f, solver.B, solver.fb
     a, b, d, R = P[P_A], P[P_B], P[P_D], P[P_R]
     M_P, M, m = P[P_M_P], P[P_M], P[P_m]
     J_Px, J_Py, J_Pz = P[P_J_Px], P[P_J_Py], P[P_J_Pz]
@@ -172,7 +171,7 @@ def assemble(y, n, P, thdd, solver):
     f[5] = (-kab * (c * gad + k * ga) - 4.0 * d * c * Xd - 4.0 * d * k * X
             - (Ir + J_z) * thdd)
     if P[P_BALL_ROTATION] != 0.0:
-        add_ball_rotation(y, n, P, thdd, solver)
+        add_ball_rotation(y, n, P, thdd, A, W, f, B, fb)
 
 
 @kernel

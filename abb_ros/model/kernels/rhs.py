@@ -40,7 +40,7 @@ def accel(t, y, n, P, S, qdd, solver):
     A, W, f, B, fb, u = solver.A, solver.W, solver.f, solver.B, solver.fb, solver.u
     N = PHI + n
     thdd = spindle_accel(t, y[N + THETA], S)
-    assemble(y, n, P, thdd, solver)
+    assemble(y, n, P, thdd, A, W, f, B, fb)
     mR2 = ball_inertia(P)
     if P[P_ROLLING_MU] > 0.0 and n > 0:
         mode = np.empty(n)

@@ -161,7 +161,7 @@ def rolling_deriv(t, y, n, P, S, mode, frozen, dy, solver):
     N = PHI + n
     qdd = solver.qdd
     thdd = spindle_accel(t, y[N + THETA], S)
-    assemble(y, n, P, thdd, solver)
+    assemble(y, n, P, thdd, solver.A, solver.W, solver.f, solver.B, solver.fb)
     margin = accel_rolling(y, n, P, ball_inertia(P), qdd, solver, mode, frozen)
     qdd[THETA] = thdd
     for i in range(N):

@@ -74,7 +74,7 @@ def accel_free_theta(t, y, n, P, S, qdd, solver):
     """
     A, W, f, B, fb, u = solver.A, solver.W, solver.f, solver.B, solver.fb, solver.u
     N = PHI + n
-    assemble(y, n, P, 0.0, solver)
+    assemble(y, n, P, 0.0, A, W, f, B, fb)
     a = np.empty(6)
     col = np.empty(6)
     uc = np.empty(6)
