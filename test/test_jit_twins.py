@@ -124,6 +124,22 @@ def test_kernel_set_builds_a_compiled_and_a_python_namespace_of_the_same_functio
     assert JIT.compiled == jit.enabled()
 
 
+def test_an_inlined_kernel_is_compiled_into_its_caller_and_stays_a_kernel():
+    """Check that a kernel marked inline gives the same results in both builds."""
+    kernel = jit.KernelSet(error_model='numpy')
+
+    @kernel(inline=True)
+    def thrice(x):
+        return 3.0 * x
+
+    @kernel
+    def nine_times(x):
+        return thrice(thrice(x))
+
+    JIT, PY = kernel.build()
+    assert JIT.nine_times(1.5) == PY.nine_times(1.5) == JIT.thrice(4.5) == 13.5
+
+
 def test_every_kernel_is_in_both_builds_and_takes_at_most_ten_arguments():
     """The package registers each kernel once; none has a long positional list."""
     import inspect

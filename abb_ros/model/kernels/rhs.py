@@ -27,7 +27,7 @@ from abb_ros.model.kernels.torque import accel_free_theta
 from abb_ros.model.state import DECK, PHI, THETA
 
 
-@kernel
+@kernel(inline=True)
 def accel(t, y, n, P, S, qdd, solver):
     """Fill qdd with q'' at (t, y); ``solver`` is the scratch (:class:`Solver`).
 
@@ -60,7 +60,7 @@ def accel(t, y, n, P, S, qdd, solver):
         qdd[PHI + b] = acc * inv
 
 
-@kernel
+@kernel(inline=True)
 def deriv(t, y, n, P, S, dy, solver):
     """Fill dy with y' = [q', q''] at (t, y) (q'' into ``solver.qdd`` on the way)."""
     N = PHI + n

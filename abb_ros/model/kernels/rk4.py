@@ -30,7 +30,7 @@ def rk4_combine(y0, h, k1, k2, k3, k4, y):
         y[i] = y0[i] + h6 * (k1[i] + 2.0 * (k2[i] + k3[i]) + k4[i])
 
 
-@kernel
+@kernel(inline=True)
 def stage_deriv(t, y, n, P, S, mode, dy, solver):
     """Fill dy with y' at (t, y): with the rolling regimes ``mode`` kept, or none (empty)."""
     if mode.shape[0] > 0:
