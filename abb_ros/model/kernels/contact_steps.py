@@ -50,11 +50,10 @@ the whole system: 1.5e-7, docs/beyond_the_paper.md)."""
 def contact_substeps(y, n, P, dt):
     """Return the RK4 sub-steps per step of dt that resolve every contact.
 
-    RK4 sub-steps per step of dt that keep omega_c h <= CONTACT_OMEGA_H (impacts) or
-    CONTACT_OMEGA_H_REST (resting contacts) for every pair of balls that can touch within the
-    step. omega_c = sqrt(4 k_c / m_b) bounds a chain of balls, with k_c = 1.5 K
-    sqrt(delta_peak), delta_peak the Hertz peak overlap for the present overlap and approach
-    speed; plus the contact damping rate.
+    They keep omega_c h <= CONTACT_OMEGA_H (impacts) or CONTACT_OMEGA_H_REST (resting contacts)
+    for every pair of balls that can touch within the step. omega_c = sqrt(4 k_c / m_b) bounds
+    a chain of balls, with k_c = 1.5 K sqrt(delta_peak), delta_peak the Hertz peak overlap for
+    the present overlap and approach speed; plus the contact damping rate.
     """
     return contact_regime(y, n, P, dt)[0]
 
@@ -63,8 +62,8 @@ def contact_substeps(y, n, P, dt):
 def contact_regime(y, n, P, dt):
     """Return (:func:`contact_substeps`, impact) of the step of dt from y.
 
-    (:func:`contact_substeps`, impact): impact is True when a pair that can touch within the
-    step has more kinetic than static overlap (an impact, not a resting contact).
+    ``impact`` is True when a pair that can touch within the step has more kinetic than static
+    overlap (an impact, not a resting contact).
     """
     return contact_regime_as(y, n, P, dt, False)
 
@@ -73,8 +72,8 @@ def contact_regime(y, n, P, dt):
 def contact_regime_as(y, n, P, dt, every_impact):
     """Return :func:`contact_regime`, every contact an impact if ``every_impact``.
 
-    :func:`contact_regime`, with every pair that can touch within the step resolved as an
-    impact when ``every_impact`` (a step retaken after :func:`resting_misjudged`).
+    Every pair that can touch within the step is resolved as an impact when
+    ``every_impact`` (a step retaken after :func:`resting_misjudged`).
     """
     k, impact, resting = contact_regimes(y, n, P, dt, every_impact)
     return k, impact
@@ -84,8 +83,8 @@ def contact_regime_as(y, n, P, dt, every_impact):
 def contact_regimes(y, n, P, dt, every_impact):
     """Return (:func:`contact_regime_as`, resting) of the step of dt from y.
 
-    (:func:`contact_regime_as`, resting): resting is True when a pair was resolved as a resting
-    contact (the step may have to be taken again, :func:`retake_substeps`).
+    ``resting`` is True when a pair was resolved as a resting contact (the step may have to be
+    taken again, :func:`retake_substeps`).
     """
     K, mb, sep = contact_scales(P)
     chi = P[P_CONTACT_DAMPING]
@@ -127,10 +126,9 @@ def contact_regimes(y, n, P, dt, every_impact):
 def pair_energies(delta, rate, K, mb):
     """Return the (static, kinetic) overlap 'energies' of a pair, in delta^2.5.
 
-    (static, kinetic) overlap 'energies' of a pair at overlap delta and its rate, in delta^2.5:
-    the present overlap's, max(delta, 0)^2.5, and the Hertz peak overlap's of the rate, 5/8 m_b
-    rate^2 / K (:func:`contact_regime_as`). More kinetic than static: an impact, else a resting
-    contact.
+    At overlap delta and its rate: the present overlap's, max(delta, 0)^2.5, and the Hertz peak
+    overlap's of the rate, 5/8 m_b rate^2 / K (:func:`contact_regime_as`). More kinetic than
+    static: an impact, else a resting contact.
     """
     d0 = max(delta, 0.0)
     return d0 * d0 * math.sqrt(d0), 0.625 * mb * rate * rate / K
@@ -140,11 +138,11 @@ def pair_energies(delta, rate, K, mb):
 def impact_relaxation(energy, K, mb):
     """Return how many times longer than an impact's sub-steps a slow impact's may be.
 
-    How many times longer than CONTACT_OMEGA_H / omega_c the sub-steps of an impact may be (>=
-    1): the impact's speed v (from its peak overlap's ``energy`` = delta_peak^2.5, as in
-    :func:`contact_regime`) below CONTACT_IMPACT_SPEED keeps the rebound speed's error
-    (relative error x v) at what the impact at that speed has, (CONTACT_IMPACT_SPEED / v) ^ (1
-    / CONTACT_ERROR_ORDER), at most CONTACT_RELAX_MAX.
+    The factor (>= 1) on CONTACT_OMEGA_H / omega_c: the impact's speed v (from its peak
+    overlap's ``energy`` = delta_peak^2.5, as in :func:`contact_regime`) below
+    CONTACT_IMPACT_SPEED keeps the rebound speed's error (relative error x v) at what the
+    impact at that speed has, (CONTACT_IMPACT_SPEED / v) ^ (1 / CONTACT_ERROR_ORDER), at most
+    CONTACT_RELAX_MAX.
     """
     v = math.sqrt(energy * K / (0.625 * mb))
     if v * CONTACT_RELAX_MAX ** CONTACT_ERROR_ORDER <= CONTACT_IMPACT_SPEED:
@@ -158,7 +156,7 @@ def impact_relaxation(energy, K, mb):
 def resting_misjudged(y0, y1, n, P, dt):
     """Return True when a contact taken for resting did not rest over the step.
 
-    True when a pair of balls that :func:`contact_regime` took for a resting contact at y0
+    A pair of balls that :func:`contact_regime` took for a resting contact at y0
     (touching, its overlap's energy at least its rate's) did not rest over the step of dt to
     y1: its overlap there is under half or over twice that at y0, its rate's energy exceeds its
     overlap's, or its force was not carried: its rate changed by more than
@@ -192,7 +190,7 @@ def resting_misjudged(y0, y1, n, P, dt):
 def retake_substeps(start, y, n, P, dt, impact, used, refine):
     """Return the sub-steps to take a step again with, or 0 to keep it.
 
-    Sub-steps to take the step of dt from ``start`` (which gave y in ``used`` sub-steps) again
+    The sub-steps to take the step of dt from ``start`` (which gave y in ``used`` sub-steps) again
     with every contact resolved as an impact (:func:`contact_regime_as`, times ``refine``), or
     0: only a step resolved as resting (not ``impact``) whose resting contact did not rest
     (:func:`resting_misjudged`) and when an impact needs more sub-steps than ``used`` (a step
@@ -208,7 +206,7 @@ def retake_substeps(start, y, n, P, dt, impact, used, refine):
 def mis_substeps(y, n, P, dt):
     """Return the fast RK4 sub-steps of the multirate step of dt from y.
 
-    Fast RK4 sub-steps of :func:`mis_contact_step` for the step of dt from y:
+    The sub-steps of :func:`abb_ros.model.kernels.multirate.mis_contact_step`:
     :func:`contact_substeps`, times MIS_IMPACT_REFINE in an impact (:func:`contact_regime`).
     """
     sub, impact = contact_regime(y, n, P, dt)
