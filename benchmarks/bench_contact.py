@@ -1,28 +1,25 @@
-"""Real-time factor of the fixed-step RK4 with and without issue 12's terms (n = 10).
+"""Real-time factor of the fixed-step RK4 with and without contact and rolling (n = 10).
 
 P3 with ten balls (config/scenarios/p3_n10_scattered.yaml: m = 0.156 g each, wbar = 2.7, metal
 washers, the scattered start that leaves room for balls of steel size, r_ball = 1.67 mm), at
-the node's default step (10 kHz), integration alone (the compiled kernels), for:
-- the paper's model;
-- steel balls with Hertzian contact;
-- contact + rolling resistance (1e-6 m) + rolling-ball spin inertia;
-- the same from a chain start (ten balls touching side by side at 0.1 deg beyond contact:
-  contact sub-steps in many steps while they part);
-- P1 (wbar = 0.8) from the scattered start, paper model vs contact: the balls gather into a
-  touching chain (the worst case: ~60 sub-steps per step while they settle, 0.3-1 s), then
-  stay in contact at rest (7 sub-steps per step): timed over the first 2 s, and over 2 s after
-  1.5 s of settling.
-The node keeps real time when the factor is above 1 (its own overhead: see
+the node's default step (10 kHz), integration alone (the compiled kernels), for: - the paper's
+model; - steel balls with Hertzian contact; - contact + rolling resistance (1e-6 m) +
+rolling-ball spin inertia; - the same from a chain start (ten balls touching side by side at
+0.1 deg beyond contact: contact sub-steps in many steps while they part); - P1 (wbar = 0.8)
+from the scattered start, paper model vs contact: the balls gather into a touching chain (the
+worst case: ~60 sub-steps per step while they settle, 0.3-1 s), then stay in contact at rest (7
+sub-steps per step): timed over the first 2 s, and over 2 s after 1.5 s of settling. The node
+keeps real time when the factor is above 1 (its own overhead: see
 benchmarks/bench_simulator_node.py). "RK4 steps per step" (sub-steps included, counted over the
 whole run with its settling) is the machine-independent cost; in a multirate contact step
-(kernels.mis_contact_step: speed-driven spindle, no rolling resistance) it counts the fast
-sub-steps, each O(n), not a solve of the coupled system; "rolling switches" counts the
-stick/slip switches located inside steps (over the whole run). Nothing is asserted (shared, noisy
-machines).
+(kernels.multirate.mis_contact_step: speed-driven spindle, no rolling resistance) it counts the
+fast sub-steps, each O(n), not a solve of the coupled system; "rolling switches" counts the
+stick/slip switches located inside steps (over the whole run). Nothing is asserted (shared,
+noisy machines).
 
 ``--dt`` runs every line at another step (e.g. 1e-5 s: contacts resolved in one RK4 step, each
-checked for a misjudged impact, kernels.retake_substeps; the settling then takes as many more
-steps).
+checked for a misjudged impact, kernels.contact_steps.retake_substeps; the settling then takes
+as many more steps).
 
 Run: nice -n 10 .venv/bin/python benchmarks/bench_contact.py [--seconds 2] [--dt 1e-4]
 """
@@ -34,13 +31,14 @@ import time
 import numpy as np
 
 from abb_ros.io.scenario import load_scenario
-from abb_ros.model.beyond import with_steel_balls
+from abb_ros.model.ball_materials import with_steel_balls
 from abb_ros.model.integrate import DEFAULT_DT, ConstantSpeed, Simulation, initial_state
 
 
 def _rtf(params, omega, phi0, seconds, settle=0.0, dt=DEFAULT_DT):
     """Best of two real-time factors over ``seconds`` at steps of dt, after ``settle`` s
-    untimed."""
+    untimed.
+    """
     y0 = initial_state(params, omega, phi0=phi0)
     nsteps = int(round(seconds / dt))
     best = math.inf

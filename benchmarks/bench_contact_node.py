@@ -27,7 +27,7 @@ import time
 
 from bench_simulator_node import STEPS_PER_MS, Probe, cpu_seconds, start_node, stop_node
 
-from abb_ros.model.beyond import with_steel_balls
+from abb_ros.model.ball_materials import with_steel_balls
 from abb_ros.model.integrate import DEFAULT_DT, Simulation
 from abb_ros.model.params import DriveParams
 

@@ -1,4 +1,4 @@
-"""Headless speed of the nonlinear model (issue: the physics core).
+"""Headless speed of the nonlinear model (the physics core).
 
 Prints, for n = 2 and n = 10 at P3 (metal washers, wbar = 2.7):
 - the real-time factor (simulated s per wall s) of the compiled fixed-step RK4 at the node's

@@ -3,7 +3,7 @@
 For Floquet points (in- and out-of-plane |lambda|max at P3's speed) and for 1 s nonlinear runs
 (P3, metrics peak rbar, time above the limit and settle time):
 
-(a) one sample per kernel call in a Python loop (runs: ``kernels.rk4_trajectory`` storing
+(a) one sample per kernel call in a Python loop (runs: ``kernels.stepper.trajectory`` storing
     every step, metrics from the stored trajectory with numpy);
 (b) batched in-process: one kernel call for the whole batch (``max_multiplier_batch``,
     ``batch.BatchRun`` with the metrics inside the kernel);
@@ -72,8 +72,8 @@ def runs_loop(plist, omega, nsteps):
     for p in plist:
         y = initial_state(p, omega)
         out = np.empty((nsteps, y.size))
-        kernels.JIT.rk4_trajectory(y, 0.0, DT, 0, nsteps, 1, p.n, kernels.pack_params(p), S,
-                                   kernels.make_work(p.n), out)
+        kernels.JIT.trajectory(y, 0.0, DT, 0, nsteps, 1, kernels.pack_params(p), S,
+                               kernels.make_work(p.n), out)
         rbar = np.sqrt(out[:, 1] ** 2 + out[:, 2] ** 2 + out[:, 3] ** 2) / p.R
         above = rbar > LIMIT
         _ = (rbar.max(), above.sum() * DT,

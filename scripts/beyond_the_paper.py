@@ -1,13 +1,15 @@
 #!/usr/bin/env python3
-"""Issue 12 studies: the figures of docs/beyond_the_paper.md and the numbers quoted there.
+"""Studies of steel balls with contact and rolling resistance (docs/beyond_the_paper.md).
+
+The figures of docs/beyond_the_paper.md and the numbers quoted there::
 
     .venv/bin/python scripts/beyond_the_paper.py p1        # contact at P1 (~2 min)
     .venv/bin/python scripts/beyond_the_paper.py rolling   # rbar residual vs rolling_mu (~15 min)
     .venv/bin/python scripts/beyond_the_paper.py spinup    # spin-up trap table (~10 min)
     .venv/bin/python scripts/beyond_the_paper.py collision # impact and energy ledger (~1 min)
 
-Balls: solid steel of the scenario's mass (abb_ros.model.beyond.with_steel_balls). Figures go
-to docs/figures/beyond/; tables are printed (Markdown).
+Balls: solid steel of the scenario's mass (abb_ros.model.ball_materials.with_steel_balls).
+Figures go to docs/figures/beyond/; tables are printed (Markdown).
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ import numpy as np
 
 from abb_ros.app.headless import run_scenario
 from abb_ros.io.scenario import load_scenario
-from abb_ros.model.beyond import with_steel_balls
+from abb_ros.model.ball_materials import with_steel_balls
 from abb_ros.model.equilibrium import phi_star_two_balls
 
 FIG_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), 'docs',
@@ -192,8 +194,9 @@ def study_spinup():
 
 def study_collision():
     """Clamped race: an elastic head-on impact (momentum) and a damped one with rolling
-    resistance (energy ledger). Figures collision.png and energy_ledger.png."""
-    from abb_ros.model.beyond import clamped_race, collision_state, race_energy_ledger
+    resistance (energy ledger). Figures collision.png and energy_ledger.png.
+    """
+    from abb_ros.model.ball_materials import clamped_race, collision_state, race_energy_ledger
     from abb_ros.model.integrate import ConstantSpeed, Simulation
     plt = _plt()
     fig, ax = plt.subplots(1, 2, figsize=(10, 3.8))

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from abb_ros.model import floquet as F
-from abb_ros.model.beyond import with_steel_balls
+from abb_ros.model.ball_materials import with_steel_balls
 from abb_ros.model.equilibrium import (ball_capacity, balanced_equilibrium, epsbar_lim,
                                        min_spacing)
 from abb_ros.model.integrate import Simulation

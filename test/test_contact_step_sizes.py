@@ -1,20 +1,23 @@
-"""Issue 12, item 3: the contact step's accuracy over the guaranteed range of integration steps
-(1e-5 to 2e-4 s) and approach speeds (0.001 to 0.5 m/s), in both spindle modes (speed mode:
-the multirate step, kernels.mis_contact_step; torque mode: whole-system RK4 sub-steps).
+"""The contact step's accuracy over the guaranteed steps and approach speeds.
 
-The head-on collision on the clamped race (test_contact_multirate.head_on) is elastic: its
-rebound speeds must agree with a fine run (2.5e-7 s) to the documented accuracy, 1e-5 m/s or
-7.8e-5 of the speed, whichever is looser, and its kinetic energy must come back to the same
-accuracy (as the speed it stands for). docs/beyond_the_paper.md, Impacts at any step.
+The guaranteed range: integration steps from 1e-5 to 2e-4 s, approach speeds from 0.001 to 0.5
+m/s, in both spindle modes (speed mode: the multirate step, kernels.multirate.mis_contact_step;
+torque mode: whole-system RK4 sub-steps).
+
+The head-on collision on the clamped race (test_contact_multirate.head_on) is elastic: its rebound
+speeds must agree with a fine run (2.5e-7 s) to the documented accuracy, 1e-5 m/s or 7.8e-5 of the
+speed, whichever is looser, and its kinetic energy must come back to the same accuracy (as the
+speed it stands for). docs/beyond_the_paper.md, Impacts at any step.
 """
 
 import numpy as np
 import pytest
+from test_contact_multirate import head_on
 
 from abb_ros.model import kernels
 from abb_ros.model.dynamics import solver_buffers
 from abb_ros.model.integrate import ConstantSpeed, Simulation, TorqueMotor
-from test_contact_multirate import head_on
+from abb_ros.model.kernels.layout import STAT_REFINED, W_STATS
 
 SPEEDS = (0.001, 0.01, 0.05, 0.5)
 STEPS = (1e-5, 3e-5, 1e-4, 2e-4)
@@ -27,13 +30,19 @@ DURATION = 2e-3
 
 
 def tolerance(speed):
-    """The documented rebound accuracy [m/s]: 1e-5 m/s or 7.8e-5 of the speed."""
+    """Return the documented rebound accuracy [m/s]: 1e-5 m/s or 7.8e-5 of the speed.
+
+    The documented rebound accuracy [m/s]: 1e-5 m/s or 7.8e-5 of the speed.
+    """
     return max(kernels.CONTACT_IMPACT_SPEED, speed) * 7.8e-5
 
 
 def speeds_after(params, y0, dt, spindle):
-    """The balls' speeds along the race [m/s] (race-fixed, and absolute: with the rotor's
-    rate, which is free in torque mode) after DURATION at steps of dt; the refined steps."""
+    """Return the balls' speeds along the race after DURATION at steps of dt, and more.
+
+    The balls' speeds along the race [m/s] (race-fixed, and absolute: with the rotor's rate, which
+    is free in torque mode) after DURATION at steps of dt; the refined steps.
+    """
     sim = Simulation(params, 0.0, dt=dt, spindle=spindle, y0=y0)
     if isinstance(spindle, TorqueMotor):
         sim.set_command(0.0)
@@ -45,13 +54,15 @@ def speeds_after(params, y0, dt, spindle):
 @pytest.mark.parametrize('speed', SPEEDS)
 @pytest.mark.slow
 def test_an_elastic_impact_rebounds_and_keeps_its_energy_at_every_step_and_speed(speed, dt):
-    """Rebound speeds against the fine run and the energy's error (as a speed, sqrt of twice
-    the kinetic energy over the mass, minus the approach speed) within the documented
-    accuracy, at ONSETS onsets, in speed and torque mode. Measured worst cells (rebound, of
-    the tolerance): 0.5 m/s at 3e-5 s 1.98e-5 of 3.9e-5 m/s (speed mode), 1.76e-5 at 1e-5 s
-    (torque mode); before the step across an impact's peak was checked (15af775) 5.7e-4
-    m/s at 0.05 m/s and 1e-5 s, and torque mode's impacts at omega_c h 0.3 up to 5.2e-5
-    m/s at 0.5 m/s."""
+    """Check that an elastic impact rebounds and keeps its energy at every step and speed.
+
+    Rebound speeds against the fine run and the energy's error (as a speed, sqrt of twice the
+    kinetic energy over the mass, minus the approach speed) within the documented accuracy, at
+    ONSETS onsets, in speed and torque mode. Measured worst cells (rebound, of the tolerance): 0.5
+    m/s at 3e-5 s 1.98e-5 of 3.9e-5 m/s (speed mode), 1.76e-5 at 1e-5 s (torque mode); before the
+    step across an impact's peak was checked (15af775) 5.7e-4 m/s at 0.05 m/s and 1e-5 s, and
+    torque mode's impacts at omega_c h 0.3 up to 5.2e-5 m/s at 0.5 m/s.
+    """
     worst = {}
     for k in range(ONSETS):
         params, y0 = head_on(speed, (k + 0.5) / ONSETS, dt)
@@ -70,15 +81,18 @@ def test_an_elastic_impact_rebounds_and_keeps_its_energy_at_every_step_and_speed
 
 @pytest.mark.parametrize('torque', [False, True])
 def test_the_step_across_an_impacts_peak_is_taken_again(torque):
-    """0.05 m/s at 1e-5 s, the contact beginning at 15/16 of the first step: the third step
-    starts before the peak and ends after it. Its overlap and energies look resting at both
-    ends (the overlap 4.6e-7 -> 4.9e-7 m, more static than kinetic 'energy'), with omega_c dt
-    ~ 1.8, taken whole (one RK4 step); but the rate turns round: it changes by about what
-    the contact force alone, unbalanced, gives over the step (resting_misjudged: more than
-    CONTACT_REST_IMBALANCE of it), so the step is taken again as an impact."""
+    """Check that the step across an impacts peak is taken again.
+
+    0.05 m/s at 1e-5 s, the contact beginning at 15/16 of the first step: the third step starts
+    before the peak and ends after it. Its overlap and energies look resting at both ends (the
+    overlap 4.6e-7 -> 4.9e-7 m, more static than kinetic 'energy'), with omega_c dt ~ 1.8, taken
+    whole (one RK4 step); but the rate turns round: it changes by about what the contact force
+    alone, unbalanced, gives over the step (resting_misjudged: more than CONTACT_REST_IMBALANCE of
+    it), so the step is taken again as an impact.
+    """
     dt = 1e-5
     params, y0 = head_on(0.05, 15 / 16, dt)
-    n, N = 2, 9
+    n = 2
     P = kernels.pack_params(params)
     K = kernels.JIT
     spindle = TorqueMotor() if torque else ConstantSpeed()
@@ -88,9 +102,8 @@ def test_the_step_across_an_impacts_peak_is_taken_again(torque):
     sub, impact, resting = K.contact_regimes(start, n, P, dt, False)
     assert (sub, impact, resting) == (1, False, True)
     whole = start.copy()
-    stages = [np.empty(2 * N) for _ in range(5)]
-    K.rk4_substep(sim.t, dt, whole, n, P, sim.spindle.pack(0.0), *stages, np.empty(N),
-                  *solver_buffers(n))
+    K.rk4_substep(sim.t, dt, whole, n, P, sim.spindle.pack(0.0), kernels.stage_buffers(n),
+                  solver_buffers(n))
     Kc, mb, _ = K.contact_scales(P)
     ends = [K.pair_state(y, n, P, 0, 1)[:2] for y in (start, whole)]
     for delta, rate in ends:
@@ -110,8 +123,11 @@ def test_the_step_across_an_impacts_peak_is_taken_again(torque):
 
 @pytest.mark.parametrize('torque', [False, True])
 def test_the_python_twin_takes_the_same_steps_at_a_fine_step(torque):
-    """The collision of the test above, its first 6 steps (the peak's taken again) by
-    kernels.PY and kernels.JIT: the same state, bit for bit."""
+    """Check that the python twin takes the same steps at a fine step.
+
+    The collision of the test above, its first 6 steps (the peak's taken again) by kernels.PY and
+    kernels.JIT: the same state, bit for bit.
+    """
     dt = 1e-5
     params, y0 = head_on(0.05, 15 / 16, dt)
     n = params.n
@@ -121,15 +137,18 @@ def test_the_python_twin_takes_the_same_steps_at_a_fine_step(torque):
     for kern in (kernels.JIT, kernels.PY):
         y = y0.copy()
         work = kernels.make_work(n)
-        assert kern.rk4_advance(y, 0.0, dt, 0, 6, n, P, S, work)[0] == 6
-        out.append((y, work[6, 0]))
+        assert kern.advance(y, 0.0, dt, 0, 6, P, S, work)[0] == 6
+        out.append((y, work[W_STATS, STAT_REFINED]))
     assert out[0][1] == out[1][1] >= 3
     np.testing.assert_array_equal(out[1][0], out[0][0])
 
 
 def test_a_step_outside_the_verified_range_is_said_not_refused():
-    """With contact on, a step outside 1e-5..2e-4 s runs and says so (summary and node
-    /diagnostics use contact_step_note); without contact, or inside the range, nothing."""
+    """Check that a step outside the verified range is said not refused.
+
+    With contact on, a step outside 1e-5..2e-4 s runs and says so (summary and node /diagnostics
+    use contact_step_note); without contact, or inside the range, nothing.
+    """
     from abb_ros.model.integrate import contact_step_note
     from abb_ros.model.params import DriveParams
     touching = DriveParams(n=3, r_ball=0.0023, contact_E=2e11)

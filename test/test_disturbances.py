@@ -46,7 +46,7 @@ def test_the_twist_matrix_is_the_rotation_and_eq10_at_zero_angles():
 
 
 def test_a_disc_swap_keeps_every_mass_where_it_is():
-    """Kernel convention (kernels.assemble): G at theta, ball i at theta + phi_i. After the
+    """Kernel convention (kernels.eom.assemble): G at theta, ball i at theta + phi_i. After the
     swap by delta, G is at the old theta + delta and each ball where it was."""
     y = _tilted_state(n=3)
     delta = math.radians(40.0)
@@ -65,10 +65,10 @@ def test_a_disc_swap_moves_the_kernel_s_imbalance_force_by_delta():
     delta = math.radians(75.0)
 
     def force_angle(state):
-        A, W, f = np.zeros((6, 6)), np.zeros((6, 0)), np.zeros(6)
-        B, fb = np.zeros((0, 6)), np.zeros(0)
-        kernels.assemble(state, 0, kernels.pack_params(p), 0.0, A, W, f, B, fb)
-        return math.atan2(f[1], f[0])
+        solver = kernels.solver_scratch(0)
+        kernels.PY.assemble(state, 0, kernels.pack_params(p), 0.0, solver.A, solver.W, solver.f,
+                            solver.B, solver.fb)
+        return math.atan2(solver.f[1], solver.f[0])
 
     turned = force_angle(swap_disc(y, 0, delta)) - force_angle(y)
     assert math.remainder(turned - delta, 2 * math.pi) == pytest.approx(0.0, abs=1e-12)

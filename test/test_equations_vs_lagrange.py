@@ -11,11 +11,11 @@ Each equation is normalised by a natural scale: the imbalance force M eps omega^
 translations, M eps R omega^2 for the rotations, m R^2 omega^2 for the balls.
 """
 
+import lagrange_sympy as L
 import numpy as np
 import pytest
 import sympy as sp
 
-import lagrange_sympy as L
 from abb_ros.model import dynamics
 from abb_ros.model.params import DriveParams, ParamError
 
@@ -32,6 +32,7 @@ ROUND_OFF = 1e-12
 
 
 def omega_p3(params):
+    """Return the spindle speed of P3 [rad/s]."""
     return WBAR_P3 * params.omega0
 
 
@@ -43,10 +44,12 @@ def scales(params, omega):
 
 
 def random_state(params, rng, theta_dd):
-    """(base y, base qdd, unit deck direction): deck part applied by :func:`at_scale`.
+    """Return (base y, base qdd, unit deck direction), the deck part applied by :func:`at_scale`.
 
-    theta, phi_i uniform on [0, 2 pi); theta' = omega(P3); phi_i' up to +-0.3 omega and phi_i''
-    up to +-0.05 omega^2 (balls far from locked: every ball term is exercised); deck coordinates
+    (base y, base qdd, unit deck direction): deck part applied by :func:`at_scale`.
+
+    theta, phi_i uniform on [0, 2 pi); theta' = omega(P3); phi_i' up to +-0.3 omega and phi_i'' up
+    to +-0.05 omega^2 (balls far from locked: every ball term is exercised); deck coordinates
     normal with scale R (translations) or 1 (angles), rates times omega, accelerations times
     omega^2.
     """
@@ -69,7 +72,10 @@ def random_state(params, rng, theta_dd):
 
 
 def at_scale(y, qdd, deck, s):
-    """The state with deck coordinates, rates, accelerations = s * deck."""
+    """Return the state with deck coordinates, rates, accelerations = s * deck.
+
+    The state with deck coordinates, rates, accelerations = s * deck.
+    """
     N = qdd.size
     y = y.copy()
     qdd = qdd.copy()
@@ -80,6 +86,7 @@ def at_scale(y, qdd, deck, s):
 
 
 def states(n, theta_dd=True, seed=0):
+    """Yield N_STATES random (params, state) of n balls."""
     params = DriveParams(n=n)
     rng = np.random.default_rng(seed + n)
     for _ in range(N_STATES):
@@ -119,8 +126,11 @@ def _deck_hessian(expr, variables, rest):
 
 
 def _suspension_matrix(p, coeff, size=6):
-    """The washer pattern of Eqs. (18)-(23) with coefficient coeff (k or c), order X, Y, Z,
-    alpha, beta, gamma: 4, 4d, (b^2+4d^2), a^2, (a^2+b^2+4d^2) times coeff."""
+    """Return the washer pattern of Eqs. (18)-(23) with coefficient coeff (k or c).
+
+    The washer pattern of Eqs. (18)-(23) with coefficient coeff (k or c), order X, Y, Z, alpha,
+    beta, gamma: 4, 4d, (b^2+4d^2), a^2, (a^2+b^2+4d^2) times coeff.
+    """
     a, b, d = p['a'], p['b'], p['d']
     K = sp.zeros(size, size)
     K[0, 0] = K[1, 1] = K[2, 2] = 4 * coeff
@@ -195,8 +205,11 @@ def _parts(params, y, qdd, deck, s, sc):
 
 @pytest.mark.parametrize('n', [1, 2, 3])
 def test_lagrange_residual_differs_from_the_energies_only_at_second_order(n):
-    """dynamics.lagrange_residual = Lagrange's equations of Eqs. (11), (13), (16) + O(s^2),
-    with theta'' non-zero (the generalisation to a varying spindle speed)."""
+    """Check that lagrange residual differs from the energies only at second order.
+
+    dynamics.lagrange_residual = Lagrange's equations of Eqs. (11), (13), (16) + O(s^2), with
+    theta'' non-zero (the generalisation to a varying spindle speed).
+    """
     for params, (y, qdd, deck) in states(n):
         sc = scales(params, y[7 + n])
         full, even, odd = _parts(params, y, qdd, deck, S0, sc)
@@ -210,8 +223,11 @@ def test_lagrange_residual_differs_from_the_energies_only_at_second_order(n):
 
 @pytest.mark.parametrize('n', [1, 2, 3])
 def test_lagrange_residual_has_exactly_the_first_order_theta_dd_terms(n):
-    """With theta'' != 0, lagrange_residual equals the first-order expansion of the energies to
-    round-off (so its theta'' terms are exactly those of Lagrange's equations at first order)."""
+    """Check that lagrange residual has exactly the first order theta dd terms.
+
+    With theta'' != 0, lagrange_residual equals the first-order expansion of the energies to
+    round-off (so its theta'' terms are exactly those of Lagrange's equations at first order).
+    """
     for params, (y, qdd, deck) in states(n, seed=100):
         y, qdd = at_scale(y, qdd, deck, 0.05)
         err = dynamics.lagrange_residual(params, y, qdd) - L.first_order_residual(params, y, qdd)
@@ -220,7 +236,7 @@ def test_lagrange_residual_has_exactly_the_first_order_theta_dd_terms(n):
 
 @pytest.mark.parametrize('n', [1, 2, 3])
 def test_at_constant_speed_lagrange_residual_is_printed_eqs18_24(n):
-    """theta'' = 0: lagrange_residual equals the transcription of Eqs. (18)-(24) to round-off."""
+    """Theta'' = 0: lagrange_residual equals the transcription of Eqs. (18)-(24) to round-off."""
     for params, (y, qdd, deck) in states(n, theta_dd=False, seed=200):
         y, qdd = at_scale(y, qdd, deck, 0.05)
         err = dynamics.lagrange_residual(params, y, qdd) - L.paper_residual(params, y, qdd)
@@ -229,8 +245,10 @@ def test_at_constant_speed_lagrange_residual_is_printed_eqs18_24(n):
 
 @pytest.mark.parametrize('n', [1, 2, 3])
 def test_theta_dd_terms_match_the_generalisation_in_the_dynamics_docstring(n):
-    """d residual / d theta'' of the first-order energies: the rotor G enters like a ball of mass
-    M at radius eps and angle theta, J_z adds to gamma and J_z beta to alpha; nothing in beta.
+    """Check that theta dd terms match the generalisation in the dynamics docstring.
+
+    d residual / d theta'' of the first-order energies: the rotor G enters like a ball of mass M at
+    radius eps and angle theta, J_z adds to gamma and J_z beta to alpha; nothing in beta.
 
     The first-order residual is affine in theta'', so the difference of two evaluations is the
     coefficient exactly up to round-off (ROUND_OFF, normalised per unit theta'' of omega^2).
@@ -257,9 +275,12 @@ def test_theta_dd_terms_match_the_generalisation_in_the_dynamics_docstring(n):
 
 
 def test_asymmetric_rotor_inertia_is_refused():
-    """docs/equations.md, finding F1: Eqs. (21)-(22) take J_x, J_y about the deck axes, which
-    is exact only for an axisymmetric rotor (J_x = J_y, as in Table 1). A rotor with J_x != J_y
-    spinning at theta has theta-periodic inertia about them and first-order terms the paper
-    omits, so the parameter set refuses it rather than simulate it wrongly."""
+    """Check that asymmetric rotor inertia is refused.
+
+    docs/equations.md, finding F1: Eqs. (21)-(22) take J_x, J_y about the deck axes, which is exact
+    only for an axisymmetric rotor (J_x = J_y, as in Table 1). A rotor with J_x != J_y spinning at
+    theta has theta-periodic inertia about them and first-order terms the paper omits, so the
+    parameter set refuses it rather than simulate it wrongly.
+    """
     with pytest.raises(ParamError, match="'J_y'.*J_x"):
         DriveParams(J_x=1.0e-6, J_y=2.0e-6)

@@ -1,4 +1,4 @@
-"""The state layout (model/state.py), the kernel builder (model/jit.py) and the topic list."""
+"""The state layout (model/state.py) and the topic list."""
 
 import math
 
@@ -6,12 +6,12 @@ import numpy as np
 import pytest
 
 from abb_ros.io import topics
-from abb_ros.model import jit
 from abb_ros.model.state import DECK, PHI, THETA, StateLayout, n_coords, wrap_angle, wrap_degrees
 
 
 @pytest.mark.parametrize('n', [0, 2, 10])
 def test_named_slices_cover_the_state_once_in_the_order_of_q_then_q_dot(n):
+    """Check that named slices cover the state once in the order of q then q dot."""
     s = StateLayout(n)
     y = np.arange(s.size, dtype=float)
     parts = np.concatenate([[s.theta(y)], s.deck(y), s.phi(y), [s.omega(y)], s.deck_rates(y),
@@ -22,6 +22,7 @@ def test_named_slices_cover_the_state_once_in_the_order_of_q_then_q_dot(n):
 
 
 def test_pack_puts_each_value_where_the_accessor_reads_it():
+    """Check that pack puts each value where the accessor reads it."""
     s = StateLayout(3)
     y = s.pack(theta=0.5, deck=range(1, 7), phi=[7, 8, 9], omega=300.0, phi_rates=[1, 2, 3])
     assert s.theta(y) == 0.5 and s.omega(y) == 300.0
@@ -32,6 +33,7 @@ def test_pack_puts_each_value_where_the_accessor_reads_it():
 
 
 def test_accessors_work_on_a_batch_of_states_and_rbar_is_translation_over_race_radius():
+    """Check that accessors work on a batch of states and rbar is translation over race radius."""
     s = StateLayout(2)
     ys = np.zeros((4, s.size))
     ys[:, DECK:DECK + 3] = [3e-3, 4e-3, 12e-3]
@@ -40,36 +42,22 @@ def test_accessors_work_on_a_batch_of_states_and_rbar_is_translation_over_race_r
 
 
 def test_shared_layout_per_n_is_immutable_and_equal_to_a_new_one():
+    """Check that shared layout per n is immutable and equal to a new one."""
     assert StateLayout.of(2) is StateLayout.of(2) and StateLayout.of(2) == StateLayout(2)
     with pytest.raises(AttributeError):
         StateLayout(2).n = 3
 
 
 def test_wrapped_ball_angles_lie_in_minus_pi_excluded_to_pi_included():
+    """Check that wrapped ball angles lie in minus pi excluded to pi included."""
     phi = np.array([-math.pi, math.pi, 3 * math.pi, 0.1 - 2 * math.pi, 7.0])
     got = wrap_angle(phi)
     np.testing.assert_allclose(got, [math.pi, math.pi, math.pi, 0.1, 7.0 - 2 * math.pi])
     np.testing.assert_allclose(wrap_degrees(phi), np.degrees(got))
 
 
-def test_kernel_set_builds_a_compiled_and_a_python_namespace_of_the_same_functions():
-    kernel = jit.KernelSet(error_model='numpy')
-
-    @kernel
-    def twice(x):
-        return 2.0 * x
-
-    @kernel
-    def four_times(x):
-        return twice(twice(x))   # a kernel calling a kernel
-
-    JIT, PY = kernel.build()
-    assert PY.four_times is four_times and not PY.compiled and PY.names == ('twice', 'four_times')
-    assert JIT.four_times(1.5) == PY.four_times(1.5) == 6.0
-    assert JIT.compiled == jit.enabled()
-
-
 def test_every_topic_has_one_entry_and_the_derived_lists_keep_its_order():
+    """Check that every topic has one entry and the derived lists keep its order."""
     names = [t.name for t in topics.TOPICS]
     assert len(set(names)) == len(names)
     assert [t.name for t in topics.published_by('simulator')] == [

@@ -30,8 +30,8 @@ def test_each_sample_of_a_batch_follows_its_single_run_trajectory_bit_for_bit():
     for i, p in enumerate(plist):
         y = initial_state(p, OMEGA)
         S = SpindleMotor(2000.0, 0.05).pack(1.1 * OMEGA)
-        done, status = kernels.JIT.rk4_advance(y, 0.0, DT, 0, 1500, p.n, kernels.pack_params(p),
-                                               S, kernels.make_work(p.n))
+        done, status = kernels.JIT.advance(y, 0.0, DT, 0, 1500, kernels.pack_params(p), S,
+                                           kernels.make_work(p.n))
         assert status == kernels.OK and done == 1500
         assert np.array_equal(y, br.Y[i])
 
@@ -44,8 +44,8 @@ def test_in_kernel_metrics_equal_the_metrics_of_the_sampled_trajectory():
     for i, p in enumerate(plist):
         y = initial_state(p, OMEGA)
         out = np.empty((2000, y.size))
-        kernels.JIT.rk4_trajectory(y, 0.0, DT, 0, 2000, 1, p.n, kernels.pack_params(p),
-                                   ConstantSpeed().pack(OMEGA), kernels.make_work(p.n), out)
+        kernels.JIT.trajectory(y, 0.0, DT, 0, 2000, 1, kernels.pack_params(p),
+                               ConstantSpeed().pack(OMEGA), kernels.make_work(p.n), out)
         rbar = np.sqrt((out[:, 1:4] ** 2).sum(axis=1)) / p.R
         t_end = (np.arange(2000) + 1) * DT
         assert br.metrics[i, batch.PEAK_RBAR] == rbar.max()

@@ -1,19 +1,21 @@
-"""The free-theta equation of torque mode (kernels.theta_row) against Lagrange's equation for
-theta derived from the energies T, V, F (test/lagrange_sympy.py, theta_expression).
+"""The free-theta equation of torque mode against Lagrange's equation for theta.
 
-With theta free, Eq. (17) for theta reads d/dt dT/dtheta' - dT/dtheta + dV/dtheta + dF/dtheta'
-= Q_theta (the motor torque less the bearing friction: an internal torque between rotor and
-deck, so it does work on the relative angle theta only). abb_ros keeps it to first order in the
-deck coordinates, like Eqs. (18)-(24). Normalisation: the rotation scale M eps R omega^2.
+The free-theta equation of torque mode (kernels.torque.theta_row) against Lagrange's equation
+for theta derived from the energies T, V, F (test/lagrange_sympy.py, theta_expression).
+
+With theta free, Eq. (17) for theta reads d/dt dT/dtheta' - dT/dtheta + dV/dtheta + dF/dtheta' =
+Q_theta (the motor torque less the bearing friction: an internal torque between rotor and deck, so
+it does work on the relative angle theta only). abb_ros keeps it to first order in the deck
+coordinates, like Eqs. (18)-(24). Normalisation: the rotation scale M eps R omega^2.
 """
 
+import lagrange_sympy as L
 import numpy as np
 import pytest
+from test_equations_vs_lagrange import ROUND_OFF, at_scale, scales, states
 
-import lagrange_sympy as L
 from abb_ros.model import dynamics, kernels
 from abb_ros.model.integrate import TorqueMotor
-from test_equations_vs_lagrange import ROUND_OFF, at_scale, scales, states
 
 S0 = 1e-3
 """Deck scale of the order test, as in test_equations_vs_lagrange."""
@@ -30,14 +32,18 @@ def kernel_theta_residual(params, y, qdd):
 
 
 def theta_scale(params, omega):
+    """Return the scale of the theta row's terms, M eps R omega^2 [N m]."""
     return params.M * params.eps * params.R * omega ** 2
 
 
 @pytest.mark.parametrize('n', [1, 2, 3])
 def test_theta_row_is_the_first_order_lagrange_equation_for_theta(n):
-    """At random states (theta'' up to 2000 rad/s^2, deck scale 0.05: both sides are
-    first-order forms, equal for any s) the kernel's theta row equals the first-order
-    expansion of Lagrange's theta equation to round-off."""
+    """Check that theta row is the first order lagrange equation for theta.
+
+    At random states (theta'' up to 2000 rad/s^2, deck scale 0.05: both sides are first-order
+    forms, equal for any s) the kernel's theta row equals the first-order expansion of Lagrange's
+    theta equation to round-off.
+    """
     for params, (y, qdd, deck) in states(n, seed=400):
         y, qdd = at_scale(y, qdd, deck, 0.05)
         _, first = L.theta_residuals(params, y, qdd)
@@ -47,8 +53,11 @@ def test_theta_row_is_the_first_order_lagrange_equation_for_theta(n):
 
 @pytest.mark.parametrize('n', [1, 2])
 def test_theta_row_differs_from_the_exact_equation_only_at_second_order(n):
-    """kernel - exact is even-dominated at S0: halving the deck scale divides it by ~4 (a
-    missing first-order term would divide it by 2)."""
+    """Check that theta row differs from the exact equation only at second order.
+
+    kernel - exact is even-dominated at S0: halving the deck scale divides it by ~4 (a missing
+    first-order term would divide it by 2).
+    """
     for params, (y, qdd, deck) in states(n, seed=500):
         sc = theta_scale(params, y[7 + n])
 
@@ -63,8 +72,11 @@ def test_theta_row_differs_from_the_exact_equation_only_at_second_order(n):
 
 @pytest.mark.parametrize('n', [0, 1, 2, 3])
 def test_torque_mode_accelerations_solve_every_first_order_equation(n):
-    """kernels.accel in torque mode: q'' makes the first-order Lagrange residual of X..phi_n
-    vanish and that of theta equal Q_theta (motor torque less friction), to round-off."""
+    """Check that torque mode accelerations solve every first order equation.
+
+    kernels.accel in torque mode: q'' makes the first-order Lagrange residual of X..phi_n vanish
+    and that of theta equal Q_theta (motor torque less friction), to round-off.
+    """
     motor = TorqueMotor(K_t=0.02, I_max=2.0, T_c=2e-4)
     S = motor.pack(1.5)
     for params, (y, qdd, deck) in states(n, seed=600):
@@ -74,7 +86,7 @@ def test_torque_mode_accelerations_solve_every_first_order_equation(n):
         Q = kernels.PY.spindle_torque(w, S)
         for kern in (kernels.PY, kernels.JIT):
             kern.accel(0.0, y, n, kernels.pack_params(params), S, qdd,
-                       *dynamics.solver_buffers(n))
+                       dynamics.solver_buffers(n))
             rows = L.first_order_residual(params, y, qdd) / scales(params, w)
             _, first = L.theta_residuals(params, y, qdd)
             assert np.max(np.abs(rows)) < ROUND_OFF, rows

@@ -15,12 +15,12 @@ P_tr closes only to the size of those terms; with P_tr it closes to the integrat
 
 import functools
 
+import lagrange_sympy as L
 import numpy as np
 import pytest
 import sympy as sp
 from scipy.integrate import solve_ivp
 
-import lagrange_sympy as L
 from abb_ros.model import dynamics, kernels
 from abb_ros.model.integrate import TorqueMotor, initial_state
 from abb_ros.model.params import DriveParams
@@ -48,7 +48,7 @@ def bookkeeping(params, motor, current, y0, duration):
     def fun(t, z):
         y = np.ascontiguousarray(z[:2 * N])
         dz = np.empty(2 * N + 3)
-        kernels.JIT.deriv(t, y, n, P, S, dz[:2 * N], qdd, *bufs)
+        kernels.JIT.deriv(t, y, n, P, S, dz[:2 * N], bufs)
         w = y[N]
         i = kernels.JIT.motor_current(w, S)
         dz[2 * N] = motor.K_t * i * w
@@ -69,7 +69,7 @@ def bookkeeping(params, motor, current, y0, duration):
     p_tr = np.empty(ts.size)
     for j, t in enumerate(ts):
         y = np.ascontiguousarray(sol.sol(t)[:2 * N])
-        kernels.JIT.accel(t, y, n, P, S, qdd, *bufs)
+        kernels.JIT.accel(t, y, n, P, S, qdd, bufs)
         rows = L.exact_residual(params, y, qdd)
         e_theta, _ = L.theta_residuals(params, y, qdd)
         p_tr[j] = (y[N] * (e_theta - kernels.JIT.spindle_torque(y[N], S))
@@ -82,11 +82,14 @@ def bookkeeping(params, motor, current, y0, duration):
 
 @pytest.mark.slow
 def test_motor_work_balances_energy_and_dissipation():
-    """A run-up through 200 -> ~300 rad/s (0.05 s, the deck moving most near resonance) with
-    the deck started at 0.3 mm. Printed: the raw closure (W_m - W_f - W_c - dT - dV) / W_m,
-    which measures the first-order truncation, and the closure with the truncation work,
-    which must vanish to the integration and quadrature error. Measured: raw closure
-    -1.260e-06 (the truncation), closure with the truncation work 7e-16."""
+    """Check that motor work balances energy and dissipation.
+
+    A run-up through 200 -> ~300 rad/s (0.05 s, the deck moving most near resonance) with the deck
+    started at 0.3 mm. Printed: the raw closure (W_m - W_f - W_c - dT - dV) / W_m, which measures
+    the first-order truncation, and the closure with the truncation work, which must vanish to the
+    integration and quadrature error. Measured: raw closure -1.260e-06 (the truncation), closure
+    with the truncation work 7e-16.
+    """
     params = DriveParams()
     motor = TorqueMotor(I_max=0.5)
     y0 = initial_state(params, 200.0)

@@ -1,6 +1,9 @@
-"""Torque mode: the spindle as a degree of freedom driven by a DC/BLDC motor
-(docs/torque_mode.md): the drive model, an ideal drive reproducing speed mode, the Sommerfeld
-stall at the deck resonance, and the scenario schema."""
+"""Torque mode: the spindle as a degree of freedom driven by a DC/BLDC motor.
+
+Torque mode: the spindle as a degree of freedom driven by a DC/BLDC motor (docs/torque_mode.md):
+the drive model, an ideal drive reproducing speed mode, the Sommerfeld stall at the deck resonance,
+and the scenario schema.
+"""
 
 import math
 import re
@@ -20,6 +23,7 @@ DT = 1e-4
 # ---- the motor model ------------------------------------------------------------------------
 
 def test_current_saturates_at_the_limit_and_at_the_supply_voltage():
+    """Check that current saturates at the limit and at the supply voltage."""
     motor = TorqueMotor(K_t=0.01, R_w=2.0, I_max=1.0, V_s=12.0)
     assert motor.current(0.0, 0.3) == 0.3
     assert motor.current(0.0, 5.0) == 1.0 and motor.current(0.0, -5.0) == -1.0
@@ -30,6 +34,7 @@ def test_current_saturates_at_the_limit_and_at_the_supply_voltage():
 
 
 def test_bad_motor_parameters_are_refused_by_their_parameter_name():
+    """Check that bad motor parameters are refused by their parameter name."""
     with pytest.raises(ParamError, match="'motor.torque_constant'"):
         TorqueMotor(K_t=0.0)
     with pytest.raises(ParamError, match="'motor.coulomb_friction'"):
@@ -39,9 +44,12 @@ def test_bad_motor_parameters_are_refused_by_their_parameter_name():
 
 
 def test_without_imbalance_the_motor_torque_spins_the_rotor_and_yaws_the_deck():
-    """n = 0, eps = 0, friction off: the rotor's absolute acceleration is K_t i / J_z
-    (theta'' + gamma'', theta being relative to the deck), and the reaction on the stator
-    yaws the deck (gamma'' < 0, with X through the offset d); Y, Z, alpha, beta stay at rest."""
+    """Check that without imbalance the motor torque spins the rotor and yaws the deck.
+
+    n = 0, eps = 0, friction off: the rotor's absolute acceleration is K_t i / J_z (theta'' +
+    gamma'', theta being relative to the deck), and the reaction on the stator yaws the deck
+    (gamma'' < 0, with X through the offset d); Y, Z, alpha, beta stay at rest.
+    """
     params = DriveParams(n=0, eps=0.0)
     motor = TorqueMotor(b_v=0.0, T_c=0.0)
     sim = Simulation(params, 0.0, DT, spindle=motor, y0=initial_state(params, 0.0,
@@ -55,6 +63,7 @@ def test_without_imbalance_the_motor_torque_spins_the_rotor_and_yaws_the_deck():
 
 
 def test_a_torque_motor_starts_at_zero_current_and_switching_modes_resets_the_command():
+    """Check that a torque motor starts at zero current and switching modes resets the command."""
     params = DriveParams()
     sim = Simulation(params, 300.0, DT, spindle=TorqueMotor())
     assert sim.motor_current == 0.0 and sim.omega == 300.0
@@ -66,6 +75,7 @@ def test_a_torque_motor_starts_at_zero_current_and_switching_modes_resets_the_co
 
 
 def test_speed_modes_report_no_motor_current():
+    """Check that speed modes report no motor current."""
     sim = Simulation(DriveParams(), 300.0, DT, spindle=ConstantSpeed())
     assert math.isnan(sim.motor_current) and math.isnan(sim.motor_torque)
 
@@ -78,23 +88,30 @@ zero-order hold's stability)."""
 
 
 def holding_torque(sim, S_speed):
-    """Q_theta that keeps theta'' = 0 at the current state: the theta row (kernels.theta_row)
-    at speed mode's accelerations (computed-torque feedforward of the ideal drive)."""
+    """Return the Q_theta that keeps theta'' = 0 at the current state.
+
+    Q_theta that keeps theta'' = 0 at the current state: the theta row
+    (kernels.torque.theta_row) at speed mode's accelerations (computed-torque feedforward of
+    the ideal drive).
+    """
     n = sim.params.n
     P = kernels.pack_params(sim.params)
     qdd = np.empty(7 + n)
-    kernels.JIT.accel(sim.t, sim.y, n, P, S_speed, qdd, *sim._solver)
+    kernels.JIT.accel(sim.t, sim.y, n, P, S_speed, qdd, sim._solver)
     a, col = np.empty(6), np.empty(6)
     kernels.JIT.theta_row(sim.y, n, P, a, col)
     return a @ qdd[1:7] + sim.params.m * sim.params.R ** 2 * np.sum(qdd[7:])
 
 
 def ideal_drive_errors(dt, duration=0.3):
-    """(max |omega error| [rad/s], max |theta error| [rad], max deck translation error / its
-    range) of torque mode with the ideal drive against speed mode at constant omega, P3 with
-    metal washers, both with steps dt. The drive: no current or voltage limit, no friction;
-    its current, updated every step, is the computed torque that holds theta'' = 0 plus a PI
-    speed loop of bandwidth STIFF_RATE * (1e-4 s / dt)."""
+    """Return the errors of torque mode with the ideal drive against speed mode.
+
+    (max |omega error| [rad/s], max |theta error| [rad], max deck translation error / its range) of
+    torque mode with the ideal drive against speed mode at constant omega, P3 with metal washers,
+    both with steps dt. The drive: no current or voltage limit, no friction; its current, updated
+    every step, is the computed torque that holds theta'' = 0 plus a PI speed loop of bandwidth
+    STIFF_RATE * (1e-4 s / dt).
+    """
     params = DriveParams().replace(c=0.66)
     omega = 2.7 * params.omega0
     nsteps = int(round(duration / dt))
@@ -120,15 +137,17 @@ def ideal_drive_errors(dt, duration=0.3):
 
 
 def test_torque_mode_with_an_ideal_drive_reproduces_constant_speed():
-    """P3 (metal washers), 0.3 s: torque mode with an ideal drive (ideal_drive_errors)
-    reproduces speed mode's constant-speed run. What remains is the discretisation of the
-    drive: the current is held over each step while the torque that holds the speed varies
-    with theta within it. It vanishes with the step: measured at dt = 1e-4 s |omega error|
-    <= 1.410e-02 rad/s (1.7e-5 relative), |theta error| <= 1.660e-05 rad, deck translations
-    within 2.061e-05 of their range; at dt = 5e-5 s 2.045e-03 rad/s, 2.509e-06 rad,
-    2.943e-06 (and 2.672e-04, 3.819e-07, 3.870e-07 at 2.5e-5 s): ~7x per halving. Bounds:
-    5e-5 relative, 5e-5 rad, 1e-4 at 1e-4 s, and each error at least 4x smaller at half
-    the step."""
+    """Check that torque mode with an ideal drive reproduces constant speed.
+
+    P3 (metal washers), 0.3 s: torque mode with an ideal drive (ideal_drive_errors) reproduces
+    speed mode's constant-speed run. What remains is the discretisation of the drive: the current
+    is held over each step while the torque that holds the speed varies with theta within it. It
+    vanishes with the step: measured at dt = 1e-4 s |omega error| <= 1.410e-02 rad/s (1.7e-5
+    relative), |theta error| <= 1.660e-05 rad, deck translations within 2.061e-05 of their range;
+    at dt = 5e-5 s 2.045e-03 rad/s, 2.509e-06 rad, 2.943e-06 (and 2.672e-04, 3.819e-07, 3.870e-07
+    at 2.5e-5 s): ~7x per halving. Bounds: 5e-5 relative, 5e-5 rad, 1e-4 at 1e-4 s, and each error
+    at least 4x smaller at half the step.
+    """
     omega = 2.7 * DriveParams().omega0
     coarse = ideal_drive_errors(DT)
     fine = ideal_drive_errors(DT / 2)
@@ -162,11 +181,13 @@ def run_up(current_limit, duration, params=None, every=100):
 
 @pytest.mark.slow
 def test_a_weak_motor_is_captured_at_the_deck_resonance_and_a_strong_one_is_not():
-    """Sommerfeld effect. The weak motor (0.05 A, 5e-4 N m) stays within 10 % of the
-    translational natural frequency from 3 s to 5 s, although without any imbalance (eps
-    = 0 and no balls: the balls at +-60 deg are an imbalance of the same size m R) the same
-    motor passes 1.5 times that speed within 5 s; the strong one (0.2 A) is past twice the
-    resonance within 2 s."""
+    """Check that a weak motor is captured at the deck resonance and a strong one is not.
+
+    Sommerfeld effect. The weak motor (0.05 A, 5e-4 N m) stays within 10 % of the translational
+    natural frequency from 3 s to 5 s, although without any imbalance (eps = 0 and no balls: the
+    balls at +-60 deg are an imbalance of the same size m R) the same motor passes 1.5 times that
+    speed within 5 s; the strong one (0.2 A) is past twice the resonance within 2 s.
+    """
     params = DriveParams()
     w_res = natural_frequencies(params)['Y']
     t, weak = run_up(WEAK_A, 5.0, params)
@@ -185,6 +206,7 @@ def test_a_weak_motor_is_captured_at_the_deck_resonance_and_a_strong_one_is_not(
 # ---- scenarios ------------------------------------------------------------------------------
 
 def test_the_shipped_torque_scenario_loads_a_weak_motor_and_current_commands():
+    """Check that the shipped torque scenario loads a weak motor and current commands."""
     s = load_scenario('runup_torque_weak')
     assert isinstance(s.spindle, TorqueMotor) and s.spindle.I_max == WEAK_A
     assert s.commands == [CurrentCommand(0.0, WEAK_A)]
@@ -200,6 +222,7 @@ def test_the_shipped_torque_scenario_loads_a_weak_motor_and_current_commands():
      'scenario.spindle.commands[0].current'),
 ])
 def test_torque_scenario_schema_is_strict(tmp_path, spindle, field):
+    """Check that torque scenario schema is strict."""
     import yaml
     path = tmp_path / 'bad.yaml'
     path.write_text(yaml.safe_dump({'duration': 1.0, 'spindle': spindle}))
@@ -208,6 +231,7 @@ def test_torque_scenario_schema_is_strict(tmp_path, spindle, field):
 
 
 def test_kernel_mode_constant_is_distinct_from_the_speed_profiles():
+    """Check that kernel mode constant is distinct from the speed profiles."""
     assert kernels.SPINDLE_TORQUE not in (kernels.SPINDLE_CONSTANT, kernels.SPINDLE_MOTOR,
                                           kernels.SPINDLE_RAMP)
     assert TorqueMotor().pack(0.0).shape == (kernels.N_SPINDLE_TORQUE,)
@@ -216,9 +240,12 @@ def test_kernel_mode_constant_is_distinct_from_the_speed_profiles():
 # ---- headless -------------------------------------------------------------------------------
 
 def test_headless_torque_run_records_the_motor_torque_as_joint_effort(tmp_path, capsys):
-    """abb-sim run of the shipped torque scenario: joint_states.effort = [K_t i, 0, 0], i = 0
-    at step 0 (the command of t = 0 applies from there on, as in speed mode), then the full
-    0.05 A (far below the voltage limit); the spindle accelerates."""
+    """Check that headless torque run records the motor torque as joint effort.
+
+    abb-sim run of the shipped torque scenario: joint_states.effort = [K_t i, 0, 0], i = 0 at step
+    0 (the command of t = 0 applies from there on, as in speed mode), then the full 0.05 A (far
+    below the voltage limit); the spindle accelerates.
+    """
     from abb_ros.cli import main
     from abb_ros.io.bag_reader import read_bag
     out = tmp_path / 'bag'
@@ -233,6 +260,7 @@ def test_headless_torque_run_records_the_motor_torque_as_joint_effort(tmp_path, 
 
 
 def test_speed_loop_settings_on_a_torque_scenario_are_one_line_naming_them(tmp_path, capsys):
+    """Check that speed loop settings on a torque scenario are one line naming them."""
     from abb_ros.cli import main
     code = main(['run', '--scenario', 'runup_torque_weak', '--set', 'spindle.tau=0.1',
                  '--out', str(tmp_path / 'bag'), '--no-progress'])

@@ -13,13 +13,14 @@ the metrics a design study asks for, so nothing is sampled or returned per step:
   none has yet); the settle time is this time when the run ends below the limit;
 - ``fail_time``: the time [s] of the last good state of a run that failed (NaN otherwise).
 
-The RK4 step with its state check is the single-run kernels' (:func:`kernels.rk4_step`,
-called per sample, not copied), so a sample of the batch follows
-exactly the trajectory :func:`kernels.rk4_advance` computes for it alone (the tests compare to
-the bit). A sample whose state becomes non-finite or leaves the envelope keeps its last good
-state and its status (``kernels.NONFINITE`` / ``ENVELOPE``) and is not advanced further; the
-others go on. The kernel is built twice from this source like :mod:`abb_ros.model.kernels`:
-``JIT`` (numba) and ``PY`` (interpreted).
+The RK4 step with its state check is the single-run kernels'
+(:func:`abb_ros.model.kernels.stepper.step_uncached`, called per sample, not copied), so a
+sample of the batch follows exactly the trajectory
+:func:`abb_ros.model.kernels.stepper.advance` computes for it alone (the tests compare to the
+bit). A sample whose state becomes non-finite or leaves the envelope keeps its last good state
+and its status (``kernels.NONFINITE`` / ``ENVELOPE``) and is not advanced further; the others
+go on. The kernel is built twice from this source like :mod:`abb_ros.model.kernels`: ``JIT``
+(numba) and ``PY`` (interpreted).
 
 Metrics are kept across calls (the arrays are updated in place), so a run can be advanced in
 segments, e.g. between the spindle-speed commands of a scenario.
@@ -33,7 +34,8 @@ import numpy as np
 
 from abb_ros.model import kernels
 from abb_ros.model.jit import KernelSet
-from abb_ros.model.kernels import OK, rk4_step, solver_scratch
+from abb_ros.model.kernels.layout import OK, P_R, S_OMEGA_CMD, Stages, solver_scratch
+from abb_ros.model.kernels.stepper import step_uncached
 from abb_ros.model.state import DECK, PHI
 
 __all__ = ['METRICS', 'PEAK_RBAR', 'TIME_ABOVE', 'LAST_ABOVE', 'new_metrics', 'JIT', 'PY',
@@ -55,38 +57,34 @@ kernel = KernelSet(nogil=True, error_model='numpy')
 
 
 @kernel
-def rk4_metrics_batch(Y, P, S, t0, dt, step0, nsteps, n, rbar_limit, metrics, status):
-    """Advance each row Y[b] (a state, shape (2N,)) by nsteps RK4 steps of dt from
-    t = t0 + step0 dt with parameters P[b] and spindle profile S[b], updating metrics[b]
+def rk4_metrics_batch(Y, P, S, t0, dt, step0, nsteps, rbar_limit, metrics, status):
+    """Advance each row Y[b] (a state, shape (2N,)) by nsteps RK4 steps of dt, in place.
+
+    From t = t0 + step0 dt with parameters P[b] and spindle profile S[b], updating metrics[b]
     (:data:`METRICS`) after every step. Rows with status[b] != OK are left alone; a row that
-    goes bad gets its status and keeps its last good state. All in place."""
-    N = PHI + n
-    n2 = 2 * N
-    k1 = np.empty(n2)
-    k2 = np.empty(n2)
-    k3 = np.empty(n2)
-    k4 = np.empty(n2)
-    yt = np.empty(n2)
-    ysave = np.empty(n2)
-    qdd = np.empty(N)
-    A, W, f, B, fb, u = solver_scratch(n)
+    goes bad gets its status and keeps its last good state. All in place.
+    """
+    n2 = Y.shape[1]
+    n = n2 // 2 - PHI
+    stages = Stages(np.empty(n2), np.empty(n2), np.empty(n2), np.empty(n2), np.empty(n2),
+                    np.empty(n2))
+    solver = solver_scratch(n)
     for b in range(Y.shape[0]):
         if status[b] != OK:
             continue
         y = Y[b]
         Pb = P[b]
         Sb = S[b]
-        inv_R = 1.0 / Pb[3]
-        peak = metrics[b, 0]
-        above = metrics[b, 1]
-        last = metrics[b, 2]
+        inv_R = 1.0 / Pb[P_R]
+        peak = metrics[b, PEAK_RBAR]
+        above = metrics[b, TIME_ABOVE]
+        last = metrics[b, LAST_ABOVE]
         for s in range(nsteps):
             t = t0 + (step0 + s) * dt
-            st, _ = rk4_step(t, dt, y, n, Pb, Sb, k1, k2, k3, k4, yt, ysave, qdd, A, W, f, B,
-                             fb, u)
+            st, _ = step_uncached(t, dt, y, n, Pb, Sb, stages, solver)
             if st != OK:
                 status[b] = st
-                metrics[b, 3] = t
+                metrics[b, FAIL_TIME] = t
                 break
             r = math.sqrt(y[DECK] * y[DECK] + y[DECK + 1] * y[DECK + 1]
                           + y[DECK + 2] * y[DECK + 2]) * inv_R
@@ -95,9 +93,9 @@ def rk4_metrics_batch(Y, P, S, t0, dt, step0, nsteps, n, rbar_limit, metrics, st
             if r > rbar_limit:
                 above += dt
                 last = t + dt
-        metrics[b, 0] = peak
-        metrics[b, 1] = above
-        metrics[b, 2] = last
+        metrics[b, PEAK_RBAR] = peak
+        metrics[b, TIME_ABOVE] = above
+        metrics[b, LAST_ABOVE] = last
 
 
 JIT, PY = kernel.build()
@@ -140,27 +138,30 @@ class BatchRun:
     def advance(self, nsteps: int) -> None:
         """Advance every good run by nsteps steps."""
         self.kern.rk4_metrics_batch(self.Y, self.P, self.S, 0.0, self.dt, self.steps,
-                                    int(nsteps), self.n, self.rbar_limit, self.metrics,
+                                    int(nsteps), self.rbar_limit, self.metrics,
                                     self.status)
         self.steps += int(nsteps)
 
     def set_omega_cmd(self, omega_cmd) -> None:
-        """New commanded spindle speed(s) [rad/s] for a motor profile (S[:, 1])."""
-        self.S[:, 1] = omega_cmd
+        """Set the commanded spindle speed(s) [rad/s] of a motor profile (S[:, S_OMEGA_CMD])."""
+        self.S[:, S_OMEGA_CMD] = omega_cmd
 
     @property
     def t(self) -> float:
+        """Simulated time [s]."""
         return self.steps * self.dt
 
     @property
     def rbar(self) -> np.ndarray:
-        """rbar of the current (or last good) state of each run."""
+        """The rbar of the current (or last good) state of each run."""
         return np.sqrt(self.Y[:, 1] ** 2 + self.Y[:, 2] ** 2 + self.Y[:, 3] ** 2) / self.R
 
     @property
     def settle_time(self) -> np.ndarray:
-        """Time [s] after which rbar stayed at or below the limit to the end; NaN when the run
-        ends above the limit or failed, 0 when it never exceeded it."""
+        """Time [s] after which rbar stayed at or below the limit to the end.
+
+        NaN when the run ends above the limit or failed, 0 when it never exceeded it.
+        """
         last = self.metrics[:, LAST_ABOVE]
         out = np.where(np.isfinite(last), last, 0.0)
         bad = (self.rbar > self.rbar_limit) | (self.status != kernels.OK)

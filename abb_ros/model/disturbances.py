@@ -13,7 +13,7 @@ jumps by exactly the step (to rounding). L is invertible away from cos(alpha) = 
 
 Disc swap (:func:`swap_disc`): a new disc puts the imbalance G at an angle ``delta`` from the
 old one's, the rotor and the balls not moving. In the kernel's convention
-(:func:`abb_ros.model.kernels.assemble`) G is at angle theta and ball i at theta + phi_i,
+(:func:`abb_ros.model.kernels.eom.assemble`) G is at angle theta and ball i at theta + phi_i,
 with phi_i measured from G; so the same physical configuration with G moved by delta is
 theta + delta, phi_i - delta (rates unchanged). The new eccentricity is a parameter
 (``DriveParams.eps``). The balls then settle towards the new disc's phi_star.

@@ -9,7 +9,7 @@ theta only), so it has no equation of its own: its acceleration theta'' comes fr
 spindle profile (:mod:`abb_ros.model.integrate`).
 
 Arrangement: the (6 + n) equations are assembled as ``M(q, t) q'' = f(q, q', t)`` by
-:func:`abb_ros.model.kernels.assemble` (one implementation, compiled and pure Python).
+:func:`abb_ros.model.kernels.eom.assemble` (one implementation, compiled and pure Python).
 The ball block of M is ``m R^2 I`` (Eq. 24), so the ball accelerations are eliminated
 analytically (Schur complement): each evaluation is an O(n) assembly plus one 6 x 6 solve,
 cheaper than solving the (6 + n) system and exact, and the cost grows linearly with n.
@@ -49,8 +49,8 @@ from abb_ros.model.state import StateLayout, n_coords
 __all__ = ['lagrange_residual', 'accelerations']
 
 
-def solver_buffers(n: int) -> tuple:
-    """Scratch arrays (A, W, f, B, fb, u) of :func:`abb_ros.model.kernels.accel` for n balls."""
+def solver_buffers(n: int) -> kernels.Solver:
+    """Return the scratch (:class:`abb_ros.model.kernels.Solver`) of the kernels for n balls."""
     return kernels.solver_scratch(n)
 
 
@@ -73,7 +73,8 @@ def lagrange_residual(params: DriveParams, y, qdd, kern=None) -> np.ndarray:
     y = _check(params, y)
     qdd = np.asarray(qdd, dtype=float)
     n = params.n
-    A, W, f, B, fb, _ = solver_buffers(n)
+    solver = solver_buffers(n)
+    A, W, f, B, fb = solver.A, solver.W, solver.f, solver.B, solver.fb
     kern.assemble(y, n, kernels.pack_params(params), float(qdd[0]), A, W, f, B, fb)
     layout = StateLayout(n)
     u = qdd[layout.deck_slice]
@@ -86,13 +87,16 @@ def lagrange_residual(params: DriveParams, y, qdd, kern=None) -> np.ndarray:
 
 def accelerations(params: DriveParams, y, t: float = 0.0, spindle=None, kern=None
                   ) -> np.ndarray:
-    """q'' at state y and time t, shape (N,). ``spindle`` is a packed profile (see
-    :mod:`abb_ros.model.kernels`), default constant speed (theta'' = 0)."""
+    """Return q'' at state y and time t, shape (N,).
+
+    ``spindle`` is a packed profile (see :mod:`abb_ros.model.kernels.layout`), default
+    constant speed (theta'' = 0).
+    """
     kern = kern or kernels.JIT
     y = _check(params, y)
     n = params.n
     S = np.zeros(kernels.N_SPINDLE) if spindle is None else np.asarray(spindle, dtype=float)
     qdd = np.empty(n_coords(n))
-    kern.accel(float(t), y, n, kernels.pack_params(params), S, qdd, *solver_buffers(n))
+    kern.accel(float(t), y, n, kernels.pack_params(params), S, qdd, solver_buffers(n))
     return qdd
 

@@ -22,6 +22,13 @@ import numpy as np
 
 from abb_ros.model import kernels
 from abb_ros.model.dynamics import solver_buffers
+from abb_ros.model.kernels.layout import (
+    STAT_MOST_SUBSTEPS,
+    STAT_REFINED,
+    STAT_SUBSTEPS,
+    STAT_SWITCHES,
+    W_STATS,
+)
 from abb_ros.model.plant_spec import MOTOR_DEFAULTS
 from abb_ros.model.params import DriveParams, ParamError
 from abb_ros.model.state import StateLayout, wrap_angle
@@ -38,8 +45,11 @@ Outside it a run goes on, and says so (:func:`contact_step_note`)."""
 
 
 def contact_step_note(params, dt: float) -> str:
-    """A one-line warning when balls touch (contact on) and dt [s] lies outside
-    :data:`CONTACT_DT_VERIFIED`; '' otherwise."""
+    """Return a one-line warning for a contact step outside the verified range, or ''.
+
+    The warning applies when balls touch (contact on) and dt [s] lies outside
+    :data:`CONTACT_DT_VERIFIED`.
+    """
     lo, hi = CONTACT_DT_VERIFIED
     if params.contact_E <= 0 or params.n < 2 or lo <= dt <= hi:
         return ''
@@ -62,6 +72,7 @@ class ConstantSpeed:
     """theta'' = 0: the paper's constant omega."""
 
     def pack(self, omega_cmd: float = 0.0) -> np.ndarray:
+        """Return the packed profile S (:mod:`abb_ros.model.kernels.layout`)."""
         return np.array([kernels.SPINDLE_CONSTANT, omega_cmd, 0, 1, 0, 0, 0], dtype=float)
 
 
@@ -74,6 +85,7 @@ class Ramp:
     accel: float
 
     def pack(self, omega_cmd: float = 0.0) -> np.ndarray:
+        """Return the packed profile S (:mod:`abb_ros.model.kernels.layout`)."""
         return np.array([kernels.SPINDLE_RAMP, omega_cmd, 0, 1, self.t0, self.t1, self.accel],
                         dtype=float)
 
@@ -94,6 +106,7 @@ class SpindleMotor:
                 raise ParamError(f'spindle.{name}', value, '(0, inf)')
 
     def pack(self, omega_cmd: float = 0.0) -> np.ndarray:
+        """Return the packed profile S (:mod:`abb_ros.model.kernels.layout`)."""
         return np.array([kernels.SPINDLE_MOTOR, omega_cmd, self.max_accel, self.tau, 0, 0, 0],
                         dtype=float)
 
@@ -136,6 +149,7 @@ class TorqueMotor:
                                  '(0, inf)' if positive else '[0, inf)')
 
     def pack(self, current_cmd: float = 0.0) -> np.ndarray:
+        """Return the packed profile S of torque mode (:mod:`abb_ros.model.kernels.layout`)."""
         return np.array([kernels.SPINDLE_TORQUE, current_cmd, self.K_t, self.R_w, self.I_max,
                          self.b_v, self.T_c, self.omega_c, self.V_s], dtype=float)
 
@@ -161,11 +175,14 @@ class StateError(RuntimeError):
 
 
 def default_phi0(n: int, separation: float = 0.0) -> np.ndarray:
-    """Initial ball angles [rad]: Section 5's +-60 deg; for n > 2 the balls alternate
+    """Return the initial ball angles [rad].
+
+    Section 5's +-60 deg; for n > 2 the balls alternate
     between the two groups, each group spread by 1 deg steps (identical balls started at the
-    same angle would move as one), or, with contact (issue 12), by the balls' contact
+    same angle would move as one), or, with contact, by the balls' contact
     ``separation`` [rad] plus 0.1 deg when that is wider: the balls then start side by side,
-    just apart."""
+    just apart.
+    """
     step = 1.0
     if math.degrees(separation) + CONTACT_START_GAP_DEG > step:
         step = math.degrees(separation) + CONTACT_START_GAP_DEG
@@ -179,7 +196,7 @@ def default_phi0(n: int, separation: float = 0.0) -> np.ndarray:
 
 def initial_state(params: DriveParams, omega: float, phi0=None, deck0=INITIAL_DECK,
                   theta0: float = 0.0) -> np.ndarray:
-    """The state y0 of Section 5 at spindle speed omega [rad/s]; shape (2N,)."""
+    """Return the state y0 of Section 5 at spindle speed omega [rad/s]; shape (2N,)."""
     n = params.n
     if phi0 is None:
         phi = default_phi0(n, params.contact_separation if params.contact_E > 0 else 0.0)
@@ -192,7 +209,7 @@ def initial_state(params: DriveParams, omega: float, phi0=None, deck0=INITIAL_DE
 
 
 def _check_no_overlap(params: DriveParams, phi) -> None:
-    """With contact (issue 12) balls may not start closer than 2 asin(r_ball / R)."""
+    """With contact balls may not start closer than 2 asin(r_ball / R)."""
     if params.contact_E <= 0 or params.n < 2:
         return
     d = np.subtract.outer(phi, phi)
@@ -206,8 +223,11 @@ def _check_no_overlap(params: DriveParams, phi) -> None:
 
 
 def _check_torque_terms(params: DriveParams, spindle) -> None:
-    """The free-theta equation of torque mode (docs/torque_mode.md) has ball contact but not
-    yet rolling resistance or rolling balls (docs/beyond_the_paper.md): refuse the mix."""
+    """Refuse torque mode with rolling resistance or rolling balls.
+
+    The free-theta equation of torque mode (docs/torque_mode.md) has ball contact but not
+    yet rolling resistance or rolling balls (docs/beyond_the_paper.md).
+    """
     if isinstance(spindle, TorqueMotor) and (params.rolling_mu > 0 or params.ball_rotation):
         name = 'rolling_mu' if params.rolling_mu > 0 else 'ball_rotation'
         raise ParamError(name, getattr(params, name), '0 in torque mode (spindle.mode torque)',
@@ -261,13 +281,16 @@ class Simulation:
 
     # ---- inputs -------------------------------------------------------------------------
     def set_speed_command(self, omega_cmd: float) -> None:
-        """New commanded spindle speed [rad/s], taken at the next step boundary."""
+        """Set the commanded spindle speed [rad/s], taken at the next step boundary."""
         self.omega_cmd = float(omega_cmd)
         self._S = self.spindle.pack(self.omega_cmd)
 
     def set_command(self, command: float) -> None:
-        """New spindle command, taken at the next step boundary: the speed [rad/s], or the
-        winding current [A] for a :class:`TorqueMotor`."""
+        """Set the spindle command, taken at the next step boundary.
+
+        The command is the speed [rad/s], or the winding current [A] for a
+        :class:`TorqueMotor`.
+        """
         self.set_speed_command(command)
 
     @property
@@ -279,14 +302,19 @@ class Simulation:
 
     @property
     def motor_torque(self) -> float:
-        """Electromagnetic torque K_t i [N m] of a :class:`TorqueMotor` (NaN in speed
-        modes): joint_states.effort[0]."""
+        """Electromagnetic torque K_t i [N m] of a :class:`TorqueMotor`.
+
+        NaN in speed modes; joint_states.effort[0].
+        """
         current = self.motor_current
         return math.nan if math.isnan(current) else self.spindle.K_t * current
 
     def set_spindle(self, spindle) -> None:
-        """A new spindle model at the next step boundary. Into torque mode the command
-        becomes 0 A, out of it the present speed (:meth:`set_command` to choose)."""
+        """Set a new spindle model at the next step boundary.
+
+        Into torque mode the command becomes 0 A, out of it the present speed
+        (:meth:`set_command` to choose).
+        """
         _check_torque_terms(self.params, spindle)
         torque = isinstance(spindle, TorqueMotor)
         if torque != isinstance(self.spindle, TorqueMotor):
@@ -323,22 +351,27 @@ class Simulation:
         return self.t0 + self.steps * self.dt
 
     def advance(self, nsteps: int) -> None:
-        """Advance by nsteps steps; raises :class:`StateError` on a bad state (the last good
-        state is kept and time stops there)."""
-        done, status = self.kern.rk4_advance(self.y, self.t0, self.dt, self.steps, int(nsteps),
-                                             self.params.n, self._P, self._S, self._work)
+        """Advance by nsteps steps.
+
+        Raises :class:`StateError` on a bad state (the last good state is kept and time stops
+        there).
+        """
+        done, status = self.kern.advance(self.y, self.t0, self.dt, self.steps, int(nsteps),
+                                         self._P, self._S, self._work)
         self.steps += int(done)
         if status != kernels.OK:
             raise StateError(int(status), self.t)
 
     def trajectory(self, nsteps: int, every: int) -> np.ndarray:
-        """Advance nsteps, returning the states after every ``every`` steps, shape
-        (nsteps // every, 2N). Raises :class:`StateError` like :meth:`advance`."""
+        """Advance nsteps; return the states after every ``every`` steps.
+
+        Shape (nsteps // every, 2N). Raises :class:`StateError` like :meth:`advance`.
+        """
         rows = int(nsteps) // int(every)
         out = np.empty((rows, self.y.size))
-        done, got, status = self.kern.rk4_trajectory(
-            self.y, self.t0, self.dt, self.steps, int(nsteps), int(every), self.params.n,
-            self._P, self._S, self._work, out)
+        done, got, status = self.kern.trajectory(
+            self.y, self.t0, self.dt, self.steps, int(nsteps), int(every), self._P, self._S,
+            self._work, out)
         self.steps += int(done)
         if status != kernels.OK:
             raise StateError(int(status), self.t)
@@ -346,43 +379,51 @@ class Simulation:
 
     # ---- outputs ------------------------------------------------------------------------
     def accelerations(self) -> np.ndarray:
-        """q'' at the current state, shape (N,) (a new array; the solver scratch is reused)."""
+        """Return q'' at the current state, shape (N,) (a new array; the scratch is reused)."""
         qdd = np.empty(self.N)
-        self.kern.accel(self.t, self.y, self.params.n, self._P, self._S, qdd, *self._solver)
+        self.kern.accel(self.t, self.y, self.params.n, self._P, self._S, qdd, self._solver)
         return qdd
 
     @property
     def N(self) -> int:
+        """Coordinates N = 7 + n."""
         return self.layout.N
 
     @property
     def refined_steps(self) -> int:
-        """Steps integrated in contact sub-steps since the last parameter change (issue 12:
-        the step is refined automatically while balls touch)."""
-        return int(self._work[6, 0])
+        """Steps integrated in contact sub-steps since the last parameter change.
+
+        The step is refined automatically while balls touch.
+        """
+        return int(self._work[W_STATS, STAT_REFINED])
 
     @property
     def substeps(self) -> int:
         """RK4 sub-steps taken in the refined steps since the last parameter change."""
-        return int(self._work[6, 2])
+        return int(self._work[W_STATS, STAT_SUBSTEPS])
 
     @property
     def rolling_switches(self) -> int:
-        """Rolling-resistance regime switches (stick, slip, break-free) located inside steps
-        since the last parameter change (issue 12: event-located Coulomb switching)."""
-        return int(self._work[6, 3])
+        """Rolling-resistance regime switches located inside steps since the last change.
+
+        Stick, slip and break-free (event-located Coulomb switching), since the last parameter
+        change.
+        """
+        return int(self._work[W_STATS, STAT_SWITCHES])
 
     @property
     def max_substeps(self) -> int:
         """Most sub-steps taken in one step since the last parameter change (1: none)."""
-        return max(1, int(self._work[6, 1]))
+        return max(1, int(self._work[W_STATS, STAT_MOST_SUBSTEPS]))
 
     @property
     def theta(self) -> float:
+        """Rotor angle theta [rad]."""
         return float(self.layout.theta(self.y))
 
     @property
     def omega(self) -> float:
+        """Spindle speed theta' [rad/s]."""
         return float(self.layout.omega(self.y))
 
     @property
@@ -392,18 +433,22 @@ class Simulation:
 
     @property
     def deck_rates(self) -> np.ndarray:
+        """Deck rates [X', Y', Z', alpha', beta', gamma'] (m/s, rad/s)."""
         return self.layout.deck_rates(self.y).copy()
 
     @property
     def phi(self) -> np.ndarray:
+        """Ball angles phi_i [rad] relative to the rotor."""
         return self.layout.phi(self.y).copy()
 
     @property
     def phi_rates(self) -> np.ndarray:
+        """Ball rates phi_i' [rad/s] relative to the rotor."""
         return self.layout.phi_rates(self.y).copy()
 
     @property
     def rbar(self) -> float:
+        """Deck translation over race radius, sqrt(X^2 + Y^2 + Z^2) / R."""
         return float(self.layout.rbar(self.y, self.params.R))
 
 
@@ -417,14 +462,17 @@ class Trajectory:
 
     @property
     def n(self) -> int:
+        """Number of balls."""
         return self.params.n
 
     @property
     def layout(self) -> StateLayout:
+        """The state layout of n balls."""
         return StateLayout(self.n)
 
     @property
     def rbar(self) -> np.ndarray:
+        """The deck's rbar of every sample."""
         return self.layout.rbar(self.y, self.params.R)
 
     @property
@@ -434,10 +482,12 @@ class Trajectory:
 
     @property
     def deck(self) -> np.ndarray:
+        """Deck coordinates of every sample, shape (len(t), 6)."""
         return self.layout.deck(self.y)
 
     @property
     def omega(self) -> np.ndarray:
+        """Spindle speed [rad/s] of every sample."""
         return self.layout.omega(self.y)
 
 
@@ -470,21 +520,22 @@ def simulate(params: DriveParams, omega: float, duration: float, dt: float = DEF
 def reference_solution(params: DriveParams, y0, t_span, spindle=None, t_eval=None,
                        rtol: float = 1e-10, atol: float = 1e-13, method: str = 'DOP853',
                        kern=None):
-    """The same equations by scipy's adaptive ``solve_ivp`` (default DOP853, tight
-    tolerances), right-hand side from ``kern`` (default the compiled kernels). Returns
-    scipy's OdeResult."""
+    """Integrate the same equations by scipy's adaptive ``solve_ivp``; return its OdeResult.
+
+    Default DOP853, tight tolerances; the right-hand side from ``kern`` (default the compiled
+    kernels).
+    """
     from scipy.integrate import solve_ivp
     n = params.n
     layout = StateLayout(n)
     P = kernels.pack_params(params)
     S = (spindle or ConstantSpeed()).pack(float(layout.omega(y0)))
     kern = kern or kernels.JIT
-    qdd = np.empty(layout.N)
     bufs = solver_buffers(n)
 
     def fun(t, y):
         dy = np.empty(layout.size)
-        kern.deriv(t, np.ascontiguousarray(y), n, P, S, dy, qdd, *bufs)
+        kern.deriv(t, np.ascontiguousarray(y), n, P, S, dy, bufs)
         return dy
 
     return solve_ivp(fun, t_span, np.asarray(y0, dtype=float), method=method, rtol=rtol,

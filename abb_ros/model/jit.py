@@ -34,7 +34,7 @@ NO_JIT_ENV = 'ABB_ROS_NO_JIT'
 
 
 def enabled() -> bool:
-    """True when kernels are compiled: numba importable and ABB_ROS_NO_JIT unset or empty."""
+    """Return True when kernels are compiled: numba importable, ABB_ROS_NO_JIT unset or empty."""
     if os.environ.get(NO_JIT_ENV):
         return False
     try:
@@ -79,14 +79,19 @@ class KernelSet:
         self.options = options
         self._kernels = {}
 
-    def __call__(self, func=None, /, **entry_options):
-        """Mark ``func`` as a kernel (returned unchanged). ``entry_options`` are added to
-        ``options`` only where ``func`` is compiled as an entry point of ``JIT`` (e.g.
-        ``parallel=True``, ``fastmath=True``), not where it is compiled into a caller."""
+    def __call__(self, func=None, /, inline: bool = False, **entry_options):
+        """Mark ``func`` as a kernel (returned unchanged).
+
+        ``entry_options`` are added to ``options`` only where ``func`` is compiled as an entry
+        point of ``JIT`` (e.g. ``parallel=True``, ``fastmath=True``), not where it is compiled
+        into a caller. ``inline``: a compiled caller gets ``func``'s statements in place of a
+        call (numba's IR inlining; for thin kernels that pass named tuples of arrays on, whose
+        calls would cost more than their work).
+        """
         if func is None:
-            return lambda f: self(f, **entry_options)
-        if register_jitable is not None:   # (numba's decorator takes options or a function)
-            register_jitable(**self.options)(func) if self.options else register_jitable(func)
+            return lambda f: self(f, inline=inline, **entry_options)
+        if register_jitable is not None:
+            register_jitable(inline='always' if inline else 'never', **self.options)(func)
         self._kernels[func.__name__] = (func, entry_options)
         return func
 

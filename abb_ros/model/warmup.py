@@ -8,8 +8,9 @@ else ``~/.cache/numba`` (``$XDG_CACHE_HOME/numba``). Without this step the first
 simulator (integration kernels) and of the analysis node (Floquet kernels) compiles them.
 
 It first deletes the package's cached kernels: numba checks a cached function against the
-time stamp of its own source file only, so a kernel of ``batch.py`` or ``floquet.py`` that
-calls into a changed ``kernels.py`` would load stale machine code. Run it after every change
+time stamp of its own source file only, so a kernel that calls into a changed module (e.g.
+``batch.py`` or ``kernels/stepper.py`` calling into ``kernels/contact.py``) would load stale
+machine code. Run it after every change
 or update of ``abb_ros/model`` (scripts/ensure-venv does).
 """
 
@@ -62,21 +63,38 @@ def warm_up() -> dict[str, float]:
     return took
 
 
+def cache_locations() -> list[str]:
+    """Return the directories numba caches this package's kernels in (none without numba).
+
+    One per source directory: the model's kernels package and the model's own modules.
+    """
+    from abb_ros.model import batch, kernels
+    paths = []
+    for entry in (kernels.JIT.advance, batch.JIT.rk4_metrics_batch):
+        cache = getattr(entry, '_cache', None)
+        if cache is None or not hasattr(cache, '_cache_path'):
+            return []
+        if cache._cache_path not in paths:
+            paths.append(cache._cache_path)
+    return paths
+
+
 def cache_location() -> str:
-    """The directory numba caches this package's integration kernels in."""
-    from abb_ros.model import kernels
-    cache = getattr(kernels.JIT.rk4_advance, '_cache', None)
-    if cache is None or not hasattr(cache, '_cache_path'):
-        return 'none (numba disabled: ABB_ROS_NO_JIT)'
-    return cache._cache_path
+    """Return the directory numba caches the integration kernels in (the first location)."""
+    locations = cache_locations()
+    return locations[0] if locations else 'none (numba disabled: ABB_ROS_NO_JIT)'
 
 
 def clear_cache() -> int:
-    """Delete this package's cached kernels (index and data files in :func:`cache_location`;
-    every file there is one of abb_ros.model's); returns how many were deleted."""
-    where = Path(cache_location())
+    """Delete this package's cached kernels; return how many files were deleted.
+
+    The index and data files in :func:`cache_locations` (every file there is one of
+    abb_ros.model's).
+    """
     removed = 0
-    if where.is_dir():
+    for where in map(Path, cache_locations()):
+        if not where.is_dir():
+            continue
         for path in list(where.glob('*.nbi')) + list(where.glob('*.nbc')):
             try:
                 path.unlink()
@@ -87,11 +105,15 @@ def clear_cache() -> int:
 
 
 def main() -> int:
+    """Clear the cache, compile every kernel, print the times; return 0."""
     removed = clear_cache()
     if removed:
         print(f'abb_ros: {removed} cached kernel files deleted (recompiling)')
     took = warm_up()
     parts = ', '.join(f'{k} {v:.1f} s' for k, v in took.items())
+    locations = cache_locations()
+    if len(locations) > 1:
+        print('abb_ros: numba keeps the kernels in ' + ' and '.join(locations))
     print(f'abb_ros kernels compiled or loaded ({parts}); cache: {cache_location()}')
     return 0
 

@@ -1,6 +1,6 @@
-"""Issue 12: the paper's time responses with steel balls of finite size (contact, rolling).
+"""The paper's time responses with steel balls of finite size (contact, rolling).
 
-Balls: solid steel of the scenario's mass (abb_ros.model.beyond.with_steel_balls; r_ball =
+Balls: solid steel of the scenario's mass (abb_ros.model.ball_materials.with_steel_balls; r_ball =
 2.873 mm for m = 0.78 g), Hertzian contact, no contact damping unless said. Numbers quoted in
 docs/beyond_the_paper.md come from scripts/beyond_the_paper.py (same runs).
 """
@@ -13,7 +13,7 @@ import pytest
 
 from abb_ros.app.headless import run_scenario
 from abb_ros.io.scenario import load_scenario
-from abb_ros.model.beyond import with_steel_balls
+from abb_ros.model.ball_materials import with_steel_balls
 from abb_ros.model.equilibrium import phi_star_two_balls
 
 
@@ -36,9 +36,12 @@ def _tail(x, t, seconds=1.0):
 
 @pytest.mark.slow
 def test_p1_balls_sit_touching_at_the_contact_separation_and_never_overlap():
-    """Fig. 9 with steel balls: instead of merging into one, the balls gather side by side,
-    2 asin(r/R) = 22.087 deg apart (less the Hertz compression under the gathering force, a few
-    nm), and the compression over the whole run stays far below the ball size (< 1e-4 r)."""
+    """Check that p1 balls sit touching at the contact separation and never overlap.
+
+    Fig. 9 with steel balls: instead of merging into one, the balls gather side by side, 2
+    asin(r/R) = 22.087 deg apart (less the Hertz compression under the gathering force, a few nm),
+    and the compression over the whole run stays far below the ball size (< 1e-4 r).
+    """
     p, result, rbar = _run('p1', duration=5.0)          # gathered within 1 s
     phi = result.y[:, 7:9]
     sep = np.abs(((phi[:, 1] - phi[:, 0]) + math.pi) % (2 * math.pi) - math.pi)
@@ -56,9 +59,12 @@ def test_p1_balls_sit_touching_at_the_contact_separation_and_never_overlap():
 
 @pytest.mark.slow
 def test_p3_rolling_resistance_leaves_a_residual_that_grows_with_the_coefficient():
-    """P3 with rolling resistance: the balls stop short of +-phi* (the band of rest positions
-    widens with rolling_mu) and rbar keeps a residual that grows with it; at rolling_mu =
-    1e-9 m the balanced state is still reached to 1e-6 of R."""
+    """Check that p3 rolling resistance leaves a residual that grows with the coefficient.
+
+    P3 with rolling resistance: the balls stop short of +-phi* (the band of rest positions widens
+    with rolling_mu) and rbar keeps a residual that grows with it; at rolling_mu = 1e-9 m the
+    balanced state is still reached to 1e-6 of R.
+    """
     ratio = None
     rows = []
     for mu in (1e-9, 1e-7, 1e-5):
@@ -78,10 +84,13 @@ def test_p3_rolling_resistance_leaves_a_residual_that_grows_with_the_coefficient
 @pytest.mark.slow
 @pytest.mark.parametrize('max_accel, trapped', [(1000.0, True), (2000.0, False)])
 def test_spin_up_trap_persists_with_contact(max_accel, trapped):
-    """The P1 -> P3 run-up (config/scenarios/spinup_p1_p3.yaml) with steel balls in contact:
-    at 1000 rad/s^2 the touching pair is still captured into orbiting with the resonant whirl
-    (rbar ~0.19, balls moving at ~525 rad/s relative to the rotor), at 2000 rad/s^2 it
-    balances, as the paper's model does (docs/beyond_the_paper.md, spin-up table)."""
+    """Check that spin up trap persists with contact.
+
+    The P1 -> P3 run-up (config/scenarios/spinup_p1_p3.yaml) with steel balls in contact: at 1000
+    rad/s^2 the touching pair is still captured into orbiting with the resonant whirl (rbar ~0.19,
+    balls moving at ~525 rad/s relative to the rotor), at 2000 rad/s^2 it balances, as the paper's
+    model does (docs/beyond_the_paper.md, spin-up table).
+    """
     scenario = load_scenario('spinup_p1_p3')
     scenario = dataclasses.replace(
         scenario, params=with_steel_balls(scenario.params),

@@ -1,4 +1,4 @@
-"""Issue 12: ball-ball contact, rolling resistance with stick, and their energy bookkeeping.
+"""Ball-ball contact, rolling resistance with stick, and their energy bookkeeping.
 
 "Deck coupling absent": the clamped-race configuration of these tests gives the deck 1e9 kg
 and 1e9 kg m^2 (M_P, J_Px, J_Py, J_Pz) and the rotor no eccentricity, so the balls' forces move
@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from abb_ros.model import kernels
-from abb_ros.model.beyond import STEEL_E, clamped_race, collision_state, race_energy_ledger
+from abb_ros.model.ball_materials import STEEL_E, clamped_race, collision_state, race_energy_ledger
 from abb_ros.model.dynamics import solver_buffers
 from abb_ros.model.integrate import ConstantSpeed, Ramp, Simulation, initial_state
 from abb_ros.model.params import DriveParams, ParamError
@@ -36,9 +36,12 @@ def momentum(params, y):
 
 @pytest.mark.parametrize('rotation', [0, 1])
 def test_head_on_collision_conserves_momentum_along_the_race(rotation):
-    """Elastic Hertz impact (contact_damping = 0) at 0.05 m/s at the default 10 kHz step: the
-    step is refined automatically (sub-steps), the momentum along the race is conserved to
-    1e-9 relative and the equal balls exchange their velocities (to 1e-3)."""
+    """Check that head on collision conserves momentum along the race.
+
+    Elastic Hertz impact (contact_damping = 0) at 0.05 m/s at the default 10 kHz step: the step is
+    refined automatically (sub-steps), the momentum along the race is conserved to 1e-9 relative
+    and the equal balls exchange their velocities (to 1e-3).
+    """
     params = clamped(ball_rotation=rotation)
     y0 = collision_state(params, 0.0, gap=1e-6, speed=0.05)
     sim = Simulation(params, 0.0, spindle=ConstantSpeed(), y0=y0)
@@ -64,8 +67,11 @@ def test_contact_stiffness_is_hertz_for_two_equal_steel_balls():
 
 
 def _ramp_run(fraction):
-    """One ball at rest on the race at omega = 811 rad/s; the spindle accelerates at
-    ``fraction`` of the stick threshold mu omega^2 / r for 50 ms. Returns (sim, threshold)."""
+    """Accelerate the spindle under one ball at rest; return (sim, threshold).
+
+    One ball at rest on the race at omega = 811 rad/s; the spindle accelerates at ``fraction`` of
+    the stick threshold mu omega^2 / r for 50 ms. Returns (sim, threshold).
+    """
     mu = 1e-6
     params = clamped(n=1, contact_E=0.0, rolling_mu=mu)
     omega = 811.0
@@ -77,17 +83,23 @@ def _ramp_run(fraction):
 
 
 def test_ball_at_rest_sticks_while_the_drive_is_below_the_rolling_threshold():
-    """Karnopp stick: a spindle acceleration of 0.8 of the threshold moves the ball not at all
-    relative to the race (a tanh law would creep at a rate set by its regularisation)."""
+    """Check that ball at rest sticks while the drive is below the rolling threshold.
+
+    Karnopp stick: a spindle acceleration of 0.8 of the threshold moves the ball not at all
+    relative to the race (a tanh law would creep at a rate set by its regularisation).
+    """
     sim, _ = _ramp_run(0.8)
     assert abs(sim.phi_rates[0]) < 1e-12
     assert abs(sim.phi[0] - 0.3) < 1e-12
 
 
 def test_ball_slips_above_the_rolling_threshold_with_the_coulomb_deceleration():
-    """At 1.25 of the threshold (at the start speed) the race runs away from the ball:
-    phi'' = -(theta'' - mu omega^2 / r) relative to the race, to the 3 % by which the threshold
-    grows with omega over the ramp."""
+    """Check that ball slips above the rolling threshold with the coulomb deceleration.
+
+    At 1.25 of the threshold (at the start speed) the race runs away from the ball: phi'' =
+    -(theta'' - mu omega^2 / r) relative to the race, to the 3 % by which the threshold grows with
+    omega over the ramp.
+    """
     sim, threshold = _ramp_run(1.25)
     expected = -(1.25 - 1.0) * threshold * 0.05
     assert sim.phi_rates[0] < 0
@@ -95,6 +107,7 @@ def test_ball_slips_above_the_rolling_threshold_with_the_coulomb_deceleration():
 
 
 def test_contact_and_rolling_need_a_ball_radius_and_balls_must_fit():
+    """Check that contact and rolling need a ball radius and balls must fit."""
     with pytest.raises(ParamError, match="'r_ball'.*contact_E"):
         DriveParams(contact_E=2e11)
     with pytest.raises(ParamError, match="'r_ball'.*rolling_mu"):
@@ -107,16 +120,17 @@ def test_contact_and_rolling_need_a_ball_radius_and_balls_must_fit():
 
 @pytest.mark.slow
 def test_energy_of_a_collision_with_contact_damping_and_rolling_resistance_closes():
-    """Clamped race at P3's speed (811 rad/s): ball 1 hits ball 2 at 0.05 m/s with
-    Hunt-Crossley damping (chi = 0.5 s/m), ball drag D and rolling resistance (mu = 1e-5 m,
-    both balls end caught in the stick band). Input work of the spindle = change of kinetic +
-    contact potential energy + energy dissipated (drag, contact damping, rolling), closed to
-    1e-6 of the input work.
+    """Check that energy of a collision with contact damping and rolling resistance closes.
 
-    The spindle's torque is theta's row of Lagrange's equations: with the race clamped and
-    theta'' = 0 it is d/dt sum m R^2 (theta' + phi_i'), so the input work is theta' times the
-    change of that angular momentum; the dissipated powers are integrated by Simpson's rule
-    over every step of 0.1 us (the contact lasts ~30 us).
+    Clamped race at P3's speed (811 rad/s): ball 1 hits ball 2 at 0.05 m/s with Hunt-Crossley
+    damping (chi = 0.5 s/m), ball drag D and rolling resistance (mu = 1e-5 m, both balls end caught
+    in the stick band). Input work of the spindle = change of kinetic + contact potential energy +
+    energy dissipated (drag, contact damping, rolling), closed to 1e-6 of the input work.
+
+    The spindle's torque is theta's row of Lagrange's equations: with the race clamped and theta''
+    = 0 it is d/dt sum m R^2 (theta' + phi_i'), so the input work is theta' times the change of
+    that angular momentum; the dissipated powers are integrated by Simpson's rule over every step
+    of 0.1 us (the contact lasts ~30 us).
     """
     params = clamped(rolling_mu=1e-5, contact_damping=0.5, D=5e-6)
     omega = 811.0
@@ -137,15 +151,17 @@ def test_energy_of_a_collision_with_contact_damping_and_rolling_resistance_close
 
 @pytest.mark.slow
 def test_slip_to_stick_switch_is_located_at_the_instant_the_ball_enters_the_stick_band():
-    """Event-located Coulomb switching. One ball on the clamped race at 811 rad/s, slipping
-    forwards at 2 rad/s, no drag: psi'' = -c psi'^2 (c = mu / r), so 1/psi' = 1/psi'_0 + c t,
-    until phi' = psi' - omega meets the band c psi'^2 STICK_TIME (~7.7 ms, inside a step of
-    0.1 ms); then it sticks and phi' = phi'(t*) exp(-(t - t*) / STICK_TIME). The integrator
-    locates the switch at the analytic instant (to 1e-12 s) and the stuck decay runs from it
-    (RK4's decay of the stuck law from the located instant, to 1e-9). Without another force
-    the stuck ball's force at the band's floor is exactly Qmax: the state just inside counts
-    as broken free, which holds for ~1e-15 s, so there may be two switches at that instant,
-    slip -> broken free -> stuck."""
+    """Check that slip to stick switch is located at the instant the ball enters the stick band.
+
+    Event-located Coulomb switching. One ball on the clamped race at 811 rad/s, slipping forwards
+    at 2 rad/s, no drag: psi'' = -c psi'^2 (c = mu / r), so 1/psi' = 1/psi'_0 + c t, until phi' =
+    psi' - omega meets the band c psi'^2 STICK_TIME (~7.7 ms, inside a step of 0.1 ms); then it
+    sticks and phi' = phi'(t*) exp(-(t - t*) / STICK_TIME). The integrator locates the switch at
+    the analytic instant (to 1e-12 s) and the stuck decay runs from it (RK4's decay of the stuck
+    law from the located instant, to 1e-9). Without another force the stuck ball's force at the
+    band's floor is exactly Qmax: the state just inside counts as broken free, which holds for
+    ~1e-15 s, so there may be two switches at that instant, slip -> broken free -> stuck.
+    """
     mu, omega, rate0, dt = 1e-6, 811.0, 2.0, 1e-4
     params = clamped(n=1, contact_E=0.0, rolling_mu=mu)
     c, tau = mu / params.r_ball, kernels.STICK_TIME
@@ -154,14 +170,13 @@ def test_slip_to_stick_switch_is_located_at_the_instant_the_ball_enters_the_stic
     y = initial_state(params, omega, phi0=[0.3], deck0=(0.0,) * 6)
     y[8 + 7] = rate0
     P, S = kernels.pack_params(params), ConstantSpeed().pack(omega)
-    stages = [np.empty(y.size) for _ in range(5)]
+    stages = kernels.stage_buffers(1)
     events, cache = np.empty((kernels.MAX_SWITCHES, 1 + 1 + y.size)), np.zeros((3, y.size))
     bufs = solver_buffers(1)
     located = []
     steps = 150
     for s in range(steps):
-        k = kernels.JIT.rk4_rolling_substep(s * dt, dt, y, 1, P, S, *stages, events, cache,
-                                            *bufs)
+        k = kernels.JIT.rolling_substep(s * dt, dt, y, 1, P, S, stages, bufs, events, cache)
         located += [(s * dt + events[i, 0], events[i, 1], events[i, 2 + 8 + 7])
                     for i in range(k)]
     print(f'analytic switch {t_star:.15f} s; located {located}')

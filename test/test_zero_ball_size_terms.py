@@ -1,4 +1,4 @@
-"""Issue 12: with every beyond-the-paper parameter at zero the model is the paper's, bit for bit.
+"""With every ball-size, contact and rolling parameter at zero the model is the paper's.
 
 The reference (test/data/paper_reference.npz) holds the states every 100 ms of P1-P4 and P3 with
 ten balls, computed by the code before the new terms existed (test/paper_reference.py).
@@ -7,20 +7,21 @@ ten balls, computed by the code before the new terms existed (test/paper_referen
 import dataclasses
 
 import numpy as np
+import paper_reference
 import pytest
 
-import paper_reference
 from abb_ros.app.headless import run_scenario
 from abb_ros.io.scenario import load_scenario
 
 ZEROS = dict(r_ball=0.0, contact_E=0.0, contact_nu=0.0, contact_damping=0.0, rolling_mu=0.0,
              ball_rotation=0)
-"""Every issue-12 parameter at zero (rolling_stick_rate must stay > 0; it only acts with
-rolling_mu > 0)."""
+"""Every ball-size, contact and rolling parameter at zero (rolling_stick_rate must stay > 0; it
+only acts with rolling_mu > 0)."""
 
 
 @pytest.fixture(scope='module')
 def reference():
+    """Return the paper-model reference states (test/data/paper_reference.npz)."""
     with np.load(paper_reference.PATH) as data:
         return {name: data[name] for name in data.files}
 
@@ -33,12 +34,14 @@ def _states(name, duration=None, **settings):
 
 
 def test_default_parameters_have_no_beyond_paper_terms():
+    """Check that default parameters have no beyond paper terms."""
     scenario = load_scenario('p3')
     assert scenario.params.beyond_paper == ()
     assert scenario.with_settings(ZEROS).params.beyond_paper == ()
 
 
 def test_zero_parameters_reproduce_the_first_second_of_p3_bit_for_bit(reference):
+    """Check that zero parameters reproduce the first second of p3 bit for bit."""
     y = _states('p3', duration=1.0, **ZEROS)
     np.testing.assert_array_equal(y, reference['p3'][:len(y)])
 

@@ -1,4 +1,4 @@
-"""Issue 12: the beyond-the-paper terms of the kernels against the extended energies (sympy).
+"""The ball-size, contact and rolling terms of the kernels against the extended energies.
 
 test/lagrange_sympy.py adds to T, V, F (docs/beyond_the_paper.md): the rolling balls' spin
 energy 1/2 J_b |omega_P + (theta' - R/r phi_i') e_z|^2, the Hertz potential 2/5 K delta^2.5 and
@@ -9,13 +9,13 @@ round-off, at random states with theta'' != 0, exactly as the paper's terms do
 (test_equations_vs_lagrange.py).
 """
 
+import lagrange_sympy as L
 import numpy as np
 import pytest
+from test_equations_vs_lagrange import ROUND_OFF, at_scale, random_state, scales
 
-import lagrange_sympy as L
 from abb_ros.model import dynamics
 from abb_ros.model.params import DriveParams
-from test_equations_vs_lagrange import ROUND_OFF, at_scale, random_state, scales
 
 R_BALL = 2.87e-3
 """A steel ball (7850 kg/m^3) of the P1/P3 mass m = 0.03 M = 0.78 g: r = 2.87 mm."""
@@ -24,9 +24,12 @@ OVERLAP = 1e-6
 
 
 def beyond_states(n, contact, seed):
-    """Random states (test_equations_vs_lagrange.random_state) of the extended model; with
-    contact, ball j sits just inside the contact distance of ball j - 1 (every pair of n = 2
-    overlaps by OVERLAP, the pair ordering 0 < phi_2 - phi_1 < pi of the sympy side)."""
+    """Return random states of the extended model (balls just touching with contact).
+
+    Random states (test_equations_vs_lagrange.random_state) of the extended model; with contact,
+    ball j sits just inside the contact distance of ball j - 1 (every pair of n = 2 overlaps by
+    OVERLAP, the pair ordering 0 < phi_2 - phi_1 < pi of the sympy side).
+    """
     extra = dict(r_ball=R_BALL, ball_rotation=1)
     if contact:
         extra.update(contact_E=2.0e11, contact_nu=0.3, contact_damping=0.05)
@@ -42,8 +45,11 @@ def beyond_states(n, contact, seed):
 
 @pytest.mark.parametrize('n, contact', [(1, False), (2, True)])
 def test_beyond_paper_kernels_are_the_first_order_expansion_of_the_extended_energies(n, contact):
-    """lagrange_residual (the kernels' assemble with ball rotation and contact, 7/5 ball mass)
-    equals the first-order Lagrange equations of the extended T, V, F to round-off."""
+    """Check that beyond paper kernels are the first order expansion of the extended energies.
+
+    lagrange_residual (the kernels' assemble with ball rotation and contact, 7/5 ball mass) equals
+    the first-order Lagrange equations of the extended T, V, F to round-off.
+    """
     for params, y, qdd, deck in beyond_states(n, contact, seed=12 + n):
         y, qdd = at_scale(y, qdd, deck, 0.05)
         sc = scales(params, y[7 + n])
@@ -52,8 +58,11 @@ def test_beyond_paper_kernels_are_the_first_order_expansion_of_the_extended_ener
 
 
 def test_contact_state_really_overlaps_and_pushes_the_balls_apart():
-    """The contact states of the test above exercise the contact force: Q_2 = -Q_1 > 0 and of
-    the size K delta^1.5 R (not a vacuous comparison)."""
+    """Check that contact state really overlaps and pushes the balls apart.
+
+    The contact states of the test above exercise the contact force: Q_2 = -Q_1 > 0 and of the size
+    K delta^1.5 R (not a vacuous comparison).
+    """
     from abb_ros.model import kernels
     params, y, _, _ = next(beyond_states(2, True, seed=1))
     P = kernels.pack_params(params)

@@ -1,7 +1,8 @@
-"""Beyond the paper (issue 12): material presets for balls with size, contact and rolling.
+"""Steel balls of finite size: material presets, a clamped race, and its energy ledger.
 
-The terms themselves live in :mod:`abb_ros.model.kernels` (``add_ball_rotation``,
-``contact_forces``, ``accel_rolling``, ``contact_substeps``) and are switched on by the
+The terms themselves live in :mod:`abb_ros.model.kernels` (``ball_size.add_ball_rotation``,
+``contact.contact_forces``, ``rolling_resistance.accel_rolling``,
+``contact_steps.contact_substeps``) and are switched on by the
 DriveParams fields ``r_ball``, ``contact_E``, ``contact_nu``, ``contact_damping``,
 ``rolling_mu``, ``rolling_stick_rate`` and ``ball_rotation`` (all zero: the paper's model).
 docs/beyond_the_paper.md states the laws, the assumptions and the measurements.
@@ -33,9 +34,11 @@ def steel_ball_radius(m: float) -> float:
 
 def with_steel_balls(params: DriveParams, contact: bool = True, rolling_mu: float = 0.0,
                      rotation: bool = False, contact_damping: float = 0.0) -> DriveParams:
-    """``params`` with solid steel balls of its mass m: radius from the density, Hertzian
-    contact (if ``contact``), rolling resistance ``rolling_mu`` [m], rolling-ball spin
-    inertia (if ``rotation``)."""
+    """Return ``params`` with solid steel balls of its mass m.
+
+    Radius from the density, Hertzian contact (if ``contact``), rolling resistance
+    ``rolling_mu`` [m], rolling-ball spin inertia (if ``rotation``).
+    """
     return params.replace(r_ball=steel_ball_radius(params.m),
                           contact_E=STEEL_E if contact else 0.0, contact_nu=STEEL_NU,
                           contact_damping=contact_damping, rolling_mu=rolling_mu,
@@ -47,11 +50,14 @@ HEAVY = 1e9
 
 
 def clamped_race(n: int = 2, m: float = 0.78e-3, **changes) -> DriveParams:
-    """Steel balls on a race whose deck cannot move: deck mass and inertias HEAVY, rotor
-    without eccentricity and without drag unless given. The balls' forces move the deck by
+    """Return the parameters of steel balls on a race whose deck cannot move.
+
+    Deck mass and inertias HEAVY, rotor without eccentricity and without drag unless given.
+    The balls' forces move the deck by
     ~1e-13 of their own accelerations ("deck coupling absent"), so the balls run on a rigid
     race spinning at the spindle speed; the rotor keeps its inertia (a 1e9 J_z would turn the
-    deck by the motor's reaction torque)."""
+    deck by the motor's reaction torque).
+    """
     base = dict(n=n, m=m, eps=0.0, D=0.0, M_P=HEAVY, J_Px=HEAVY, J_Py=HEAVY, J_Pz=HEAVY,
                 r_ball=steel_ball_radius(m), contact_E=STEEL_E, contact_nu=STEEL_NU)
     base.update(changes)
@@ -59,8 +65,11 @@ def clamped_race(n: int = 2, m: float = 0.78e-3, **changes) -> DriveParams:
 
 
 def collision_state(params: DriveParams, omega: float, gap: float, speed: float):
-    """State: ball 1 at phi = 0 moving at ``speed`` [m/s] towards ball 2, at rest ``gap`` [m]
-    beyond contact; deck at rest at the origin; spindle at omega [rad/s]."""
+    """Return a state of two balls about to collide.
+
+    Ball 1 at phi = 0 moving at ``speed`` [m/s] towards ball 2, at rest ``gap`` [m] short of
+    contact; deck at rest at the origin; spindle at omega [rad/s].
+    """
     from abb_ros.model.integrate import initial_state
     sep = params.contact_separation + gap / params.R
     y = initial_state(params, omega, phi0=[0.0, sep], deck0=(0.0,) * 6)
@@ -76,10 +85,12 @@ def simpson(y, dx: float) -> float:
 
 
 def race_energy_ledger(params: DriveParams, omega: float, ys, dt: float) -> dict:
-    """Energy bookkeeping of states ``ys`` (every dt) on a clamped race at constant spindle
-    speed omega: cumulative arrays of the spindle's input work, the balls' kinetic and contact
-    potential energy changes, the dissipated energy (drag, contact damping, rolling) and the
-    residual (input - kinetic - potential - dissipated), by Simpson's rule per pair of steps.
+    """Return the energy bookkeeping of states ``ys`` (every dt) on a clamped race.
+
+    At constant spindle speed omega: cumulative arrays of the spindle's input work, the balls'
+    kinetic and contact potential energy changes, the dissipated energy (drag, contact damping,
+    rolling) and the residual (input - kinetic - potential - dissipated), by Simpson's rule per
+    pair of steps.
 
     The spindle torque is theta's row of Lagrange's equations; on a clamped race with theta'' =
     0 it is d/dt sum m_eff R^2 (theta' + phi_i') (spin terms included: J_b Omega_i), so the

@@ -1,4 +1,4 @@
-"""Issue 12: energy bookkeeping of a P3 run with contact, rolling resistance and rolling balls.
+"""Energy bookkeeping of a P3 run with contact, rolling resistance and rolling balls.
 
 input work of the spindle = kinetic + potential energy + dissipated energy, every term exact:
 T, V, F from the energies and the spindle torque = theta's row of Lagrange's equations
@@ -15,16 +15,16 @@ does not vanish): a P3 run leaves ~1e-4 of the input work over 0.5 s whatever th
 Counting the work of the dropped terms closes the balance to 1e-6, for the paper's model and,
 with the switches located, with rolling resistance; without the deck the clamped race closes to
 1e-6 directly:
-test_beyond_contact.test_energy_of_a_collision_with_contact_damping_and_rolling_resistance_closes.
+test_contact_rolling.test_energy_of_a_collision_with_contact_damping_and_rolling_resistance_closes.
 """
 
+import lagrange_sympy as L
 import numpy as np
 import pytest
 
-import lagrange_sympy as L
 from abb_ros.io.scenario import load_scenario
 from abb_ros.model import kernels
-from abb_ros.model.beyond import with_steel_balls
+from abb_ros.model.ball_materials import with_steel_balls
 from abb_ros.model.dynamics import solver_buffers
 from abb_ros.model.integrate import ConstantSpeed, Simulation, initial_state
 
@@ -35,20 +35,22 @@ at 30 rad/s, so they collide within ~5 ms, then head for +-phi*."""
 
 
 def replay(params, y0, omega, dt, nsteps):
-    """The run of :class:`Simulation` step by step, as the pieces over which the right-hand
-    side is smooth: every (contact sub-)step, split at its located rolling switches (without
-    rolling resistance a step with contact sub-steps is the multirate step, whose sub-steps
-    its trace gives). Each
-    piece: (start time, length, regimes, start state, end state); the regimes are the rolling
-    laws kept over it (None without rolling resistance). Returns (pieces, final state)."""
+    """Replay the run of :class:`Simulation` as the pieces over which the rhs is smooth.
+
+    The run of :class:`Simulation` step by step, as the pieces over which the right-hand side is
+    smooth: every (contact sub-)step, split at its located rolling switches (without rolling
+    resistance a step with contact sub-steps is the multirate step, whose sub-steps its trace
+    gives). Each piece: (start time, length, regimes, start state, end state); the regimes are the
+    rolling laws kept over it (None without rolling resistance). Returns (pieces, final state).
+    """
     n, N2 = params.n, 2 * (7 + params.n)
     K = kernels.JIT
     P = kernels.pack_params(params)
     S = ConstantSpeed().pack(omega)
-    stages = [np.empty(N2) for _ in range(5)]
+    stages = kernels.stage_buffers(n)
     events = np.empty((kernels.MAX_SWITCHES, 1 + n + N2))
     cache = np.zeros((3, N2))
-    qdd, Qf, bufs = np.empty(N2 // 2), np.empty(n), solver_buffers(n)
+    bufs = solver_buffers(n)
     rolling = params.rolling_mu > 0
     trace = np.empty((2 * kernels.MAX_SUBSTEPS, 2 + N2))
     y = np.array(y0, dtype=float)
@@ -57,7 +59,7 @@ def replay(params, y0, omega, dt, nsteps):
         sub, impact = K.contact_regime(y, n, P, dt) if params.contact_E > 0 else (1, False)
         if sub > 1 and not rolling:
             start = y.copy()
-            rows = K.contact_step(s * dt, dt, y, start, n, P, S, sub, impact, trace, qdd, *bufs)
+            rows = K.contact_step(s * dt, dt, y, start, n, P, S, (sub, impact), trace, bufs)
             assert rows <= len(trace)
             for t, h, *end in trace[:rows]:
                 pieces.append((t, h, None, start, np.array(end)))
@@ -68,12 +70,12 @@ def replay(params, y0, omega, dt, nsteps):
             t = s * dt + j * h
             start = y.copy()
             if not rolling:
-                K.rk4_substep(t, h, y, n, P, S, *stages[:4], stages[4], qdd, *bufs)
+                K.rk4_substep(t, h, y, n, P, S, stages, bufs)
                 pieces.append((t, h, None, start, y.copy()))
                 continue
             mode = np.empty(n)
-            K.rolling_deriv(t, start, n, P, S, mode, False, stages[0], qdd, Qf, *bufs)
-            k = K.rk4_rolling_substep(t, h, y, n, P, S, *stages, events, cache, *bufs)
+            K.rolling_deriv(t, start, n, P, S, mode, False, stages.k1, bufs)
+            k = K.rolling_substep(t, h, y, n, P, S, stages, bufs, events, cache)
             offsets = [0.0, *events[:k, 0], h]
             modes = [mode, *events[:k, 1:1 + n].copy()]
             states = [start, *events[:k, 1 + n:].copy(), y.copy()]
@@ -84,35 +86,37 @@ def replay(params, y0, omega, dt, nsteps):
 
 
 def samples(params, omega, pieces):
-    """Simpson's three points of every piece: its start and end states and the state half-way
-    (one RK4 step of half the piece from its start, with the piece's regimes), each with the
-    accelerations and rolling forces of the piece's regimes (one-sided at a switch).
-    Returns (times, states, accelerations, rolling forces), 3 rows per piece."""
+    """Return Simpson's three points of every piece, with their accelerations and forces.
+
+    Simpson's three points of every piece: its start and end states and the state half-way (one RK4
+    step of half the piece from its start, with the piece's regimes), each with the accelerations
+    and rolling forces of the piece's regimes (one-sided at a switch). Returns (times, states,
+    accelerations, rolling forces), 3 rows per piece.
+    """
     n, N2 = params.n, 2 * (7 + params.n)
     K = kernels.JIT
     P = kernels.pack_params(params)
     S = ConstantSpeed().pack(omega)
-    stages = [np.empty(N2) for _ in range(5)]
+    stages = kernels.stage_buffers(n)
     bufs = solver_buffers(n)
-    qdd, Qf = np.empty(N2 // 2), np.empty(n)
     rows = 3 * len(pieces)
     ts, ys, qdds, Qfs = np.empty(rows), np.empty((rows, N2)), np.empty((rows, N2 // 2)), \
         np.zeros((rows, n))
     for p, (t, h, mode, start, end) in enumerate(pieces):
         mid = start.copy()
         if mode is None:
-            K.rk4_substep(t, 0.5 * h, mid, n, P, S, *stages[:4], stages[4], qdd, *bufs)
+            K.rk4_substep(t, 0.5 * h, mid, n, P, S, stages, bufs)
         else:
-            K.rolling_deriv(t, start, n, P, S, mode.copy(), True, stages[0], qdd, Qf, *bufs)
-            K.rk4_frozen(t, 0.5 * h, start, n, P, S, mode.copy(), *stages, mid, qdd, Qf, *bufs)
+            K.rolling_deriv(t, start, n, P, S, mode.copy(), True, stages.k1, bufs)
+            K.rk4_after_k1(t, 0.5 * h, start, mid, n, P, S, mode.copy(), stages, bufs)
         for r, (tk, yk) in enumerate(((t, start), (t + 0.5 * h, mid), (t + h, end))):
             k = 3 * p + r
             ts[k], ys[k] = tk, yk
             if mode is None:
-                K.accel(tk, yk, n, P, S, qdds[k], *bufs)
+                K.accel(tk, yk, n, P, S, qdds[k], bufs)
             else:
-                K.rolling_deriv(tk, yk, n, P, S, mode.copy(), True, stages[4], qdds[k],
-                                Qfs[k], *bufs)
+                K.rolling_deriv(tk, yk, n, P, S, mode.copy(), True, stages.yt, bufs)
+                qdds[k], Qfs[k] = bufs.qdd, bufs.Qf[:n]
     return ts, ys, qdds, Qfs
 
 
@@ -123,6 +127,7 @@ def piecewise_simpson(power, lengths):
 
 
 def ledger(params, dt=1e-4, kick=30.0, truncation=False):
+    """Return the energy ledger of the P3 collision run of ``params`` at steps of dt."""
     scenario = load_scenario('p3')
     omega = scenario.omega
     n, N = params.n, 7 + params.n
@@ -170,11 +175,13 @@ def _show(name, row):
 
 @pytest.mark.slow
 def test_p3_energy_bookkeeping_of_the_paper_model_closes_once_the_truncation_is_counted():
-    """All new terms off (r_ball = 1 mm alone changes nothing; the sympy spin energy needs it
-    finite). Measured: the balance leaves 1.2e-4 of the input work over 0.5 s whatever the step
-    (1e-4, 2.5e-5, 1e-5 s: docs/beyond_the_paper.md), the work of the terms the paper's
-    first-order equations drop; adding that work (from the exact Lagrange rows) closes it to
-    1e-6."""
+    """Check that P3's energy closes for the paper model once the truncation is counted.
+
+    All new terms off (r_ball = 1 mm alone changes nothing; the sympy spin energy needs it finite).
+    Measured: the balance leaves 1.2e-4 of the input work over 0.5 s whatever the step (1e-4,
+    2.5e-5, 1e-5 s: docs/beyond_the_paper.md), the work of the terms the paper's first-order
+    equations drop; adding that work (from the exact Lagrange rows) closes it to 1e-6.
+    """
     params = load_scenario('p3').params.replace(r_ball=1e-3)
     assert params.beyond_paper == ()
     row = ledger(params, truncation=True)
@@ -185,11 +192,14 @@ def test_p3_energy_bookkeeping_of_the_paper_model_closes_once_the_truncation_is_
 
 @pytest.mark.slow
 def test_p3_energy_bookkeeping_with_contact_closes_through_the_multirate_contact_steps():
-    """Steel balls with contact and rolling balls, no rolling resistance: the collision's
-    steps are multirate (kernels.mis_contact_step: the contact forces sub-stepped, the rest of
-    the system at three stages per step), replayed sub-step by sub-step from its trace. It
+    """Check that p3 energy bookkeeping with contact closes through the multirate contact steps.
+
+    Steel balls with contact and rolling balls, no rolling resistance: the collision's steps
+    are multirate (kernels.multirate.mis_contact_step: the contact forces sub-stepped, the rest
+    of the system at three stages per step), replayed sub-step by sub-step from its trace. It
     closes like the paper model once the truncation work is counted (measured:
-    docs/beyond_the_paper.md)."""
+    docs/beyond_the_paper.md).
+    """
     params = with_steel_balls(load_scenario('p3').params, rotation=True)
     row = ledger(params, truncation=True)
     _show('dt 1e-4', row)
@@ -199,13 +209,15 @@ def test_p3_energy_bookkeeping_with_contact_closes_through_the_multirate_contact
 
 @pytest.mark.slow
 def test_p3_energy_bookkeeping_with_contact_and_rolling_closes_with_the_switches_located():
-    """Steel balls with contact, rolling resistance 1e-6 m and rolling balls: the collision,
-    the rolling dissipation and stick/slip switches are in the run. The integrator locates
-    every switch (the regimes are kept, smooth, between them) and the ledger integrates
-    between them, so that the run closes like the paper model's once the truncation work is
-    counted. Measured at the default step: 1.1e-4 before and -2.3e-7 after the truncation
-    work, with 146 located switches (before the switches were located: 1.09e-3 and 9.8e-4,
-    docs/beyond_the_paper.md)."""
+    """Check that P3's energy closes with contact, rolling and the switches located.
+
+    Steel balls with contact, rolling resistance 1e-6 m and rolling balls: the collision, the
+    rolling dissipation and stick/slip switches are in the run. The integrator locates every switch
+    (the regimes are kept, smooth, between them) and the ledger integrates between them, so that
+    the run closes like the paper model's once the truncation work is counted. Measured at the
+    default step: 1.1e-4 before and -2.3e-7 after the truncation work, with 146 located switches
+    (before the switches were located: 1.09e-3 and 9.8e-4, docs/beyond_the_paper.md).
+    """
     params = with_steel_balls(load_scenario('p3').params, rolling_mu=1e-6, rotation=True)
     row = ledger(params, truncation=True)
     _show('dt 1e-4', row)
