@@ -25,7 +25,6 @@ from pathlib import Path
 
 import numpy as np
 
-
 from abb_ros.io.drive_file import write_drive_yaml
 from abb_ros.model.floquet import point_stability
 from abb_ros.model.params import DriveParams

@@ -24,6 +24,7 @@ import time
 from pathlib import Path
 
 import numpy as np
+from bench_simulator_node import cpu_seconds
 
 from abb_ros.io.markers import marker_array
 from abb_ros.model.integrate import initial_state
@@ -31,7 +32,6 @@ from abb_ros.model.params import DriveParams
 from abb_ros.model.sensor_faults import ImuFaults, SpeedFaults
 from abb_ros.model.sensors import ImuReading
 from abb_ros.model.speed_sensor import SpeedSensor
-from bench_simulator_node import cpu_seconds
 
 ROOT = Path(__file__).resolve().parents[1]
 WARM_UP_S = 8.0

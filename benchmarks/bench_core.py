@@ -22,8 +22,13 @@ import time
 import numpy as np
 
 from abb_ros.model import kernels
-from abb_ros.model.integrate import (DEFAULT_DT, ConstantSpeed, Simulation, initial_state,
-                                     reference_solution)
+from abb_ros.model.integrate import (
+    DEFAULT_DT,
+    ConstantSpeed,
+    Simulation,
+    initial_state,
+    reference_solution,
+)
 from abb_ros.model.params import METAL_C, DriveParams, apply_settings
 
 

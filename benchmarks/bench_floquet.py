@@ -20,7 +20,6 @@ import time
 
 import numpy as np
 
-
 from abb_ros.model import floquet as F
 from abb_ros.model.linear import in_plane
 from abb_ros.model.params import DriveParams, apply_settings

@@ -23,14 +23,13 @@ import tempfile
 import time
 from pathlib import Path
 
-
 from rclpy.serialization import deserialize_message, serialize_message
 
 from abb_ros import cli
 from abb_ros.app.headless import PUBLISH_DT, STATE_TOPIC_TYPES, run_scenario
 from abb_ros.io import cdr, ros_messages
-from abb_ros.io.msgdefs import message_class
 from abb_ros.io.bag_writer import BagWriter
+from abb_ros.io.msgdefs import message_class
 from abb_ros.io.scenario import load_scenario
 from abb_ros.model.integrate import DEFAULT_DT, Simulation, initial_state
 from abb_ros.model.sampling import PlantSampler

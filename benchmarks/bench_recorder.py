@@ -32,7 +32,6 @@ def joint_state(i):
 def bench_writers(n):
     from mcap.writer import Writer as McapWriter
     from mcap_ros2.writer import Writer as Ros2Writer
-
     from rclpy.serialization import serialize_message
 
     from abb_ros.io import msgdefs

@@ -16,7 +16,6 @@ from pathlib import Path
 import pytest
 from diagnostic_msgs.msg import DiagnosticStatus
 from sensor_msgs.msg import JointState
-
 from test_analysis_node import OMEGA0, Probe
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]

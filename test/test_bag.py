@@ -16,6 +16,7 @@ from pathlib import Path
 import pytest
 import yaml
 from builtin_interfaces.msg import Time
+from cdr_reference import cdr_bytes
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 from geometry_msgs.msg import PoseStamped, TwistStamped
 from mcap.reader import make_reader
@@ -31,7 +32,6 @@ from abb_ros.io import msgdefs
 from abb_ros.io.bag_reader import is_finished, read_bag, read_drive_params
 from abb_ros.io.bag_recovery import recover
 from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
-from cdr_reference import cdr_bytes
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -288,11 +288,12 @@ def test_a_killed_writer_loses_at_most_the_chunk_in_progress(tmp_path):
 @pytest.mark.ros
 def test_message_objects_are_written_as_the_bytes_a_raw_subscription_receives():
     """Headless runs (rclpy objects) and the recorder (raw DDS bytes) write identical bags."""
+    import time
+
     import rclpy
     from rclpy.context import Context
     from rclpy.executors import SingleThreadedExecutor
     from rclpy.node import Node
-    import time
 
     ctx = Context()
     rclpy.init(context=ctx)

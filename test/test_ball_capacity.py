@@ -13,8 +13,7 @@ import pytest
 
 from abb_ros.model import floquet as F
 from abb_ros.model.ball_materials import with_steel_balls
-from abb_ros.model.equilibrium import (ball_capacity, balanced_equilibrium, epsbar_lim,
-                                       min_spacing)
+from abb_ros.model.equilibrium import balanced_equilibrium, ball_capacity, epsbar_lim, min_spacing
 from abb_ros.model.integrate import Simulation
 from abb_ros.model.params import DriveParams, ParamError, apply_settings
 from abb_ros.model.state import StateLayout

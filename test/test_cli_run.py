@@ -6,7 +6,6 @@ import json
 import pytest
 
 
-
 def test_run_p3_prints_one_json_summary(abb_sim):
     code, out, err = abb_sim('run', '--scenario', 'p3', '--duration', '3', '--json')
     assert code == 0, err

@@ -15,6 +15,7 @@ from geometry_msgs.msg import PoseStamped, TwistStamped
 from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
+from test_simulator_node import METAL_P, NOISE_OFF, Plant, stamp_ns
 from visualization_msgs.msg import Marker, MarkerArray
 
 from abb_ros.io import ros_messages
@@ -22,7 +23,6 @@ from abb_ros.io.markers import ROTOR_HEIGHT, marker_poses
 from abb_ros.model.disturbances import apply_shock
 from abb_ros.model.equilibrium import balanced_equilibrium
 from abb_ros.model.integrate import Simulation
-from test_simulator_node import METAL_P, NOISE_OFF, Plant, stamp_ns
 
 pytestmark = pytest.mark.ros
 

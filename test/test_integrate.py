@@ -3,8 +3,16 @@
 import numpy as np
 import pytest
 
-from abb_ros.model.integrate import (DEFAULT_DT, ConstantSpeed, Ramp, Simulation, SpindleMotor,
-                                     StateError, initial_state, reference_solution)
+from abb_ros.model.integrate import (
+    DEFAULT_DT,
+    ConstantSpeed,
+    Ramp,
+    Simulation,
+    SpindleMotor,
+    StateError,
+    initial_state,
+    reference_solution,
+)
 from abb_ros.model.params import METAL_C, DriveParams, ParamError, apply_settings
 
 

@@ -129,11 +129,11 @@ def _launch_library():
                         'launch and launch_ros come with a ROS 2 Jazzy installation '
                         '(launch_ros has no PyPI wheel)')
     try:
+        import launch_ros  # noqa: F401 - bench.launch.py imports it
         from launch import LaunchDescription, LaunchService
         from launch.actions import IncludeLaunchDescription, RegisterEventHandler
         from launch.event_handlers import OnProcessExit, OnProcessStart
         from launch.launch_description_sources import PythonLaunchDescriptionSource
-        import launch_ros  # noqa: F401 - bench.launch.py imports it
     except ImportError as exc:
         pytest.skip(f'the launch library is not importable ({exc}): launch and launch_ros '
                     'come with a ROS 2 Jazzy installation (launch_ros has no PyPI wheel)')

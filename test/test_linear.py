@@ -10,8 +10,13 @@ import numpy as np
 import pytest
 
 from abb_ros.model import dynamics
-from abb_ros.model.equilibrium import (balanced_equilibrium, eq26_residual, epsbar_lim, mbar_lim,
-                                       phi_star_two_balls)
+from abb_ros.model.equilibrium import (
+    balanced_equilibrium,
+    epsbar_lim,
+    eq26_residual,
+    mbar_lim,
+    phi_star_two_balls,
+)
 from abb_ros.model.linear import in_plane, natural_frequencies, out_of_plane
 from abb_ros.model.params import DriveParams, ParamError, apply_settings
 from abb_ros.model.state import DECK, StateLayout

@@ -1,4 +1,5 @@
-"""The code follows ament's flake8 rules (99 columns, pyflakes, pycodestyle), checked by ruff."""
+"""The code follows ament's flake8 rules (99 columns, pyflakes, pycodestyle), sorted imports and
+numpy-style docstrings in the package, checked by ruff (ruff.toml)."""
 
 import shutil
 import subprocess

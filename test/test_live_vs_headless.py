@@ -31,10 +31,10 @@ import rclpy
 from rclpy.node import Node
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 
+from abb_ros.app.headless import STATE_TOPIC_TYPES, run_scenario
 from abb_ros.io import ros_messages
 from abb_ros.io.bag_reader import iter_raw
 from abb_ros.io.bag_writer import BagWriter
-from abb_ros.app.headless import STATE_TOPIC_TYPES, run_scenario
 from abb_ros.io.scenario import load_scenario
 from abb_ros.model.sensors import TYPICAL_IMU
 from abb_ros.nodes.simulator import make_executor

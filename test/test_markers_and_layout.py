@@ -10,8 +10,13 @@ from rclpy.serialization import deserialize_message, serialize_message
 from visualization_msgs.msg import Marker, MarkerArray
 
 from abb_ros.io import markers, ros_messages
-from abb_ros.io.markers import (DECK_THICKNESS, ROTOR_HEIGHT, ball_radius, marker_array,
-                                marker_poses)
+from abb_ros.io.markers import (
+    DECK_THICKNESS,
+    ROTOR_HEIGHT,
+    ball_radius,
+    marker_array,
+    marker_poses,
+)
 from abb_ros.model.integrate import initial_state
 from abb_ros.model.params import DriveParams
 from abb_ros.model.sensors import euler_quaternion, euler_rotation

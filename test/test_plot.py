@@ -8,13 +8,13 @@ import json
 
 import numpy as np
 import pytest
+from cdr_reference import cdr_bytes
 from geometry_msgs.msg import PoseStamped
 from scipy.spatial.transform import Rotation
 from sensor_msgs.msg import JointState
 
 from abb_ros.cli import main
 from abb_ros.io.bag_writer import BagWriter
-from cdr_reference import cdr_bytes
 from abb_ros.plots.time_response import euler_from_quaternion, load_time_response
 
 R_RACE = 0.015

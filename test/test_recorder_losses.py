@@ -13,10 +13,10 @@ import pytest
 import yaml
 from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64
+from test_recorder import Publisher, finish, start_recorder
 
 from abb_ros.io.bag_reader import read_bag
 from abb_ros.nodes.recording import LossCounter
-from test_recorder import Publisher, finish, start_recorder
 
 pytestmark = pytest.mark.ros
 

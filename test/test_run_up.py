@@ -10,8 +10,13 @@ from abb_ros.model.equilibrium import balanced_equilibrium
 from abb_ros.model.params import DriveParams
 from abb_ros.model.run_up import RunUp, hold_speed, in_band
 from abb_ros.model.speed_bands import Band
-from abb_ros.testing.assertions import (assert_balls_at_phi_star, peak, phi_star_error_deg,
-                                        settling_time, time_in_bands)
+from abb_ros.testing.assertions import (
+    assert_balls_at_phi_star,
+    peak,
+    phi_star_error_deg,
+    settling_time,
+    time_in_bands,
+)
 
 # Below 300 rad/s (the deck's translational resonance and below) and a narrow band at 600.
 BANDS = (Band(0.0, 300.0, 'X', 290.0), Band(600.0, 620.0, 'alpha', 610.0))

@@ -11,8 +11,16 @@ import numpy as np
 import pytest
 
 from abb_ros.model.sensors import (
-    GRAVITY, ImuConfig, ImuModel, deck_angular_acceleration, deck_angular_velocity,
-    deck_velocity, euler_quaternion, euler_rotation, point_specific_force)
+    GRAVITY,
+    ImuConfig,
+    ImuModel,
+    deck_angular_acceleration,
+    deck_angular_velocity,
+    deck_velocity,
+    euler_quaternion,
+    euler_rotation,
+    point_specific_force,
+)
 
 
 def t_matrices(alpha, beta, gamma):

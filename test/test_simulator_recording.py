@@ -18,20 +18,20 @@ import time
 from pathlib import Path
 
 import pytest
+import test_simulator_node
 import yaml
 from rclpy.parameter import Parameter
 from rclpy.qos import HistoryPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from std_srvs.srv import Trigger
+from test_live_vs_headless import SEED, node_parameters, stamp_of
 
-import test_simulator_node
-from abb_ros.io import topics
 from abb_ros.app.headless import STATE_TOPIC_TYPES, run_scenario
+from abb_ros.io import topics
 from abb_ros.io.bag_reader import is_finished, iter_raw
 from abb_ros.io.bag_writer import BagWriter
 from abb_ros.io.scenario import load_scenario
 from abb_ros.model.sensors import TYPICAL_IMU
-from test_live_vs_headless import SEED, node_parameters, stamp_of
 
 pytestmark = pytest.mark.ros
 

@@ -10,10 +10,9 @@ rejoin the wall clock.
 import time
 
 import pytest
+import test_simulator_node
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
 from sensor_msgs.msg import JointState
-
-import test_simulator_node
 from test_simulator_node import stamp_ns
 
 pytestmark = pytest.mark.ros

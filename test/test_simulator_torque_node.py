@@ -7,9 +7,9 @@ import math
 import pytest
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
+from test_simulator_node import QOS, Plant
 
 from abb_ros.model.integrate import TorqueMotor
-from test_simulator_node import QOS, Plant
 
 pytestmark = pytest.mark.ros
 

@@ -13,9 +13,19 @@ import pytest
 
 from abb_ros.model.floquet import point_stability
 from abb_ros.model.params import DriveParams, ParamError
-from abb_ros.model.speed_bands import (BAND_GUARD_WBAR, ERROR, MARGIN_WARN, OK, WARN,
-                                       SpeedTable, assess, refine, rpm, speed_table,
-                                       unbalanced_bands)
+from abb_ros.model.speed_bands import (
+    BAND_GUARD_WBAR,
+    ERROR,
+    MARGIN_WARN,
+    OK,
+    WARN,
+    SpeedTable,
+    assess,
+    refine,
+    rpm,
+    speed_table,
+    unbalanced_bands,
+)
 
 P3 = DriveParams(c=0.66, m=0.03 * 0.026)
 W0 = P3.omega0

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 
 from abb_ros.model import floquet as F
-from abb_ros.model.state import n_coords
 from abb_ros.model.integrate import ConstantSpeed, Simulation
 from abb_ros.model.params import DriveParams, apply_settings
+from abb_ros.model.state import n_coords
 
 TABLE1 = DriveParams()
 METAL, RUBBER = 0.025, 0.1          # zeta of metal and rubber washers (Section 4)

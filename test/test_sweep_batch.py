@@ -8,8 +8,8 @@ import pytest
 from abb_ros.model import batch, kernels
 from abb_ros.model.integrate import ConstantSpeed, SpindleMotor, initial_state
 from abb_ros.model.params import DriveParams, apply_settings
-from abb_ros.sweep.compute import compute_partition
 from abb_ros.model.state import wrap_degrees
+from abb_ros.sweep.compute import compute_partition
 from abb_ros.sweep.spec import draw_samples, parse_spec
 
 P3, OMEGA = apply_settings(DriveParams(), {'mbar': 0.03, 'c': 0.66, 'wbar': 2.7})

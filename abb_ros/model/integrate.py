@@ -29,8 +29,8 @@ from abb_ros.model.kernels.layout import (
     STAT_SWITCHES,
     W_STATS,
 )
-from abb_ros.model.plant_spec import MOTOR_DEFAULTS
 from abb_ros.model.params import DriveParams, ParamError
+from abb_ros.model.plant_spec import MOTOR_DEFAULTS
 from abb_ros.model.state import StateLayout, wrap_angle
 
 __all__ = ['DEFAULT_DT', 'ConstantSpeed', 'Ramp', 'SpindleMotor', 'StateError', 'Simulation',

@@ -51,11 +51,11 @@ from abb_ros.io.joint_speed import JointSpeedReader
 from abb_ros.model import speed_bands
 from abb_ros.model.param_spec import DRIVE_PREFIX
 from abb_ros.model.params import DriveParams, ParamError
+from abb_ros.model.table_worker import REFINE_TOL_RAD_S, TableWorker
 from abb_ros.nodes import ros_params
 from abb_ros.nodes.entry_point import run_node
 from abb_ros.nodes.parameter_table import specs_for
 from abb_ros.nodes.taps import Taps
-from abb_ros.model.table_worker import REFINE_TOL_RAD_S, TableWorker
 
 NODE_NAME = 'abb_analysis'
 QOS_DEPTH = 10
@@ -150,7 +150,7 @@ class AnalysisNode(Node):
         self._dirty = True
 
     def _effective_drive(self) -> DriveParams:
-        """The drive as the simulator runs it: n from joint_states once seen."""
+        """Return the drive as the simulator runs it: n from joint_states once seen."""
         if self.n_seen is not None and self.n_seen != self.drive.n:
             return self.drive.replace(n=self.n_seen)
         return self.drive
@@ -231,7 +231,7 @@ class AnalysisNode(Node):
             self.publish_status()
 
     def assessment(self) -> speed_bands.Assessment:
-        """The current verdict (never raises)."""
+        """Return the current verdict (never raises)."""
         worker = self.worker
         table = worker.table
         omega = self.speed[0] if self.speed else None
@@ -256,6 +256,7 @@ class AnalysisNode(Node):
         return speed_bands.assess(table, omega, exact)
 
     def publish_status(self) -> None:
+        """Publish the margin and the stability status on /diagnostics."""
         a = self.assessment()
         level, message = a.level, a.message
         if self.sync_error:
@@ -264,7 +265,7 @@ class AnalysisNode(Node):
             message += f' (n = {self.n_seen} from joint_states; drive.n = {self.drive.n} ' \
                        'applies on the simulator\'s ~/reset)'
         values = dict(a.values, parameters_from=self.parameters_from)
-        if self.drive.beyond_paper:      # issue 12: terms the paper's linear analysis ignores
+        if self.drive.beyond_paper:      # terms the paper's linear analysis ignores
             values['ignored_by_linear_analysis'] = ', '.join(self.drive.beyond_paper)
         stamp_ns = self.speed[1] if self.speed else self.get_clock().now().nanoseconds
         if not math.isnan(a.margin):
@@ -277,6 +278,7 @@ class AnalysisNode(Node):
         self.status_count += 1
 
     def destroy_node(self):
+        """Stop the table worker and the raw subscriptions, then destroy the node."""
         self.worker.stop()
         self._taps.destroy()
         return super().destroy_node()
@@ -294,5 +296,6 @@ def _resolve(name: str, namespace: str) -> str:
 
 
 def main(args=None):
+    """Run the analysis node until SIGINT/SIGTERM; return the exit code."""
     return run_node(NODE_NAME, AnalysisNode, args)
 

@@ -37,8 +37,8 @@ from abb_ros.model.params import ParamError
 from abb_ros.model.sampling import PlantSampler
 from abb_ros.model.sensors import ImuModel
 from abb_ros.nodes import ros_params
-from abb_ros.nodes.hil_io import HilIO
 from abb_ros.nodes.entry_point import make_executor, run_node, spin
+from abb_ros.nodes.hil_io import HilIO
 from abb_ros.nodes.pacing import Pacer
 from abb_ros.nodes.rclpy_access import RCLError
 from abb_ros.nodes.realtime import FifoScheduling

@@ -12,12 +12,12 @@ import math
 
 from abb_ros.model.param_spec import BOOL, DOUBLE_ARRAY, INTEGER, STRING, STRING_ARRAY, ParamSpec
 from abb_ros.model.plant_spec import (
-                                      IMU_SPECS,
-                                      MAX_SPINDLE_SPEED,
-                                      MOTOR_SPECS,
-                                      SEED,
-                                      SPINDLE_SPECS,
-                                      STEP_SPECS,
+    IMU_SPECS,
+    MAX_SPINDLE_SPEED,
+    MOTOR_SPECS,
+    SEED,
+    SPINDLE_SPECS,
+    STEP_SPECS,
 )
 
 __all__ = ['SIMULATOR_SPECS', 'SPINDLE_MODE']

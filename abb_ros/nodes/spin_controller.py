@@ -156,8 +156,11 @@ class SpinController(Node):
             self._pub.publish(Float64(data=self.command))
 
     def _law(self, omega: float, dt: float) -> float:
-        """Speed mode: reference + kp e + ki int(e) (integral while holding), within
-        [0, max speed]; torque mode: the speed loop's current."""
+        """Return the command of the control law.
+
+        Speed mode: reference + kp e + ki int(e) (integral while holding), within
+        [0, max speed]; torque mode: the speed loop's current.
+        """
         if self.loop is not None:
             # The reference one period ahead (the period is steady): the current held over
             # the next period accelerates along the reference to its next value.
@@ -182,6 +185,7 @@ class SpinController(Node):
 
 
 def main(args=None):
+    """Run the spin controller until SIGINT/SIGTERM; return the exit code."""
     # The simulator's spin: the EventsExecutor keeps up with 1 kHz joint_states, and its timed
     # loop lets SIGINT through.
     return run_node(NODE_NAME, SpinController, args)
