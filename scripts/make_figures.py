@@ -196,10 +196,10 @@ def main() -> int:
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('figures', nargs='*', metavar='FIGURE',
                     help=f'any of {", ".join([*MAPS, *TIME_FIGURES])} (default: all)')
-    ap.add_argument('--only', choices=('maps', 'time', 'torque', 'beyond', 'sweep'),
+    ap.add_argument('--only', choices=('maps', 'time', 'torque', 'ball_model', 'sweep'),
                     help='only one group: the maps, the time responses, the torque-mode figure '
-                         '(scripts/make_torque_figure.py), the beyond-the-paper studies '
-                         '(scripts/beyond_the_paper.py, ~30 min) or the sweep report')
+                         '(scripts/make_torque_figure.py), the ball-model studies '
+                         '(scripts/make_ball_model_figures.py, ~30 min) or the sweep report')
     ap.add_argument('--sweep-data', metavar='DIR',
                     help='an `abb-sim sweep config/sweeps/tolerance_p3.yaml` result to redraw '
                          'docs/figures/sweep from (the sweep itself takes ~6 min on 2 idle '
@@ -244,8 +244,8 @@ def _other_figures(args) -> dict:
     """The figure groups made by their own scripts, as commands (run from the repo root)."""
     py = sys.executable
     groups = {'torque': [[py, 'scripts/make_torque_figure.py']],
-              'beyond': [[py, 'scripts/beyond_the_paper.py', study]
-                         for study in ('p1', 'collision', 'rolling', 'spinup')]}
+              'ball_model': [[py, 'scripts/make_ball_model_figures.py', study]
+                             for study in ('p1', 'collision', 'rolling', 'spinup')]}
     if args.sweep_data:
         groups['sweep'] = [[py, '-m', 'abb_ros.cli', 'sweep-report', args.sweep_data, '--out',
                             'docs/figures/sweep']]

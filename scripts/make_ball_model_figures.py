@@ -1,15 +1,15 @@
 #!/usr/bin/env python3
-"""Studies of steel balls with contact and rolling resistance (docs/beyond_the_paper.md).
+"""Make the figures of steel balls with contact and rolling resistance.
 
-The figures of docs/beyond_the_paper.md and the numbers quoted there::
+The figures of docs/ball_size_contact_rolling.md and the numbers quoted there::
 
-    .venv/bin/python scripts/beyond_the_paper.py p1        # contact at P1 (~2 min)
-    .venv/bin/python scripts/beyond_the_paper.py rolling   # rbar residual vs rolling_mu (~15 min)
-    .venv/bin/python scripts/beyond_the_paper.py spinup    # spin-up trap table (~10 min)
-    .venv/bin/python scripts/beyond_the_paper.py collision # impact and energy ledger (~1 min)
+    .venv/bin/python scripts/make_ball_model_figures.py p1        # contact at P1 (~2 min)
+    .venv/bin/python scripts/make_ball_model_figures.py rolling   # rbar vs rolling_mu (~15 min)
+    .venv/bin/python scripts/make_ball_model_figures.py spinup    # spin-up trap (~10 min)
+    .venv/bin/python scripts/make_ball_model_figures.py collision # energy ledger (~1 min)
 
 Balls: solid steel of the scenario's mass (abb_ros.model.ball_materials.with_steel_balls).
-Figures go to docs/figures/beyond/; tables are printed (Markdown).
+Figures go to docs/figures/ball_model/; tables are printed (Markdown).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from abb_ros.model.ball_materials import with_steel_balls
 from abb_ros.model.equilibrium import phi_star_two_balls
 
 FIG_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), 'docs',
-                       'figures', 'beyond')
+                       'figures', 'ball_model')
 ROLLING_MU = (0.0, 1e-9, 1e-8, 1e-7, 1e-6, 3e-6, 1e-5)
 """Rolling-resistance coefficients of the P3 study [m]."""
 STARTS_DEG = ((60.0, -60.0), (150.0, -150.0), (100.0, -140.0))
