@@ -264,7 +264,7 @@ class AnalysisNode(Node):
             message += f' (n = {self.n_seen} from joint_states; drive.n = {self.drive.n} ' \
                        'applies on the simulator\'s ~/reset)'
         values = dict(a.values, parameters_from=self.parameters_from)
-        if self.drive.beyond_paper:      # issue 12: terms the paper's linear analysis ignores
+        if self.drive.beyond_paper:      # terms the paper's linear analysis ignores
             values['ignored_by_linear_analysis'] = ', '.join(self.drive.beyond_paper)
         stamp_ns = self.speed[1] if self.speed else self.get_clock().now().nanoseconds
         if not math.isnan(a.margin):
