@@ -164,7 +164,7 @@ def _outcome(res):
 
 
 def study_spinup():
-    """The P1 -> P3 run-up at several acceleration limits, paper vs steel balls with contact."""
+    """Run the P1 -> P3 run-up at several acceleration limits, paper vs steel balls touching."""
     base = load_scenario('spinup_p1_p3')
     print('| max_accel [rad/s^2] | model | outcome | rbar (max, last s) | max phi\' (last s) '
           '[rad/s] |')
@@ -193,8 +193,10 @@ def study_spinup():
 
 
 def study_collision():
-    """Clamped race: an elastic head-on impact (momentum) and a damped one with rolling
-    resistance (energy ledger). Figures collision.png and energy_ledger.png.
+    """Run an elastic and a damped head-on impact on the clamped race.
+
+    The elastic one shows the momentum, the damped one with rolling resistance the energy
+    ledger; both go to collision_energy.png.
     """
     from abb_ros.model.ball_materials import clamped_race, collision_state, race_energy_ledger
     from abb_ros.model.integrate import ConstantSpeed, Simulation
@@ -243,6 +245,7 @@ def study_collision():
 
 
 def main(argv=None):
+    """Run the study named on the command line; return the exit code."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('study', choices=('p1', 'rolling', 'spinup', 'collision'))
     args = parser.parse_args(argv)

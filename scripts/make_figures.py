@@ -1,5 +1,7 @@
-"""Regenerate every figure of docs/figures: the stability maps of Figs. 4-8 (PNG + NPZ data)
-and the time responses of Figs. 9-16 (PNG in docs/figures/time).
+"""Regenerate every figure of docs/figures.
+
+The stability maps of Figs. 4-8 (PNG + NPZ data) and the time responses of Figs. 9-16 (PNG in
+docs/figures/time).
 
 Run from the repository root, on a shared machine with a lower priority::
 
@@ -94,7 +96,7 @@ def _abb_sim(argv) -> dict:
 
 
 def load_map(path):
-    """A :class:`abb_ros.model.floquet.StabilityMap` from an NPZ file of ``abb-sim map``."""
+    """Load a :class:`abb_ros.model.floquet.StabilityMap` from an NPZ file of ``abb-sim map``."""
     from abb_ros.model.floquet import StabilityMap
     with np.load(path) as data:
         return StabilityMap(str(data['x_name']), str(data['y_name']), data['x_values'],
@@ -104,6 +106,7 @@ def load_map(path):
 
 
 def make_maps(names, res, replot) -> None:
+    """Compute the named maps with ``abb-sim map`` (or redraw them) and plot them."""
     from abb_ros.plots.maps import map_title, plot_map
     for k, name in enumerate(names, 1):
         figure, args = MAPS[name]
@@ -144,7 +147,7 @@ def make_speed_curves() -> None:
 
 
 def _title(head, scenario_name, sets):
-    """The figure, the scenario, and its parameters as ``abb-sim run`` applies them."""
+    """Return the title: the figure, the scenario and its parameters as abb-sim run applies."""
     from abb_ros.commands.api import parse_settings
     from abb_ros.io.scenario import load_scenario
     from abb_ros.plots.labels import parameter_text
@@ -192,6 +195,7 @@ def make_time_responses(names, workdir: Path) -> None:
 
 
 def main() -> int:
+    """Make the figures the command line asks for; return the exit code."""
     ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('figures', nargs='*', metavar='FIGURE',
@@ -241,7 +245,7 @@ def main() -> int:
 
 
 def _other_figures(args) -> dict:
-    """The figure groups made by their own scripts, as commands (run from the repo root)."""
+    """Return the figure groups made by their own scripts, as commands (run from the root)."""
     py = sys.executable
     groups = {'torque': [[py, 'scripts/make_torque_figure.py']],
               'ball_model': [[py, 'scripts/make_ball_model_figures.py', study]
