@@ -1,10 +1,11 @@
 """Does the simulator node keep real time at n = 10 with ball contact? (prints figures;
 asserts nothing)
 
-Issue 12's worst case: ten steel balls (m = 0.156 g, r_ball = 1.680 mm, contact_E = 2e11 Pa,
-D = 1e-6, c = 0.66) at P1 (wbar = 0.8) from the node's default start. They gather into a
-touching chain in the first ~0.8 s, with impacts in every step from ~0.45 s, then rest in it
-(every step refined). The same drive with the paper's model (point balls) is the baseline.
+The worst case of the ball model: ten steel balls (m = 0.156 g, r_ball = 1.680 mm,
+contact_E = 2e11 Pa, D = 1e-6, c = 0.66) at P1 (wbar = 0.8) from the node's default start.
+They gather into a touching chain in the first ~0.8 s, with impacts in every step from
+~0.45 s, then rest in it (every step refined). The same drive with the paper's model (point
+balls) is the baseline.
 
 For each model, ``--runs`` times, the node runs in its own process at real_time_factor 1 (10 kHz
 steps, 1 kHz publish) for ``--duration`` s. From its ``/diagnostics`` this prints:

@@ -1,6 +1,6 @@
 """Start-up of the installed nodes (prints figures; asserts nothing).
 
-Issue 9's fast start: after set-up (kernels compiled and cached), the first ``joint_states``
+The fast start: after set-up (kernels compiled and cached), the first ``joint_states``
 arrives within 3 s of starting the simulator and the analysis node's first verdict within 5 s,
 with a STALE status saying why before it. This starts each node's console script (what
 ``ros2 run abb_ros <node>`` executes) from the virtual environment, alone, ``--repeat`` times,

@@ -1,5 +1,7 @@
-"""Regenerate every figure of docs/figures: the stability maps of Figs. 4-8 (PNG + NPZ data)
-and the time responses of Figs. 9-16 (PNG in docs/figures/time).
+"""Regenerate every figure of docs/figures.
+
+The stability maps of Figs. 4-8 (PNG + NPZ data) and the time responses of Figs. 9-16 (PNG in
+docs/figures/time).
 
 Run from the repository root, on a shared machine with a lower priority::
 
@@ -94,7 +96,7 @@ def _abb_sim(argv) -> dict:
 
 
 def load_map(path):
-    """A :class:`abb_ros.model.floquet.StabilityMap` from an NPZ file of ``abb-sim map``."""
+    """Load a :class:`abb_ros.model.floquet.StabilityMap` from an NPZ file of ``abb-sim map``."""
     from abb_ros.model.floquet import StabilityMap
     with np.load(path) as data:
         return StabilityMap(str(data['x_name']), str(data['y_name']), data['x_values'],
@@ -104,6 +106,7 @@ def load_map(path):
 
 
 def make_maps(names, res, replot) -> None:
+    """Compute the named maps with ``abb-sim map`` (or redraw them) and plot them."""
     from abb_ros.plots.maps import map_title, plot_map
     for k, name in enumerate(names, 1):
         figure, args = MAPS[name]
@@ -144,7 +147,7 @@ def make_speed_curves() -> None:
 
 
 def _title(head, scenario_name, sets):
-    """The figure, the scenario, and its parameters as ``abb-sim run`` applies them."""
+    """Return the title: the figure, the scenario and its parameters as abb-sim run applies."""
     from abb_ros.commands.api import parse_settings
     from abb_ros.io.scenario import load_scenario
     from abb_ros.plots.labels import parameter_text
@@ -192,14 +195,15 @@ def make_time_responses(names, workdir: Path) -> None:
 
 
 def main() -> int:
+    """Make the figures the command line asks for; return the exit code."""
     ap = argparse.ArgumentParser(description=__doc__,
                                  formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument('figures', nargs='*', metavar='FIGURE',
                     help=f'any of {", ".join([*MAPS, *TIME_FIGURES])} (default: all)')
-    ap.add_argument('--only', choices=('maps', 'time', 'torque', 'beyond', 'sweep'),
+    ap.add_argument('--only', choices=('maps', 'time', 'torque', 'ball_model', 'sweep'),
                     help='only one group: the maps, the time responses, the torque-mode figure '
-                         '(scripts/make_torque_figure.py), the beyond-the-paper studies '
-                         '(scripts/beyond_the_paper.py, ~30 min) or the sweep report')
+                         '(scripts/make_torque_figure.py), the ball-model studies '
+                         '(scripts/make_ball_model_figures.py, ~30 min) or the sweep report')
     ap.add_argument('--sweep-data', metavar='DIR',
                     help='an `abb-sim sweep config/sweeps/tolerance_p3.yaml` result to redraw '
                          'docs/figures/sweep from (the sweep itself takes ~6 min on 2 idle '
@@ -241,11 +245,11 @@ def main() -> int:
 
 
 def _other_figures(args) -> dict:
-    """The figure groups made by their own scripts, as commands (run from the repo root)."""
+    """Return the figure groups made by their own scripts, as commands (run from the root)."""
     py = sys.executable
     groups = {'torque': [[py, 'scripts/make_torque_figure.py']],
-              'beyond': [[py, 'scripts/beyond_the_paper.py', study]
-                         for study in ('p1', 'collision', 'rolling', 'spinup')]}
+              'ball_model': [[py, 'scripts/make_ball_model_figures.py', study]
+                             for study in ('p1', 'collision', 'rolling', 'spinup')]}
     if args.sweep_data:
         groups['sweep'] = [[py, '-m', 'abb_ros.cli', 'sweep-report', args.sweep_data, '--out',
                             'docs/figures/sweep']]

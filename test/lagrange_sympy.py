@@ -42,7 +42,10 @@ from sympy.printing.pycode import PythonCodePrinter
 PARAM_NAMES = ('a', 'b', 'd', 'R', 'M_P', 'M', 'm', 'J_Px', 'J_Py', 'J_Pz', 'J_x', 'J_y', 'J_z',
                'k', 'c', 'D', 'eps')
 BEYOND_NAMES = ('r_ball', 'contact_E', 'contact_nu', 'contact_damping', 'ball_rotation')
-"""Issue 12 (docs/beyond_the_paper.md): ball radius, Hertzian contact, rolling-ball spin."""
+"""Terms beyond the paper: ball radius, Hertzian contact, rolling-ball spin.
+
+docs/ball_size_contact_rolling.md states them.
+"""
 DECK_NAMES = ('X', 'Y', 'Z', 'alpha', 'beta', 'gamma')
 
 _SOURCE_HASH = hashlib.sha1(open(__file__, 'rb').read()).hexdigest()[:12]
@@ -100,8 +103,8 @@ def energies(n, beyond=False):
     """(T, V, F) of Eqs. (11), (13), (16) as sympy expressions in q, q' (exact, no small angles).
 
     Positions are inertial: body vector p -> (T_beta T_alpha T_gamma)^T p, C at (X, Y, Z).
-    ``beyond``: add issue 12's terms (:func:`beyond_energies`); 'spin': only the rolling
-    balls' spin energy.
+    ``beyond``: add the ball-size, contact and spin terms (:func:`beyond_energies`); 'spin':
+    only the rolling balls' spin energy.
     """
     q, qd, _, par = symbols(n)
     theta, X, Y, Z, alpha, beta, gamma = q[:7]
@@ -160,7 +163,7 @@ def contact_overlaps(n):
 
 
 def beyond_energies(n):
-    """Issue 12's additions (dT, dV, dF), exact.
+    """Return the ball-size, contact and spin additions (dT, dV, dF), exact.
 
     dT: each ball rolls on the race (contact at radius R + r): its angular velocity is the deck's
     (Eq. 10) plus (theta' - (R/r) phi_i') about the deck z axis; a sphere's inertia is isotropic,
@@ -354,7 +357,8 @@ def compiled_energy_terms(n):
     """numpy function (q, qd, qdd, P) -> [T, V, F, tau], exact, with the rolling balls' spin
     energy (the contact's potential and damping come from the kernels, being pairwise and
     piecewise): the energies and theta's row of Lagrange's equations (the spindle torque),
-    vectorised over arrays of states (the energy bookkeeping of docs/beyond_the_paper.md)."""
+    vectorised over arrays of states (the energy bookkeeping of
+    docs/ball_size_contact_rolling.md)."""
     def build():
         q, qd, qdd, _ = symbols(n)
         T, V, F = energies(n)

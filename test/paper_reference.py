@@ -1,9 +1,9 @@
-"""Reference trajectories of the paper's model, stored before the beyond-the-paper terms existed.
+"""Reference trajectories of the paper's model, stored before the ball-size terms existed.
 
 ``python test/paper_reference.py`` runs the scenarios P1-P4 and P3 with ten balls (the
 shipped config/scenarios, the node's 10 kHz step, states every 100 ms) and writes them to
 test/data/paper_reference.npz. The file committed with this module was produced by the code
-of commit d139114 (before issue 12); test_zero_ball_size_terms.py compares today's runs
+of commit d139114 (before the ball-size terms); test_zero_ball_size_terms.py compares today's runs
 with it bit for bit.
 """
 

@@ -26,9 +26,10 @@ STEEL_P1 = ['--set', 'r_ball=2.873e-3', '--set', 'contact_E=2e11', '--set', 'rol
 
 
 def test_headless_run_takes_the_new_parameters_and_reports_refined_steps(abb_sim):
-    """abb-sim run --set r_ball=... on P1: the balls meet within 0.3 s (docs/beyond_the_paper.md,
-    P1 figure), so contact sub-steps are reported in the summary, with the active terms; the
-    rolling balls stick and slip, so located rolling switches are reported too."""
+    """abb-sim run --set r_ball=... on P1: the balls meet within 0.3 s
+    (docs/ball_size_contact_rolling.md, P1 figure), so contact sub-steps are reported in the
+    summary, with the active terms; the rolling balls stick and slip, so located rolling
+    switches are reported too."""
     code, out, err = abb_sim('run', '--scenario', 'p1', '--duration', '0.5', '--json',
                              '--no-progress', *STEEL_P1)
     assert code == 0, err

@@ -1,7 +1,7 @@
 """Every bad input of `abb-sim`, one line: exit code 2 naming what is wrong and what is valid;
 a runtime failure (full disk, a blown-up state) exit code 1; nothing left that looks like success.
 
-Table-driven over the classes a fuzz of the command line found (issue 9), run in-process through
+Table-driven over the classes a fuzz of the command line found, run in-process through
 ``cli.main(argv)`` on real files. Read-only and full file systems are real tmpfs mounts (this
 runs as root, which chmod does not stop); where mounting is not allowed those cases are skipped.
 """

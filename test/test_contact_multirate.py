@@ -1,4 +1,6 @@
-"""The multirate contact step (kernels.multirate.mis_contact_step, docs/beyond_the_paper.md).
+"""The multirate contact step (kernels.multirate.mis_contact_step).
+
+docs/ball_size_contact_rolling.md states its accuracy.
 
 Its energy closure over a collision is in test_contact_rolling_energy; its momentum along the
 race in test_contact_rolling (the head-on collision runs through it).
@@ -149,10 +151,10 @@ def test_impacts_rebound_to_an_absolute_or_relative_tolerance_whichever_is_loose
     of a fast impact); a fast impact's (0.5 m/s) stay right to 7.8e-5 of the speed. The head-on
     collision on the clamped race, its contact starting at 16 instants within the first step,
     against the same run at steps of dt / 200 (omega_c h ~ 0.01). Measured, worst onset:
-    3.2e-6, 3.3e-6, 3.5e-6 m/s, 3.6e-5 of 0.5 m/s (docs/beyond_the_paper.md). The onsets late
-    in the step put the impact's peak near the next step's start, where the contact looks
-    resting (kernels.contact_steps.resting_misjudged takes that step again: without it 7.8e-4
-    m/s at 0.05 m/s).
+    3.2e-6, 3.3e-6, 3.5e-6 m/s, 3.6e-5 of 0.5 m/s (docs/ball_size_contact_rolling.md). The
+    onsets late in the step put the impact's peak near the next step's start, where the contact
+    looks resting (kernels.contact_steps.resting_misjudged takes that step again: without it
+    7.8e-4 m/s at 0.05 m/s).
     """
     errors = []
     for k in range(16):

@@ -4,7 +4,7 @@
 and 1e9 kg m^2 (M_P, J_Px, J_Py, J_Pz) and the rotor no eccentricity, so the balls' forces move
 the deck by ~1e-13 of their own accelerations: the balls run on a fixed race spinning at the
 spindle speed (the rotor keeps its own inertia: the motor's reaction torque J_z theta'' then
-turns the deck by nothing either). docs/beyond_the_paper.md.
+turns the deck by nothing either). docs/ball_size_contact_rolling.md.
 """
 
 import math

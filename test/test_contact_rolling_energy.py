@@ -179,8 +179,8 @@ def test_p3_energy_bookkeeping_of_the_paper_model_closes_once_the_truncation_is_
 
     All new terms off (r_ball = 1 mm alone changes nothing; the sympy spin energy needs it finite).
     Measured: the balance leaves 1.2e-4 of the input work over 0.5 s whatever the step (1e-4,
-    2.5e-5, 1e-5 s: docs/beyond_the_paper.md), the work of the terms the paper's first-order
-    equations drop; adding that work (from the exact Lagrange rows) closes it to 1e-6.
+    2.5e-5, 1e-5 s: docs/ball_size_contact_rolling.md), the work of the terms the paper's
+    first-order equations drop; adding that work (from the exact Lagrange rows) closes it to 1e-6.
     """
     params = load_scenario('p3').params.replace(r_ball=1e-3)
     assert params.beyond_paper == ()
@@ -198,7 +198,7 @@ def test_p3_energy_bookkeeping_with_contact_closes_through_the_multirate_contact
     are multirate (kernels.multirate.mis_contact_step: the contact forces sub-stepped, the rest
     of the system at three stages per step), replayed sub-step by sub-step from its trace. It
     closes like the paper model once the truncation work is counted (measured:
-    docs/beyond_the_paper.md).
+    docs/ball_size_contact_rolling.md).
     """
     params = with_steel_balls(load_scenario('p3').params, rotation=True)
     row = ledger(params, truncation=True)
@@ -216,7 +216,7 @@ def test_p3_energy_bookkeeping_with_contact_and_rolling_closes_with_the_switches
     (the regimes are kept, smooth, between them) and the ledger integrates between them, so that
     the run closes like the paper model's once the truncation work is counted. Measured at the
     default step: 1.1e-4 before and -2.3e-7 after the truncation work, with 146 located switches
-    (before the switches were located: 1.09e-3 and 9.8e-4, docs/beyond_the_paper.md).
+    (without locating the switches: 1.09e-3 and 9.8e-4; docs/ball_size_contact_rolling.md).
     """
     params = with_steel_balls(load_scenario('p3').params, rolling_mu=1e-6, rotation=True)
     row = ledger(params, truncation=True)

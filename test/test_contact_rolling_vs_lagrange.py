@@ -1,6 +1,6 @@
 """The ball-size, contact and rolling terms of the kernels against the extended energies.
 
-test/lagrange_sympy.py adds to T, V, F (docs/beyond_the_paper.md): the rolling balls' spin
+test/lagrange_sympy.py adds to T, V, F (docs/ball_size_contact_rolling.md): the rolling balls' spin
 energy 1/2 J_b |omega_P + (theta' - R/r phi_i') e_z|^2, the Hertz potential 2/5 K delta^2.5 and
 the Hunt-Crossley dissipation 1/2 chi K delta^1.5 delta'^2 of every overlapping pair. The
 kernels (abb_ros.model.kernels: add_ball_rotation, contact_forces, and the 7/5 ball mass in

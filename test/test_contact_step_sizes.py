@@ -7,7 +7,7 @@ torque mode: whole-system RK4 sub-steps).
 The head-on collision on the clamped race (test_contact_multirate.head_on) is elastic: its rebound
 speeds must agree with a fine run (2.5e-7 s) to the documented accuracy, 1e-5 m/s or 7.8e-5 of the
 speed, whichever is looser, and its kinetic energy must come back to the same accuracy (as the
-speed it stands for). docs/beyond_the_paper.md, Impacts at any step.
+speed it stands for). docs/ball_size_contact_rolling.md, Impacts at any step.
 """
 
 import numpy as np

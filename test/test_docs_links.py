@@ -1,4 +1,7 @@
-"""Every relative link in README.md and docs/*.md, and every cited README section, exists.
+"""Check that every link, cited README section and cited docs path exists.
+
+Every relative link in README.md and docs/*.md, every README section and every docs/*.md or
+docs/figures path cited anywhere in the repository.
 
 Links to the web are not checked, nor links into docs/figures (another test covers the
 figures). A link with an anchor (``file.md#section``, ``#section``) must name a heading of
@@ -99,7 +102,7 @@ _README_CITATION = re.compile(
     r'[\'"\u201d]'
     r'|README[^.\n]{0,60}?\bsection[\s#]+[\'"\u201c]([^\'"\u201d\n]{2,80})[\'"\u201d]')
 CITING = ['abb_ros', 'scripts', '.ci', 'docs', 'benchmarks', 'test', 'launch', 'config',
-          'README.md', 'requirements.txt', 'setup.py', 'setup.cfg', 'package.xml']
+          'README.md', 'CHANGELOG.md', 'requirements.txt', 'setup.py', 'setup.cfg', 'package.xml']
 _TEXT = {'.py', '.md', '.txt', '.yaml', '.yml', '.cfg', '.xml', '.toml', '', '.sh'}
 
 
@@ -119,16 +122,20 @@ def _citing_files():
                 yield file
 
 
+def _citing_texts():
+    for file in _citing_files():
+        try:
+            yield file, file.read_text(encoding='utf-8')
+        except UnicodeDecodeError:
+            continue
+
+
 def test_every_cited_readme_section_exists():
     """Find every README section named in the code, scripts, CI and docs among its headings."""
     titles = {title.replace('`', '').strip().lower()
               for title in _HEADING.findall(_FENCE.sub('', (ROOT / 'README.md').read_text()))}
     cited = {}
-    for file in _citing_files():
-        try:
-            text = file.read_text(encoding='utf-8')
-        except UnicodeDecodeError:
-            continue
+    for file, text in _citing_texts():
         for title in readme_citations(text):
             cited.setdefault(title, []).append(str(file.relative_to(ROOT)))
     assert cited, 'no README citation found: the pattern misses the forms in use'
@@ -145,3 +152,48 @@ def test_the_citation_pattern_sees_the_forms_in_use():
             'the README says so. README.md is the entry point.\n')
     assert readme_citations(text) == ['Set-up: two commands', 'A five-minute tour',
                                       'Design studies on Dask', 'Controllers in the loop']
+
+
+# A repository path of a document or figure: docs/<name>.md, docs/figures/... (not part of a
+# longer path such as an install tree). A path named as the old side of a rename (the
+# changelog's "`docs/a.md` is now ...", "(was `docs/a.md`)") is history, not a citation.
+_DOC_PATH = re.compile(r'(?<![\w./-])docs/(?:figures(?:/[\w.-]+)*|[\w-]+\.md)')
+_RENAMED_AFTER = re.compile(r'[`\'"]?\s+is now\b')
+_RENAMED_BEFORE = re.compile(r'\b(?:was|were)\s+[`\'"]?$')
+
+
+def doc_paths(text: str) -> list[str]:
+    """Return the docs/*.md and docs/figures paths that ``text`` cites, in order."""
+    out = []
+    for match in _DOC_PATH.finditer(text):
+        if (_RENAMED_AFTER.match(text, match.end())
+                or _RENAMED_BEFORE.search(text[max(0, match.start() - 12):match.start()])):
+            continue
+        out.append(match.group().rstrip('./'))
+    return out
+
+
+def missing_doc_paths(text: str) -> list[str]:
+    """Return the paths of :func:`doc_paths` that do not exist in the repository."""
+    return [path for path in doc_paths(text) if not (ROOT / path).exists()]
+
+
+def test_every_cited_docs_path_exists():
+    """Find every docs/*.md and docs/figures path named in code, scripts, CI and docs."""
+    missing = {}
+    for file, text in _citing_texts():
+        for path in missing_doc_paths(text):
+            missing.setdefault(path, []).append(str(file.relative_to(ROOT)))
+    assert not missing, f'cited documents or figures that do not exist: {missing}'
+
+
+def test_the_docs_path_check_fails_on_a_made_up_citation():
+    """Read the cited paths as written, and report the made-up ones."""
+    text = ('See docs/cli.md, the figure docs/figures/fig4a.png and `docs/figures/sweep/`.\n'
+            '# details: docs/no_such_page.md; plot in docs/figures/none/x.png.\n'
+            '- `docs/old_name.md` is now `docs/sweep.md` (was `docs/older.md`).\n'
+            'not a citation: /work/wt-docs/benchmarks/a.md, share/abb_ros/docs/cli.md\n')
+    assert doc_paths(text) == ['docs/cli.md', 'docs/figures/fig4a.png', 'docs/figures/sweep',
+                               'docs/no_such_page.md', 'docs/figures/none/x.png',
+                               'docs/sweep.md']
+    assert missing_doc_paths(text) == ['docs/no_such_page.md', 'docs/figures/none/x.png']

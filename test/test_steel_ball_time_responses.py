@@ -2,7 +2,7 @@
 
 Balls: solid steel of the scenario's mass (abb_ros.model.ball_materials.with_steel_balls; r_ball =
 2.873 mm for m = 0.78 g), Hertzian contact, no contact damping unless said. Numbers quoted in
-docs/beyond_the_paper.md come from scripts/beyond_the_paper.py (same runs).
+docs/ball_size_contact_rolling.md come from scripts/make_ball_model_figures.py (same runs).
 """
 
 import dataclasses
@@ -89,7 +89,7 @@ def test_spin_up_trap_persists_with_contact(max_accel, trapped):
     The P1 -> P3 run-up (config/scenarios/spinup_p1_p3.yaml) with steel balls in contact: at 1000
     rad/s^2 the touching pair is still captured into orbiting with the resonant whirl (rbar ~0.19,
     balls moving at ~525 rad/s relative to the rotor), at 2000 rad/s^2 it balances, as the paper's
-    model does (docs/beyond_the_paper.md, spin-up table).
+    model does (docs/ball_size_contact_rolling.md, spin-up table).
     """
     scenario = load_scenario('spinup_p1_p3')
     scenario = dataclasses.replace(

@@ -74,8 +74,8 @@ def test_theta_row_differs_from_the_exact_equation_only_at_second_order(n):
 def test_torque_mode_accelerations_solve_every_first_order_equation(n):
     """Check that torque mode accelerations solve every first order equation.
 
-    kernels.accel in torque mode: q'' makes the first-order Lagrange residual of X..phi_n vanish
-    and that of theta equal Q_theta (motor torque less friction), to round-off.
+    kernels.rhs.accel in torque mode: q'' makes the first-order Lagrange residual of X..phi_n
+    vanish and that of theta equal Q_theta (motor torque less friction), to round-off.
     """
     motor = TorqueMotor(K_t=0.02, I_max=2.0, T_c=2e-4)
     S = motor.pack(1.5)

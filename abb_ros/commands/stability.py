@@ -51,7 +51,7 @@ def run(args) -> dict:
     if params.beyond_paper:
         out['note'] = ('linear analysis of the paper\'s model: it ignores '
                        + ', '.join(params.beyond_paper)
-                       + ' (docs/beyond_the_paper.md); the time simulation has them')
+                       + ' (docs/ball_size_contact_rolling.md); the time simulation has them')
         if params.contact_E > 0 and params.n > 1:
             out['note'] += ('; the balls\' size does bound the balanced equilibrium (their '
                             'capacity and spacing, docs/verification.md)')

@@ -168,7 +168,8 @@ def _numbers(where, value, count, what, **bounds) -> list:
 def _initial_deck(value) -> tuple:
     """Check the start deck state: X, Y, Z within +-MAX_TRANSLATION, angles within +-MAX_ANGLE.
 
-    Outside the envelope of the kernels' state check the small-angle model means nothing
+    Outside the envelope of the kernels' state check
+    (:func:`abb_ros.model.kernels.stepper.check_state`) the small-angle model means nothing
     (it stops at t = 0).
     """
     deck = _numbers('scenario.initial.deck', value, 6, 'numbers X, Y, Z [m], alpha, beta, '

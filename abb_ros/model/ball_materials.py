@@ -5,7 +5,7 @@ The terms themselves live in :mod:`abb_ros.model.kernels` (``ball_size.add_ball_
 ``contact_steps.contact_substeps``) and are switched on by the
 DriveParams fields ``r_ball``, ``contact_E``, ``contact_nu``, ``contact_damping``,
 ``rolling_mu``, ``rolling_stick_rate`` and ``ball_rotation`` (all zero: the paper's model).
-docs/beyond_the_paper.md states the laws, the assumptions and the measurements.
+docs/ball_size_contact_rolling.md states the laws, the assumptions and the measurements.
 """
 
 from __future__ import annotations

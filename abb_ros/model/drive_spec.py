@@ -56,7 +56,7 @@ DRIVE_SPECS = (
     ParamSpec('drive.n', 2, '', 'number of balancing balls, n (0 = drive without ABB)',
               INTEGER, 0, MAX_BALLS, applies='on ~/reset (simulator)', nodes=DRIVE_NODES,
               commands=COMMANDS),
-    # ---- beyond the paper (docs/beyond_the_paper.md); zero = the paper's model ----
+    # ---- ball size, contact, rolling (docs/ball_size_contact_rolling.md); zero = the paper ----
     _drive('r_ball', 0.0, 'm', 'ball radius (0 = point balls, the paper); needed by contact '
            'and rolling resistance', **_NONNEG),
     _drive('contact_E', 0.0, 'Pa', "Young's modulus of the balls for the Hertzian ball-ball "

@@ -54,7 +54,7 @@ def contact_step_note(params, dt: float) -> str:
     if params.contact_E <= 0 or params.n < 2 or lo <= dt <= hi:
         return ''
     return (f'integration step {dt:.3g} s outside {lo:g}..{hi:g} s, where the contact '
-            'impacts\' accuracy is verified (docs/beyond_the_paper.md)')
+            'impacts\' accuracy is verified (docs/ball_size_contact_rolling.md)')
 """Default fixed step [s] (10 kHz); see docs/verification.md for the accuracy
 study that chose it."""
 
@@ -226,7 +226,7 @@ def _check_torque_terms(params: DriveParams, spindle) -> None:
     """Refuse torque mode with rolling resistance or rolling balls.
 
     The free-theta equation of torque mode (docs/torque_mode.md) has ball contact but not
-    yet rolling resistance or rolling balls (docs/beyond_the_paper.md).
+    yet rolling resistance or rolling balls (docs/ball_size_contact_rolling.md).
     """
     if isinstance(spindle, TorqueMotor) and (params.rolling_mu > 0 or params.ball_rotation):
         name = 'rolling_mu' if params.rolling_mu > 0 else 'ball_rotation'

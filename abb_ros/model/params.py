@@ -66,7 +66,7 @@ class DriveParams:
     D: float = _default('D')
     eps: float = _default('eps')
     n: int = _default('n')
-    # ---- beyond the paper (docs/beyond_the_paper.md); zero = the paper's model ----------
+    # ---- ball size, contact, rolling (docs/ball_size_contact_rolling.md); zero = the paper ----
     r_ball: float = _default('r_ball')
     contact_E: float = _default('contact_E')
     contact_nu: float = _default('contact_nu')

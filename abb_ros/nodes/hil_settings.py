@@ -2,8 +2,8 @@
 
 Their declarations (defaults, units, ranges) are the ``speed_sensor.*``, ``fault.*``,
 ``disturbance.*`` and ``visualization.*`` entries of
-:data:`abb_ros.nodes.ros_params.NODE_PARAMS`; :func:`hil_settings` turns their values into
-a :class:`HilSettings` or raises ParamError naming the parameter. Semantics:
+:data:`abb_ros.nodes.simulator_params.SIMULATOR_SPECS`; :func:`hil_settings` turns their
+values into a :class:`HilSettings` or raises ParamError naming the parameter. Semantics:
 docs/ros_api.md, 'Bench: measured speed, faults, disturbances, markers'.
 """
 

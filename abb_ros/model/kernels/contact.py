@@ -5,7 +5,7 @@ they overlap by delta > 0 the force F = K delta^1.5 (1 + chi delta') >= 0 acts a
 of centres (potential 2/5 K delta^2.5, dissipation 1/2 chi K delta^1.5 delta'^2). Its
 generalized forces Qc load the ball rows of Eq. (24) (added in
 :func:`abb_ros.model.kernels.eom.assemble`); they are internal, so no force acts on the deck
-or the rotor. Switched on by ``contact_E`` (docs/beyond_the_paper.md).
+or the rotor. Switched on by ``contact_E`` (docs/ball_size_contact_rolling.md).
 """
 
 from __future__ import annotations

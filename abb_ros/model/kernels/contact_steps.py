@@ -43,7 +43,7 @@ MIS_IMPACT_REFINE = 1.5
 """The multirate step's fast sub-steps per contact sub-step in an impact (rounded up): the
 impact's resolution is its largest error (energy closure of a collision without rolling
 resistance: 1.0e-6 with 1, 5.3e-7 with 1.5, 5.2e-7 with 2, 3.9e-7 with 4; RK4 sub-steps of
-the whole system: 1.5e-7, docs/beyond_the_paper.md)."""
+the whole system: 1.5e-7, docs/ball_size_contact_rolling.md)."""
 
 
 @kernel

@@ -4,7 +4,7 @@ A ball rolling on the race feels a resisting torque mu N about its contact (N: i
 centrifugal load), a generalized force on its row of Eq. (24) of at most
 :func:`rolling_threshold`. Slipping balls get that force against their motion; stuck balls
 the force that keeps them stuck (solved with the deck, :func:`accel_rolling`). Switched on by
-``rolling_mu`` (docs/beyond_the_paper.md); the regime switches are located in time by
+``rolling_mu`` (docs/ball_size_contact_rolling.md); the regime switches are located in time by
 :mod:`abb_ros.model.kernels.rolling_events`.
 """
 

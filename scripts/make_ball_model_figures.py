@@ -1,15 +1,15 @@
 #!/usr/bin/env python3
-"""Studies of steel balls with contact and rolling resistance (docs/beyond_the_paper.md).
+"""Make the figures of steel balls with contact and rolling resistance.
 
-The figures of docs/beyond_the_paper.md and the numbers quoted there::
+The figures of docs/ball_size_contact_rolling.md and the numbers quoted there::
 
-    .venv/bin/python scripts/beyond_the_paper.py p1        # contact at P1 (~2 min)
-    .venv/bin/python scripts/beyond_the_paper.py rolling   # rbar residual vs rolling_mu (~15 min)
-    .venv/bin/python scripts/beyond_the_paper.py spinup    # spin-up trap table (~10 min)
-    .venv/bin/python scripts/beyond_the_paper.py collision # impact and energy ledger (~1 min)
+    .venv/bin/python scripts/make_ball_model_figures.py p1        # contact at P1 (~2 min)
+    .venv/bin/python scripts/make_ball_model_figures.py rolling   # rbar vs rolling_mu (~15 min)
+    .venv/bin/python scripts/make_ball_model_figures.py spinup    # spin-up trap (~10 min)
+    .venv/bin/python scripts/make_ball_model_figures.py collision # energy ledger (~1 min)
 
 Balls: solid steel of the scenario's mass (abb_ros.model.ball_materials.with_steel_balls).
-Figures go to docs/figures/beyond/; tables are printed (Markdown).
+Figures go to docs/figures/ball_model/; tables are printed (Markdown).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from abb_ros.model.ball_materials import with_steel_balls
 from abb_ros.model.equilibrium import phi_star_two_balls
 
 FIG_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), 'docs',
-                       'figures', 'beyond')
+                       'figures', 'ball_model')
 ROLLING_MU = (0.0, 1e-9, 1e-8, 1e-7, 1e-6, 3e-6, 1e-5)
 """Rolling-resistance coefficients of the P3 study [m]."""
 STARTS_DEG = ((60.0, -60.0), (150.0, -150.0), (100.0, -140.0))
@@ -164,7 +164,7 @@ def _outcome(res):
 
 
 def study_spinup():
-    """The P1 -> P3 run-up at several acceleration limits, paper vs steel balls with contact."""
+    """Run the P1 -> P3 run-up at several acceleration limits, paper vs steel balls touching."""
     base = load_scenario('spinup_p1_p3')
     print('| max_accel [rad/s^2] | model | outcome | rbar (max, last s) | max phi\' (last s) '
           '[rad/s] |')
@@ -193,8 +193,10 @@ def study_spinup():
 
 
 def study_collision():
-    """Clamped race: an elastic head-on impact (momentum) and a damped one with rolling
-    resistance (energy ledger). Figures collision.png and energy_ledger.png.
+    """Run an elastic and a damped head-on impact on the clamped race.
+
+    The elastic one shows the momentum, the damped one with rolling resistance the energy
+    ledger; both go to collision_energy.png.
     """
     from abb_ros.model.ball_materials import clamped_race, collision_state, race_energy_ledger
     from abb_ros.model.integrate import ConstantSpeed, Simulation
@@ -243,6 +245,7 @@ def study_collision():
 
 
 def main(argv=None):
+    """Run the study named on the command line; return the exit code."""
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument('study', choices=('p1', 'rolling', 'spinup', 'collision'))
     args = parser.parse_args(argv)
