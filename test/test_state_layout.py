@@ -1,11 +1,10 @@
-"""The state layout (model/state.py) and the topic list."""
+"""The state layout (model/state.py): named slices, packing, batches, wrapped angles."""
 
 import math
 
 import numpy as np
 import pytest
 
-from abb_ros.io import topics
 from abb_ros.model.state import DECK, PHI, THETA, StateLayout, n_coords, wrap_angle, wrap_degrees
 
 
@@ -54,17 +53,3 @@ def test_wrapped_ball_angles_lie_in_minus_pi_excluded_to_pi_included():
     got = wrap_angle(phi)
     np.testing.assert_allclose(got, [math.pi, math.pi, math.pi, 0.1, 7.0 - 2 * math.pi])
     np.testing.assert_allclose(wrap_degrees(phi), np.degrees(got))
-
-
-def test_every_topic_has_one_entry_and_the_derived_lists_keep_its_order():
-    """Check that every topic has one entry and the derived lists keep its order."""
-    names = [t.name for t in topics.TOPICS]
-    assert len(set(names)) == len(names)
-    assert [t.name for t in topics.published_by('simulator')] == [
-        'joint_states', 'deck/pose', 'deck/twist', 'deck/imu', 'spindle/speed', '/clock',
-        'visualization/markers', '/diagnostics']
-    assert [t.name for t in topics.sampled_topics()] == [
-        'joint_states', 'deck/pose', 'deck/twist', 'deck/imu', 'spindle/speed', '/clock']
-    assert '/clock' not in [t.name for t in topics.recorded_topics()]
-    assert topics.by_name('deck/pose').frame == topics.FRAME_BASE
-    assert topics.message_class('std_msgs/msg/Float64').__name__ == 'Float64'
