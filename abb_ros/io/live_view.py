@@ -27,6 +27,8 @@ from __future__ import annotations
 __all__ = ['DEFAULT_HOST', 'DEFAULT_PORT', 'LiveView', 'LiveViewError', 'parse_address',
            'service_texts']
 
+import re
+
 import foxglove
 from foxglove.websocket import Capability, ServerListener
 
@@ -66,7 +68,7 @@ def service_texts(type_name: str) -> tuple[str, str]:
     """Return the request and response ``ros2msg`` texts of service ``pkg/srv/Name``."""
     package, _, name = type_name.split('/')
     text = (msgdefs.share_dir(package) / 'srv' / f'{name}.srv').read_text()
-    request, _, response = text.partition('\n---')
+    request, response = re.split(r'^---[ \t]*$', text, maxsplit=1, flags=re.M)
     return request.strip() + '\n', response.strip() + '\n'
 
 

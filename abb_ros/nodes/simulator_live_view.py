@@ -1,0 +1,157 @@
+"""The simulator's live view: what it publishes on a Foxglove WebSocket server, and back.
+
+``live_view.enabled`` serves every topic the node publishes, from the CDR bytes it publishes
+and records (:class:`abb_ros.io.live_view.LiveView`, on ``live_view.host``:``live_view.port``),
+stamped as in its bag. With simulated time (real_time_factor other than 1 at start-up) the
+server has the ``time`` capability and the viewer's time follows ``/clock``.
+
+What the viewer can do (the Foxglove WebSocket protocol's capabilities):
+
+* ``services``: the node's ``~/pause`` (std_srvs/SetBool), ``~/step`` and ``~/reset``
+  (std_srvs/Trigger), by their ROS names (the Service Call panel): the call runs the node's
+  own service callback, on the node's thread, and answers what a ROS client gets;
+* ``clientPublish``: ``spindle/speed_cmd`` and ``spindle/current_cmd`` (std_msgs/Float64,
+  the Publish panel) are published on the ROS topic, as foxglove_bridge does, so the node
+  takes them through its subscription like any command (and a recording sees them); other
+  topics are refused, logged once each.
+
+The server calls back from its own thread: those calls are queued and carried out by a
+timer of the node every :data:`COMMAND_PERIOD_S` (steady clock, so also while paused); a
+service call waits for its answer up to :data:`SERVICE_TIMEOUT_S`.
+"""
+
+from __future__ import annotations
+
+import queue
+import threading
+
+from rclpy.clock import Clock, ClockType
+from rclpy.serialization import deserialize_message, serialize_message
+from std_msgs.msg import Float64
+
+from abb_ros.io import msgdefs, topics
+from abb_ros.io.live_view import LiveView, LiveViewError
+from abb_ros.model.param_spec import ParamError
+
+__all__ = ['COMMAND_PERIOD_S', 'SERVICE_TIMEOUT_S', 'SimulatorLiveView', 'start']
+
+COMMAND_PERIOD_S = 0.02
+"""How often the viewer's commands are carried out on the node's thread [s]."""
+SERVICE_TIMEOUT_S = 5.0
+"""How long a viewer's service call waits for the node [s]."""
+COMMAND_TYPE = 'std_msgs/msg/Float64'
+
+
+class SimulatorLiveView:
+    """The live view of one simulator node (see the module docstring).
+
+    Parameters
+    ----------
+    node : abb_ros.nodes.simulator.SimulatorNode
+        The node served.
+    host, port
+        Where the server listens (``live_view.host``, ``live_view.port``).
+    services : dict
+        Service short name (``pause``) -> (service class, the node's callback).
+    served : dict
+        The node's topics (resolved names) -> message type name.
+    """
+
+    def __init__(self, node, host: str, port: int, services: dict, served: dict):
+        self.node = node
+        self._calls = queue.SimpleQueue()
+        self._command_topics = {node.resolve_topic_name(t.name): t.name
+                                for t in topics.TOPICS if t.rate == topics.COMMAND}
+        self._command_pubs = {}
+        self._refused: set[tuple[str, str]] = set()
+        base = node.get_fully_qualified_name()
+        handlers = {f'{base}/{name}': (_srv_type(cls), self._service(cls, callback))
+                    for name, (cls, callback) in services.items()}
+        self.view = LiveView(host, port, server_time=node.pacer.owns_time, services=handlers,
+                             on_client_message=self._client_message)
+        for name, type_name in served.items():
+            self.view.add_topic(name, type_name)
+        self._timer = node.create_timer(COMMAND_PERIOD_S, self._carry_out,
+                                        clock=Clock(clock_type=ClockType.STEADY_TIME))
+
+    def write(self, name: str, data: bytes, stamp_ns: int) -> None:
+        """Send one published message (CDR bytes) to the viewers subscribed to ``name``."""
+        self.view.write(name, data, stamp_ns)
+
+    # ---- from the server's thread ---------------------------------------------------------
+    def _service(self, cls, callback):
+        def handle(payload: bytes) -> bytes:
+            request = deserialize_message(payload, cls.Request)
+            done, answer = threading.Event(), []
+
+            def call():
+                answer.append(callback(request, cls.Response()))
+                done.set()
+
+            self._calls.put(call)
+            if not done.wait(SERVICE_TIMEOUT_S):
+                raise TimeoutError(f'the node did not answer within {SERVICE_TIMEOUT_S:g} s')
+            return serialize_message(answer[0])
+        return handle
+
+    def _client_message(self, topic: str, schema_name: str, data: bytes) -> None:
+        self._calls.put(lambda: self._publish(topic, schema_name, data))
+
+    # ---- on the node's thread ---------------------------------------------------------------
+    def _carry_out(self) -> None:
+        """Carry out what the viewers asked since the last time."""
+        while True:
+            try:
+                call = self._calls.get_nowait()
+            except queue.Empty:
+                return
+            call()
+
+    def _publish(self, topic: str, schema_name: str, data: bytes) -> None:
+        """Publish a viewer's command on its ROS topic; refuse any other topic."""
+        try:
+            name = self.node.resolve_topic_name(topic)
+            kind = msgdefs.normalize_type(schema_name)
+        except Exception:   # noqa: BLE001 - any bad name is refused below
+            name, kind = topic, schema_name
+        if name not in self._command_topics or kind != COMMAND_TYPE:
+            if (name, kind) not in self._refused:
+                self._refused.add((name, kind))
+                self.node.get_logger().warning(
+                    f'live view: not publishing {topic} [{schema_name}] from the viewer: only '
+                    f'{", ".join(sorted(self._command_topics))} [{COMMAND_TYPE}] are taken')
+            return
+        if name not in self._command_pubs:
+            self._command_pubs[name] = self.node.create_publisher(Float64, name, 10)
+        self._command_pubs[name].publish(data)
+
+    def close(self) -> None:
+        """Stop the server; calls still queued are dropped."""
+        self.view.close()
+
+
+def _srv_type(cls) -> str:
+    """Return the ROS type name of a generated service class: std_srvs/srv/SetBool."""
+    return f'{cls.__module__.split(".")[0]}/srv/{cls.__name__}'
+
+
+def start(node, services: dict, served: dict) -> SimulatorLiveView | None:
+    """Start the live view the parameters ``live_view.*`` of ``node`` ask for (None: off).
+
+    ``services`` and ``served`` as for :class:`SimulatorLiveView`.
+
+    Raises ParamError naming ``live_view.port`` when the server cannot listen there.
+    """
+    if not node.get_parameter('live_view.enabled').value:
+        return None
+    host = node.get_parameter('live_view.host').value
+    port = node.get_parameter('live_view.port').value
+    try:
+        live = SimulatorLiveView(node, host, port, services, served)
+    except LiveViewError as exc:
+        raise ParamError('live_view.port', port, 'a port free on live_view.host',
+                         str(exc)) from None
+    node.get_logger().info(f'live view on {live.view.url} (Foxglove app: Open connection, '
+                           'Foxglove WebSocket)')
+    return live
+
