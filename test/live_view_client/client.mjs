@@ -1,6 +1,7 @@
 // Connect Foxglove's WebSocket protocol client (@foxglove/ws-protocol) to a live view and
 // print, as one JSON object, what it saw: the server info, the channels and services
-// advertised, the messages of every channel (base64) and the answers to what it sent.
+// advertised, the first messages of every channel (base64) and how many came, and the
+// answers to what it sent.
 //
 // node client.mjs URL '{"messages": 3, "timeout_s": 20, "publish": [...], "calls": [...]}'
 //   publish: [{"topic", "schemaName", "data" (base64 CDR)}]  (clientPublish)
@@ -18,7 +19,7 @@ const [url, optionsText] = process.argv.slice(2);
 const options = { messages: 3, timeout_s: 20, publish: [], calls: [], ...JSON.parse(optionsText || "{}") };
 const b64 = (view) => Buffer.from(view.buffer, view.byteOffset, view.byteLength).toString("base64");
 
-const seen = { serverInfo: null, channels: [], services: [], messages: {}, time: [], responses: [], failures: [] };
+const seen = { serverInfo: null, channels: [], services: [], messages: {}, counts: {}, time: [], responses: [], failures: [] };
 const client = new FoxgloveClient({ ws: new WebSocket(url, [SUBPROTOCOL]) });
 const bySubscription = new Map();
 let finished = false;
@@ -61,6 +62,7 @@ client.on("serviceCallResponse", (event) => { seen.responses.push({ serviceId: e
 client.on("serviceCallFailure", (event) => { seen.failures.push(event); });
 client.on("message", (event) => {
   const channel = bySubscription.get(event.subscriptionId);
+  seen.counts[channel.topic] = (seen.counts[channel.topic] || 0) + 1;
   const list = (seen.messages[channel.topic] ||= []);
   if (list.length < options.messages) list.push({ logTime: String(event.timestamp), data: b64(event.data) });
   if (done()) setTimeout(() => finish(0), 300);   // the server takes what was sent first
