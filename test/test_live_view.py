@@ -66,15 +66,21 @@ def check_channels(seen: dict, expected: dict) -> None:
         assert channel['schema'] == msgdefs.full_text(type_name)
 
 
-def check_messages(seen: dict, expected: dict, sent: dict) -> int:
-    """Every message received decodes and is the bytes sent with its stamp; returns the count."""
+def check_messages(seen: dict, expected: dict, sent: dict, constant=None) -> int:
+    """Every message received decodes and is the bytes sent with its stamp; returns the count.
+
+    ``constant``: {topic: the bytes of its every message} for topics stamped on receipt.
+    """
     count = 0
     for topic, messages in seen['messages'].items():
         cls = msgdefs.message_class(expected[topic])
         for message in messages:
             data = base64.b64decode(message['data'])
             deserialize_message(data, cls)
-            assert data == sent[(topic, int(message['logTime']))], topic
+            if constant and topic in constant:
+                assert data == constant[topic], topic
+            else:
+                assert data == sent[(topic, int(message['logTime']))], topic
             count += 1
     return count
 
@@ -232,6 +238,15 @@ def test_simulator_node_serves_its_topics_and_takes_the_viewers_commands():
     from abb_ros.io.ros_messages import TOPIC_TYPES
 
     plant = Plant(**{'live_view.enabled': True, 'live_view.port': 0})
+    margin = serialize_message(Float64(data=0.25))
+    analysis = plant.node.create_publisher(Float64, 'stability/margin', 10)   # another node's
+    stop = threading.Event()
+
+    def publish_margin():
+        while not stop.wait(0.01):
+            analysis.publish(margin)
+
+    threading.Thread(target=publish_margin, daemon=True).start()
     try:
         sim = plant.sim
         sent = {}
@@ -244,9 +259,11 @@ def test_simulator_node_serves_its_topics_and_takes_the_viewers_commands():
         sim.live.write = recording_write
         expected = {sim.resolve_topic_name(t): msgdefs.type_name_of(cls())
                     for t, cls in TOPIC_TYPES.items()}
+        expected['/stability/margin'] = 'std_msgs/msg/Float64'   # live_view.topics
         command = serialize_message(Float64(data=321.0))
         seen = foxglove_client(
-            sim.live.view.url, messages=3, wait_for=['/joint_states', '/deck/imu'],
+            sim.live.view.url, messages=3,
+            wait_for=['/joint_states', '/deck/imu', '/stability/margin'],
             publish=[dict(topic='spindle/speed_cmd', schemaName='std_msgs/msg/Float64',
                           data=b64(command))],
             calls=[dict(service='/abb_simulator/pause',
@@ -254,7 +271,8 @@ def test_simulator_node_serves_its_topics_and_takes_the_viewers_commands():
                    dict(service='/abb_simulator/step',
                         data=b64(serialize_message(Trigger.Request())))])
         check_channels(seen, expected)
-        assert check_messages(seen, expected, sent) >= 6
+        assert check_messages(seen, expected, sent, {'/stability/margin': margin}) >= 9
+        assert len(seen['messages']['/stability/margin']) == 3
         assert 'time' not in seen['serverInfo']['capabilities']   # wall-clock stamps
         assert {s['name'] for s in seen['services']} == {
             '/abb_simulator/pause', '/abb_simulator/step', '/abb_simulator/reset'}
@@ -269,6 +287,7 @@ def test_simulator_node_serves_its_topics_and_takes_the_viewers_commands():
             time.sleep(0.05)
         assert sim.speed_cmd == 321.0   # through the ROS topic, as a ROS command
     finally:
+        stop.set()
         plant.close()
 
 

@@ -2,7 +2,11 @@
 
 ``live_view.enabled`` serves every topic the node publishes, from the CDR bytes it publishes
 and records (:class:`abb_ros.io.live_view.LiveView`, on ``live_view.host``:``live_view.port``),
-stamped as in its bag. With simulated time (real_time_factor other than 1 at start-up) the
+stamped as in its bag, and the other nodes' topics ``live_view.topics`` (the analysis node's
+``stability/margin`` of the shipped layout...), taken from the middleware as the in-process
+recording takes ``record.topics`` (:class:`abb_ros.nodes.recording.GraphRecording`), stamped
+with their receive time; a topic this node also publishes then comes through the middleware
+with the others' messages. With simulated time (real_time_factor other than 1 at start-up) the
 server has the ``time`` capability and the viewer's time follows ``/clock``.
 
 What the viewer can do (the Foxglove WebSocket protocol's capabilities):
@@ -32,6 +36,7 @@ from std_msgs.msg import Float64
 from abb_ros.io import msgdefs, topics
 from abb_ros.io.live_view import LiveView, LiveViewError
 from abb_ros.model.param_spec import ParamError
+from abb_ros.nodes.recording import DRAIN_PERIOD_S, GraphRecording
 
 __all__ = ['COMMAND_PERIOD_S', 'SERVICE_TIMEOUT_S', 'SimulatorLiveView', 'start']
 
@@ -40,6 +45,10 @@ COMMAND_PERIOD_S = 0.02
 SERVICE_TIMEOUT_S = 5.0
 """How long a viewer's service call waits for the node [s]."""
 COMMAND_TYPE = 'std_msgs/msg/Float64'
+DISCOVERY_S = 0.5
+"""How often the graph is searched for the ``live_view.topics`` [s]."""
+DEPTH = 100
+"""Queue depth of each subscription to another node's topic."""
 
 
 class SimulatorLiveView:
@@ -55,9 +64,11 @@ class SimulatorLiveView:
         Service short name (``pause``) -> (service class, the node's callback).
     served : dict
         The node's topics (resolved names) -> message type name.
+    others : list of str
+        Other nodes' topics served too.
     """
 
-    def __init__(self, node, host: str, port: int, services: dict, served: dict):
+    def __init__(self, node, host: str, port: int, services: dict, served: dict, others=()):
         self.node = node
         self._calls = queue.SimpleQueue()
         self._command_topics = {node.resolve_topic_name(t.name): t.name
@@ -71,11 +82,24 @@ class SimulatorLiveView:
                              on_client_message=self._client_message)
         for name, type_name in served.items():
             self.view.add_topic(name, type_name)
-        self._timer = node.create_timer(COMMAND_PERIOD_S, self._carry_out,
-                                        clock=Clock(clock_type=ClockType.STEADY_TIME))
+        steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self._timers = [node.create_timer(COMMAND_PERIOD_S, self._carry_out, clock=steady)]
+        self.graph = None
+        if others:
+            self.graph = GraphRecording(node, self.view, others, DEPTH,
+                                        param='live_view.topics')
+            self.graph.discover()
+            self._timers += [node.create_timer(DISCOVERY_S, self.graph.discover, clock=steady),
+                             node.create_timer(DRAIN_PERIOD_S, self.graph.drain, clock=steady)]
 
     def write(self, name: str, data: bytes, stamp_ns: int) -> None:
-        """Send one published message (CDR bytes) to the viewers subscribed to ``name``."""
+        """Send one published message (CDR bytes) to the viewers subscribed to ``name``.
+
+        A topic served from the middleware is skipped: the node's messages on it come
+        through the middleware like the others'.
+        """
+        if self.graph is not None and self.graph.subscriptions.get(name) is not None:
+            return
         self.view.write(name, data, stamp_ns)
 
     # ---- from the server's thread ---------------------------------------------------------
@@ -126,7 +150,13 @@ class SimulatorLiveView:
         self._command_pubs[name].publish(data)
 
     def close(self) -> None:
-        """Stop the server; calls still queued are dropped."""
+        """Stop the server and the subscriptions; calls still queued are dropped."""
+        for timer in self._timers:
+            self.node.destroy_timer(timer)
+        self._timers = []
+        if self.graph is not None:
+            self.graph.destroy()
+            self.graph = None
         self.view.close()
 
 
@@ -146,8 +176,9 @@ def start(node, services: dict, served: dict) -> SimulatorLiveView | None:
         return None
     host = node.get_parameter('live_view.host').value
     port = node.get_parameter('live_view.port').value
+    others = node.get_parameter('live_view.topics').value
     try:
-        live = SimulatorLiveView(node, host, port, services, served)
+        live = SimulatorLiveView(node, host, port, services, served, others)
     except LiveViewError as exc:
         raise ParamError('live_view.port', port, 'a port free on live_view.host',
                          str(exc)) from None

@@ -21,7 +21,7 @@ from abb_ros.model.plant_spec import (
     STEP_SPECS,
 )
 
-__all__ = ['SIMULATOR_SPECS', 'SPINDLE_MODE']
+__all__ = ['LIVE_VIEW_TOPICS', 'SIMULATOR_SPECS', 'SPINDLE_MODE']
 
 _INF = math.inf
 _AT_STEP = 'at the next step'
@@ -98,6 +98,10 @@ _BENCH = (
               applies='at start-up', nodes=_SIM),
 )
 
+LIVE_VIEW_TOPICS = ('stability/margin', '/diagnostics', 'spindle/speed_cmd',
+                    'spindle/current_cmd')
+"""The bench's topics other nodes publish, which the live view serves by default."""
+
 _LIVE_VIEW = (
     # the Foxglove WebSocket server (nodes/simulator_live_view.py, docs/ros_api.md)
     ParamSpec('live_view.enabled', False, '', 'serve what the node publishes on a Foxglove '
@@ -110,6 +114,10 @@ _LIVE_VIEW = (
               read_only=True, applies='at start-up', nodes=_SIM),
     ParamSpec('live_view.port', 8765, '', 'port of the live view; 0 = any free port (logged)',
               INTEGER, 0, 65535, read_only=True, applies='at start-up', nodes=_SIM),
+    ParamSpec('live_view.topics', list(LIVE_VIEW_TOPICS), '', "other nodes' topics served "
+              'too, taken from the middleware once a publisher offers them (the analysis '
+              "node's stability/margin of the Foxglove layout, /diagnostics, the spindle "
+              'commands)', STRING_ARRAY, read_only=True, applies='at start-up', nodes=_SIM),
 )
 
 SPINDLE_MODE = ParamSpec(
