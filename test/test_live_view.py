@@ -3,10 +3,11 @@
 Foxglove's own WebSocket protocol client (npm ``@foxglove/ws-protocol``, run with node:
 test/live_view_client/) connects to the simulator node's live view and to ``abb-sim run
 --live-view``, and checks the channels (topics, schema names and encodings), that the
-messages decode (rclpy) and equal the bytes published, and that the viewer's service calls and
-published commands reach the node. Those tests skip, saying why, where node or the npm
-package is missing (``npm ci --prefix test/live_view_client`` installs it). A client made
-of tornado's WebSocket (no node needed) checks the wire format of the server itself.
+messages decode (rclpy) and equal the bytes published, and that the viewer's service calls,
+published commands and parameter changes reach the node. Those tests skip, saying why, where
+node or the npm package is missing (``npm ci --prefix test/live_view_client`` installs it). A
+client made of tornado's WebSocket (no node needed) checks the wire format of the server
+itself.
 """
 
 from __future__ import annotations
@@ -266,6 +267,10 @@ def test_simulator_node_serves_its_topics_and_takes_the_viewers_commands():
             wait_for=['/joint_states', '/deck/imu', '/stability/margin'],
             publish=[dict(topic='spindle/speed_cmd', schemaName='std_msgs/msg/Float64',
                           data=b64(command))],
+            get_parameters=['/abb_simulator.real_time_factor', '/abb_simulator.drive.n'],
+            set_parameters=[dict(name='/abb_simulator.real_time_factor', value=2),
+                            dict(name='/abb_simulator.drive.k', value=0),
+                            dict(name='/abb_simulator.live_view.port', value=1)],
             calls=[dict(service='/abb_simulator/pause',
                         data=b64(serialize_message(SetBool.Request(data=True)))),
                    dict(service='/abb_simulator/step',
@@ -282,6 +287,13 @@ def test_simulator_node_serves_its_topics_and_takes_the_viewers_commands():
                    for r in seen['responses']]
         assert not seen['failures'] and len(answers) == 2
         assert sim.paused
+        got = {p['name']: p['value'] for p in seen['parameters']['get']}
+        assert got == {'/abb_simulator.real_time_factor': 1.0, '/abb_simulator.drive.n': 2}
+        now = {p['name']: p['value'] for p in seen['parameters']['set']}
+        assert now['/abb_simulator.real_time_factor'] == 2.0   # set, as ros2 param set does
+        assert now['/abb_simulator.drive.k'] == sim.drive.k > 0   # refused: invalid
+        assert now['/abb_simulator.live_view.port'] == 0   # refused: read-only
+        assert sim.get_parameter('real_time_factor').value == 2.0
         deadline = time.monotonic() + DEADLINE_S
         while sim.speed_cmd != 321.0 and time.monotonic() < deadline:
             time.sleep(0.05)

@@ -16,6 +16,9 @@ What a viewer may send back, where the protocol has it:
   its ``ros2msg`` request and response schemas; ``handler(request_cdr)`` runs on the
   server's thread and returns the response's CDR bytes (an exception: the call fails, with
   its text);
+* ``parameters``: ``parameters.get(names)`` and ``parameters.set([(name, value)])`` (both
+  return [(name, value)]: all for an empty ``names``; after a set, the values then in
+  force) back the app's Parameters panel, from the server's thread;
 * ``time``: with ``server_time``, every message on ``/clock`` also sets the viewer's current
   time to its stamp (the app then plays in simulated time).
 
@@ -94,10 +97,14 @@ class LiveView:
     on_client_message : callable or None
         Called with (topic, schema name, CDR bytes) for each message a viewer publishes;
         None: viewers cannot publish.
+    parameters : object or None
+        The parameters a viewer gets and sets (``get``, ``set``; see the module docstring);
+        None: no parameters.
     """
 
     def __init__(self, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT,
-                 server_time: bool = False, services=None, on_client_message=None):
+                 server_time: bool = False, services=None, on_client_message=None,
+                 parameters=None):
         self._context = foxglove.Context()
         self._channels: dict[str, object] = {}
         self._clock = None
@@ -108,6 +115,9 @@ class LiveView:
             capabilities.append(Capability.Time)
         if on_client_message is not None:
             capabilities.append(Capability.ClientPublish)
+        if parameters is not None:
+            capabilities.append(Capability.Parameters)
+        self.parameters = parameters
         advertised = [self._service(name, *spec) for name, spec in (services or {}).items()]
         if advertised:
             capabilities.append(Capability.Services)
@@ -197,3 +207,23 @@ class _Listener(ServerListener):
     def on_message_data(self, client, client_channel_id: int, data: bytes) -> None:
         if self._view._on_client_message is not None:
             self._view._client_message(client.id, client_channel_id, data)
+
+    def on_get_parameters(self, client, param_names, request_id=None):
+        return _parameters(self._view.parameters.get(list(param_names)))
+
+    def on_set_parameters(self, client, parameters, request_id=None):
+        wanted = [(p.name, p.get_value()) for p in parameters]
+        return _parameters(self._view.parameters.set(wanted))
+
+
+def _parameters(values) -> list:
+    """Foxglove parameters of [(name, value)]; a float keeps its type on the wire."""
+    out = []
+    for name, value in values:
+        kind = None
+        if isinstance(value, float):
+            kind = foxglove.ParameterType.Float64
+        elif isinstance(value, list) and value and all(isinstance(v, float) for v in value):
+            kind = foxglove.ParameterType.Float64Array
+        out.append(foxglove.Parameter(name, value=value, type=kind))
+    return out

@@ -18,10 +18,13 @@ What the viewer can do (the Foxglove WebSocket protocol's capabilities):
   the Publish panel) are published on the ROS topic, as foxglove_bridge does, so the node
   takes them through its subscription like any command (and a recording sees them); other
   topics are refused, logged once each.
+* ``parameters``: the node's parameters, named ``/abb_simulator.real_time_factor`` as
+  foxglove_bridge names them (the Parameters panel), got and set as ``ros2 param`` does
+  (:class:`ViewerParameters`): the plant's speed is ``real_time_factor``.
 
 The server calls back from its own thread: those calls are queued and carried out by a
 timer of the node every :data:`COMMAND_PERIOD_S` (steady clock, so also while paused); a
-service call waits for its answer up to :data:`SERVICE_TIMEOUT_S`.
+service call or a parameter request waits for its answer up to :data:`SERVICE_TIMEOUT_S`.
 """
 
 from __future__ import annotations
@@ -38,7 +41,8 @@ from abb_ros.io.live_view import LiveView, LiveViewError
 from abb_ros.model.param_spec import ParamError
 from abb_ros.nodes.recording import DRAIN_PERIOD_S, GraphRecording
 
-__all__ = ['COMMAND_PERIOD_S', 'SERVICE_TIMEOUT_S', 'SimulatorLiveView', 'start']
+__all__ = ['COMMAND_PERIOD_S', 'SERVICE_TIMEOUT_S', 'SimulatorLiveView', 'ViewerParameters',
+           'start']
 
 COMMAND_PERIOD_S = 0.02
 """How often the viewer's commands are carried out on the node's thread [s]."""
@@ -78,8 +82,9 @@ class SimulatorLiveView:
         base = node.get_fully_qualified_name()
         handlers = {f'{base}/{name}': (_srv_type(cls), self._service(cls, callback))
                     for name, (cls, callback) in services.items()}
+        self.parameters = ViewerParameters(node)
         self.view = LiveView(host, port, server_time=node.pacer.owns_time, services=handlers,
-                             on_client_message=self._client_message)
+                             on_client_message=self._client_message, parameters=self)
         for name, type_name in served.items():
             self.view.add_topic(name, type_name)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -103,20 +108,39 @@ class SimulatorLiveView:
         self.view.write(name, data, stamp_ns)
 
     # ---- from the server's thread ---------------------------------------------------------
+    def _on_node_thread(self, fn):
+        """Run ``fn()`` on the node's thread; return its result or raise its exception."""
+        done, answer = threading.Event(), []
+
+        def call():
+            try:
+                answer.append((fn(), None))
+            except Exception as exc:   # noqa: BLE001 - raised again in the caller's thread
+                answer.append((None, exc))
+            done.set()
+
+        self._calls.put(call)
+        if not done.wait(SERVICE_TIMEOUT_S):
+            raise TimeoutError(f'the node did not answer within {SERVICE_TIMEOUT_S:g} s')
+        result, error = answer[0]
+        if error is not None:
+            raise error
+        return result
+
     def _service(self, cls, callback):
         def handle(payload: bytes) -> bytes:
             request = deserialize_message(payload, cls.Request)
-            done, answer = threading.Event(), []
-
-            def call():
-                answer.append(callback(request, cls.Response()))
-                done.set()
-
-            self._calls.put(call)
-            if not done.wait(SERVICE_TIMEOUT_S):
-                raise TimeoutError(f'the node did not answer within {SERVICE_TIMEOUT_S:g} s')
-            return serialize_message(answer[0])
+            response = self._on_node_thread(lambda: callback(request, cls.Response()))
+            return serialize_message(response)
         return handle
+
+    def get(self, names: list) -> list:
+        """Return [(name, value)] of the node's parameters ``names`` (all for none)."""
+        return self._on_node_thread(lambda: self.parameters.values(names))
+
+    def set(self, wanted: list) -> list:
+        """Set the node's parameters [(name, value)]; return the values then in force."""
+        return self._on_node_thread(lambda: self.parameters.set(wanted))
 
     def _client_message(self, topic: str, schema_name: str, data: bytes) -> None:
         self._calls.put(lambda: self._publish(topic, schema_name, data))
@@ -158,6 +182,64 @@ class SimulatorLiveView:
             self.graph.destroy()
             self.graph = None
         self.view.close()
+
+
+class ViewerParameters:
+    """The node's parameters as the viewer names them: ``/abb_simulator.real_time_factor``.
+
+    As foxglove_bridge names them. A value is set as ``ros2 param set`` sets it (validated
+    as a whole, applied at the next step; a refusal is logged and the old value stays); a
+    number is taken as the parameter's declared type (the app sends 2 for 2.0).
+    """
+
+    def __init__(self, node):
+        self.node = node
+        self.prefix = node.get_fully_qualified_name() + '.'
+
+    def _short(self, name: str) -> str | None:
+        short = name[len(self.prefix):] if name.startswith(self.prefix) else None
+        return short if short and self.node.has_parameter(short) else None
+
+    def values(self, names: list) -> list:
+        """Return [(name, value)] of ``names`` that are the node's (every one for none)."""
+        shorts = ([self._short(n) for n in names] if names
+                  else sorted(self.node.list_parameters([], 0).names))
+        return [(self.prefix + s, _plain(self.node.get_parameter(s).value))
+                for s in shorts if s is not None]
+
+    def set(self, wanted: list) -> list:
+        """Set [(name, value)]; return the values of those names then in force."""
+        from rclpy.parameter import Parameter
+        params = []
+        for name, value in wanted:
+            short = self._short(name)
+            if short is None:
+                continue
+            kind = self.node.get_parameter(short).type_
+            try:
+                params.append(Parameter(short, kind, _as_type(kind, value)))
+            except (TypeError, ValueError):
+                params.append(Parameter(short, value=value))   # refused below, with reason
+        for param, result in zip(params, self.node.set_parameters(params)):
+            if not result.successful:
+                self.node.get_logger().warning(
+                    f'live view: {param.name} not set: {result.reason}')
+        return self.values([name for name, _ in wanted])
+
+
+def _as_type(kind, value):
+    """Return ``value`` as parameter type ``kind`` wants a number (int -> float for doubles)."""
+    from rclpy.parameter import Parameter
+    if kind == Parameter.Type.DOUBLE and not isinstance(value, bool):
+        return float(value)
+    if kind == Parameter.Type.DOUBLE_ARRAY:
+        return [float(v) for v in value]
+    return value
+
+
+def _plain(value):
+    """Return a parameter value as plain Python (arrays as lists)."""
+    return value if isinstance(value, (bool, int, float, str)) or value is None else list(value)
 
 
 def _srv_type(cls) -> str:

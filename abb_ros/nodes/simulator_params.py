@@ -106,9 +106,9 @@ _LIVE_VIEW = (
     # the Foxglove WebSocket server (nodes/simulator_live_view.py, docs/ros_api.md)
     ParamSpec('live_view.enabled', False, '', 'serve what the node publishes on a Foxglove '
               'WebSocket server (the Foxglove app: Open connection, Foxglove WebSocket, '
-              'ws://live_view.host:live_view.port), with pause, step, reset and the spindle '
-              'commands from the viewer', BOOL, read_only=True, applies='at start-up',
-              nodes=_SIM),
+              'ws://live_view.host:live_view.port), with pause, step, reset, the spindle '
+              'commands and the parameters from the viewer', BOOL, read_only=True,
+              applies='at start-up', nodes=_SIM),
     ParamSpec('live_view.host', '127.0.0.1', '', 'address the live view listens on (loopback: '
               'this machine only; 0.0.0.0: every interface, with no authentication)', STRING,
               read_only=True, applies='at start-up', nodes=_SIM),

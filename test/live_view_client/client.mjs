@@ -7,6 +7,7 @@
 //   publish: [{"topic", "schemaName", "data" (base64 CDR)}]  (clientPublish)
 //   calls:   [{"service", "data" (base64 CDR)}]              (services)
 //   wait_for: the topics that must have "messages" messages (default every channel's)
+//   get_parameters: [names], then set_parameters: [{"name", "value"}]  (parameters)
 import protocol from "@foxglove/ws-protocol";
 import WebSocket from "ws";
 
@@ -16,10 +17,13 @@ const { FoxgloveClient } = protocol;
 const SUBPROTOCOL = "foxglove.sdk.v1";
 
 const [url, optionsText] = process.argv.slice(2);
-const options = { messages: 3, timeout_s: 20, publish: [], calls: [], ...JSON.parse(optionsText || "{}") };
+const options = { messages: 3, timeout_s: 20, publish: [], calls: [], get_parameters: null,
+  set_parameters: null, ...JSON.parse(optionsText || "{}") };
+const parameterRequests = (options.get_parameters ? 1 : 0) + (options.set_parameters ? 1 : 0);
 const b64 = (view) => Buffer.from(view.buffer, view.byteOffset, view.byteLength).toString("base64");
 
-const seen = { serverInfo: null, channels: [], services: [], messages: {}, counts: {}, time: [], responses: [], failures: [] };
+const seen = { serverInfo: null, channels: [], services: [], messages: {}, counts: {}, time: [], responses: [], failures: [],
+  parameters: {} };
 const client = new FoxgloveClient({ ws: new WebSocket(url, [SUBPROTOCOL]) });
 const bySubscription = new Map();
 let finished = false;
@@ -36,7 +40,8 @@ function done() {
   const topics = options.wait_for || seen.channels.map((c) => c.topic);
   const enough = seen.channels.length > 0 && topics.every(
     (topic) => (seen.messages[topic] || []).length >= options.messages);
-  return enough && seen.responses.length + seen.failures.length >= options.calls.length;
+  return enough && seen.responses.length + seen.failures.length >= options.calls.length
+    && Object.keys(seen.parameters).length >= parameterRequests;
 }
 
 setTimeout(() => finish(0), options.timeout_s * 1000);
@@ -60,6 +65,7 @@ client.on("advertiseServices", (services) => {
 });
 client.on("serviceCallResponse", (event) => { seen.responses.push({ serviceId: event.serviceId, data: b64(event.data) }); });
 client.on("serviceCallFailure", (event) => { seen.failures.push(event); });
+client.on("parameterValues", (event) => { seen.parameters[event.id] = event.parameters; });
 client.on("message", (event) => {
   const channel = bySubscription.get(event.subscriptionId);
   seen.counts[channel.topic] = (seen.counts[channel.topic] || 0) + 1;
@@ -68,6 +74,8 @@ client.on("message", (event) => {
   if (done()) setTimeout(() => finish(0), 300);   // the server takes what was sent first
 });
 client.on("open", () => {
+  if (options.get_parameters) client.getParameters(options.get_parameters, "get");
+  if (options.set_parameters) client.setParameters(options.set_parameters, "set");
   for (const message of options.publish) {
     const id = client.advertise({ topic: message.topic, encoding: "cdr", schemaName: message.schemaName });
     client.sendMessage(id, Uint8Array.from(Buffer.from(message.data, "base64")));
