@@ -303,6 +303,30 @@ def test_simulator_node_serves_its_topics_and_takes_the_viewers_commands():
         plant.close()
 
 
+@pytest.mark.ros
+def test_a_taken_port_fails_the_start_up_naming_the_parameter(tmp_path):
+    import rclpy
+    from rclpy.parameter import Parameter
+
+    from abb_ros.model.param_spec import ParamError
+    from abb_ros.nodes.simulator import SimulatorNode
+
+    taken = LiveView(port=0)
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx)
+    try:
+        overrides = [Parameter('live_view.enabled', value=True),
+                     Parameter('live_view.port', value=taken.port),
+                     Parameter('record.path', value=str(tmp_path / 'bag'))]
+        with pytest.raises(ParamError, match='live_view.port'):
+            SimulatorNode(context=ctx, parameter_overrides=overrides)
+        from abb_ros.io.bag_reader import is_finished
+        assert is_finished(tmp_path / 'bag')   # the recording begun is finished
+    finally:
+        rclpy.shutdown(context=ctx)
+        taken.close()
+
+
 def _service_id(seen: dict, name: str) -> int:
     return next(s['id'] for s in seen['services'] if s['name'].endswith('/' + name))
 

@@ -112,10 +112,15 @@ class SimulatorNode(Node):
             if error:
                 raise ParamError('record.path', path, 'a directory that does not exist yet, '
                                  'in a writable place', error)
-        self.live = simulator_live_view.start(
-            self, {'pause': (SetBool, self._on_pause), 'step': (Trigger, self._on_step),
-                   'reset': (Trigger, self._on_reset)},
-            {name: type_name for name, type_name, _ in self._bag_topics.values()})
+        self.live = None
+        try:
+            self.live = simulator_live_view.start(
+                self, {'pause': (SetBool, self._on_pause), 'step': (Trigger, self._on_step),
+                       'reset': (Trigger, self._on_reset)},
+                {name: type_name for name, type_name, _ in self._bag_topics.values()})
+        except ParamError:
+            self.close()   # the bag started above is finished
+            raise
         self.pacer.start_window(self.sim.steps)
         self._diag_timer = self.create_timer(DIAGNOSTICS_PERIOD_S, self.publish_diagnostics,
                                              clock=self._steady)
