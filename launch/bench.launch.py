@@ -29,6 +29,9 @@ ARGUMENTS = {
     'record': ('false', 'record every bench topic to record_dir (recorder node)'),
     'record_dir': ('', 'bag directory of the recording (default abb_bag_<date>-<time> in '
                    'the working directory)'),
+    'live_view': ('false', "serve the simulator's topics to the Foxglove app on "
+                  'ws://127.0.0.1:live_view_port (Foxglove WebSocket)'),
+    'live_view_port': ('8765', 'port of the live view (0 = any free port, logged)'),
 }
 BENCH_TOPICS = ['joint_states', 'deck/pose', 'deck/twist', 'deck/imu', 'spindle/speed', '/clock',
                 'visualization/markers', '/diagnostics', 'spindle/speed_cmd',
@@ -55,6 +58,10 @@ def generate_launch_description():
                                                     value_type=float),
                  'realtime_priority': ParameterValue(LaunchConfiguration('realtime_priority'),
                                                      value_type=int),
+                 'live_view.enabled': ParameterValue(LaunchConfiguration('live_view'),
+                                                     value_type=bool),
+                 'live_view.port': ParameterValue(LaunchConfiguration('live_view_port'),
+                                                  value_type=int),
                  'record.topics': OTHER_NODES_TOPICS}]),
         Node(package='abb_ros', executable='analysis', name='abb_analysis',
              output='screen', sigterm_timeout=SHUTDOWN_S, parameters=[params_file],

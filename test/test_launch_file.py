@@ -28,7 +28,7 @@ from abb_ros.io.bag_reader import is_finished, iter_raw
 ROOT = Path(__file__).resolve().parents[1]
 LAUNCH = ROOT / 'launch' / 'bench.launch.py'
 ARGUMENTS = {'namespace', 'params_file', 'real_time_factor', 'realtime_priority', 'analysis',
-             'controller', 'record', 'record_dir'}
+             'controller', 'record', 'record_dir', 'live_view', 'live_view_port'}
 
 
 def tree() -> ast.Module:

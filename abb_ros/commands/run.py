@@ -6,6 +6,7 @@ keeps the bag written so far, marked incomplete in its metadata.yaml (exit code 
 
 from __future__ import annotations
 
+import argparse
 import dataclasses
 import errno
 import os
@@ -40,6 +41,13 @@ def add_arguments(parser):
     parser.add_argument('--overwrite', action='store_true', help='replace an existing --out')
     parser.add_argument('--no-abb', action='store_true', help='the drive without balls (n = 0)')
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
+    parser.add_argument('--live-view', metavar='[HOST:]PORT',
+                        help='serve the messages on a Foxglove WebSocket server (the Foxglove '
+                        'app opens ws://HOST:PORT; HOST default 127.0.0.1, PORT 0: any free '
+                        'port); it stops when the run ends')
+    parser.add_argument('--real-time', action=argparse.BooleanOptionalAction,
+                        help='pace the run at the wall clock, 1 simulated second per second '
+                        '(default: with --live-view; else as fast as possible)')
 
 
 def _run_options(node: dict) -> dict:
@@ -84,9 +92,30 @@ def _why(exc: OSError) -> str:
     return os.strerror(exc.errno) if exc.errno else str(exc)
 
 
+def _live_view(address: str | None, out_made: bool, out: str | None):
+    """Start the live view of ``--live-view [HOST:]PORT`` (None without the option).
+
+    A live view that cannot listen removes the ``--out`` directory just made.
+    """
+    if address is None:
+        return None
+    from abb_ros.commands.api import UsageError
+    from abb_ros.io.live_view import LiveView, LiveViewError, parse_address
+    try:
+        live = LiveView(*parse_address(address), server_time=True)
+    except (ValueError, LiveViewError) as exc:
+        if out_made:
+            shutil.rmtree(out, ignore_errors=True)
+        raise UsageError(f'--live-view {address}: {exc}') from None
+    print(f'live view on {live.url} (Foxglove app: Open connection, Foxglove WebSocket)',
+          file=sys.stderr, flush=True)
+    return live
+
+
 def run(args) -> dict:
     """Run the scenario headless (a bag with ``--out``) and return the summary."""
     from abb_ros.app.headless import check_duration, run_scenario
+    from abb_ros.app.run_sinks import Sinks
     from abb_ros.commands.api import CommandFailed, UsageError, drive_params, parse_settings
     from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
     from abb_ros.io.scenario import load_scenario
@@ -122,6 +151,7 @@ def run(args) -> dict:
             raise
         raise UsageError(f'--scenario {args.scenario}: {exc}') from None
     bag = None
+    existed = True
     if args.out:
         existed = os.path.lexists(args.out)
         try:
@@ -136,6 +166,10 @@ def run(args) -> dict:
             why = _why(exc) if isinstance(exc, OSError) else str(exc)
             raise UsageError(f'--out {args.out}: {why}'.replace('pass overwrite=True',
                                                                  'pass --overwrite')) from None
+    live = _live_view(args.live_view, out_made=not existed, out=args.out)
+    sinks = [sink for sink in (bag, live) if sink is not None]
+    real_time = live is not None if args.real_time is None else args.real_time
+    sink = Sinks(sinks, real_time) if sinks else None
     bar = None
     if not args.no_progress:
         from tqdm import tqdm
@@ -143,7 +177,7 @@ def run(args) -> dict:
                    desc=f'abb-sim run {scenario.name}', leave=False,
                    bar_format='{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]')
     try:
-        result = run_scenario(scenario, bag=bag, progress=bar.update if bar else None,
+        result = run_scenario(scenario, bag=sink, progress=bar.update if bar else None,
                               **options)
     except StateError as exc:
         if bag is not None:
@@ -160,6 +194,8 @@ def run(args) -> dict:
     finally:
         if bar is not None:
             bar.close()
+        if live is not None:
+            live.close()
         if bag is not None:
             try:
                 bag.close()
@@ -192,6 +228,8 @@ def run(args) -> dict:
         summary['contact_max_substeps'] = result.max_substeps
     if result.rolling_switches:
         summary['rolling_switches'] = result.rolling_switches
+    if live is not None:
+        summary['live_view'] = live.url
     if args.out:
         summary['bag'] = str(args.out)
         summary['messages'] = result.messages

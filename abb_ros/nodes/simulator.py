@@ -15,7 +15,8 @@ services in between. The /diagnostics status: :mod:`abb_ros.nodes.simulator_diag
 
 ``record.path`` or ``~/start_recording`` / ``~/stop_recording`` write the published bytes to
 a bag in process (:class:`abb_ros.nodes.recording.Recording`; log time = stamp, as the
-headless run writes them), with the other nodes' topics ``record.topics``.
+headless run writes them), with the other nodes' topics ``record.topics``; ``live_view.*``
+serve the same bytes to the Foxglove app (:mod:`abb_ros.nodes.simulator_live_view`).
 """
 
 from __future__ import annotations
@@ -36,7 +37,7 @@ from abb_ros.model.integrate import Simulation, StateError, initial_state
 from abb_ros.model.params import ParamError
 from abb_ros.model.sampling import PlantSampler
 from abb_ros.model.sensors import ImuModel
-from abb_ros.nodes import ros_params
+from abb_ros.nodes import ros_params, simulator_live_view
 from abb_ros.nodes.entry_point import make_executor, run_node, spin
 from abb_ros.nodes.hil_io import HilIO
 from abb_ros.nodes.pacing import Pacer
@@ -111,6 +112,15 @@ class SimulatorNode(Node):
             if error:
                 raise ParamError('record.path', path, 'a directory that does not exist yet, '
                                  'in a writable place', error)
+        self.live = None
+        try:
+            self.live = simulator_live_view.start(
+                self, {'pause': (SetBool, self._on_pause), 'step': (Trigger, self._on_step),
+                       'reset': (Trigger, self._on_reset)},
+                {name: type_name for name, type_name, _ in self._bag_topics.values()})
+        except ParamError:
+            self.close()   # the bag started above is finished
+            raise
         self.pacer.start_window(self.sim.steps)
         self._diag_timer = self.create_timer(DIAGNOSTICS_PERIOD_S, self.publish_diagnostics,
                                              clock=self._steady)
@@ -228,6 +238,8 @@ class SimulatorNode(Node):
                 raise
             return  # the context was shut down by its owner (tests): nothing to publish to
         self.published[topic] += 1
+        if self.live is not None:
+            self.live.write(self._bag_topics[topic][0], data, stamp_ns)
         recording = self.recorder.current
         if recording is not None:
             recording.write(*self._bag_topics[topic], data, stamp_ns)
@@ -244,9 +256,11 @@ class SimulatorNode(Node):
         bag.set_drive_params(self.drive)
 
     def close(self) -> None:
-        """Finish a bag being written (entry_point calls this before destroy_node)."""
+        """Finish a bag being written, stop the live view (entry_point: before destroy_node)."""
         if self.recorder.current is not None:
             self.get_logger().info(self.recorder.stop())
+        if self.live is not None:
+            self.live.close()
 
     def destroy_node(self):
         """Finish a bag being written, then destroy the node."""

@@ -3,7 +3,8 @@
 :data:`SIMULATOR_SPECS` is the node's list, in declaration order: the drive is declared
 first (:mod:`abb_ros.model.drive_spec`), then these. The plant's parameters (rates, spindle,
 seed, IMU, motor; :mod:`abb_ros.model.plant_spec`) are shared with ``abb-sim run``; pacing,
-the HIL I/O (FG speed sensor, faults, disturbances, markers) and recording are the node's own.
+the HIL I/O (FG speed sensor, faults, disturbances, markers), recording and the live view
+are the node's own.
 """
 
 from __future__ import annotations
@@ -20,7 +21,7 @@ from abb_ros.model.plant_spec import (
     STEP_SPECS,
 )
 
-__all__ = ['SIMULATOR_SPECS', 'SPINDLE_MODE']
+__all__ = ['LIVE_VIEW_TOPICS', 'SIMULATOR_SPECS', 'SPINDLE_MODE']
 
 _INF = math.inf
 _AT_STEP = 'at the next step'
@@ -97,6 +98,28 @@ _BENCH = (
               applies='at start-up', nodes=_SIM),
 )
 
+LIVE_VIEW_TOPICS = ('stability/margin', '/diagnostics', 'spindle/speed_cmd',
+                    'spindle/current_cmd')
+"""The bench's topics other nodes publish, which the live view serves by default."""
+
+_LIVE_VIEW = (
+    # the Foxglove WebSocket server (nodes/simulator_live_view.py, docs/ros_api.md)
+    ParamSpec('live_view.enabled', False, '', 'serve what the node publishes on a Foxglove '
+              'WebSocket server (the Foxglove app: Open connection, Foxglove WebSocket, '
+              'ws://live_view.host:live_view.port), with pause, step, reset, the spindle '
+              'commands and the parameters from the viewer', BOOL, read_only=True,
+              applies='at start-up', nodes=_SIM),
+    ParamSpec('live_view.host', '127.0.0.1', '', 'address the live view listens on (loopback: '
+              'this machine only; 0.0.0.0: every interface, with no authentication)', STRING,
+              read_only=True, applies='at start-up', nodes=_SIM),
+    ParamSpec('live_view.port', 8765, '', 'port of the live view; 0 = any free port (logged)',
+              INTEGER, 0, 65535, read_only=True, applies='at start-up', nodes=_SIM),
+    ParamSpec('live_view.topics', list(LIVE_VIEW_TOPICS), '', "other nodes' topics served "
+              'too, taken from the middleware once a publisher offers them (the analysis '
+              "node's stability/margin of the Foxglove layout, /diagnostics, the spindle "
+              'commands)', STRING_ARRAY, read_only=True, applies='at start-up', nodes=_SIM),
+)
+
 SPINDLE_MODE = ParamSpec(
     'spindle.mode', 'speed', '', 'speed: theta prescribed, spindle/speed_cmd through the '
     'speed loop above; torque: theta free, driven by the motor.* motor from '
@@ -106,5 +129,5 @@ SPINDLE_MODE = ParamSpec(
 
 
 SIMULATOR_SPECS = (*STEP_SPECS, *_PACING, MAX_SPINDLE_SPEED, *SPINDLE_SPECS, SEED, *_BENCH,
-                   *IMU_SPECS, SPINDLE_MODE, *MOTOR_SPECS)
+                   *_LIVE_VIEW, *IMU_SPECS, SPINDLE_MODE, *MOTOR_SPECS)
 """The simulator node's parameters besides ``drive.*`` (config/simulator.yaml)."""
