@@ -73,9 +73,9 @@ def with_write_many(path: Path, messages: list[bytes], stamps: list[int]) -> Non
     """Write with ``BagWriter.write_many``, one call per BATCH messages."""
     with BagWriter(path) as bag:
         bag.add_topic(TOPIC, TYPE)
-        topics = [TOPIC] * BATCH
-        for i in range(0, len(messages), BATCH):
-            bag.write_many(topics[:len(messages) - i], messages[i:i + BATCH], stamps[i])
+        pairs = [(TOPIC, data) for data in messages]
+        for i in range(0, len(pairs), BATCH):
+            bag.write_many(pairs[i:i + BATCH], stamps[i])
 
 
 def with_foxglove(path: Path, messages: list[bytes], stamps: list[int]) -> None:

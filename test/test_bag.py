@@ -196,6 +196,28 @@ def test_the_chunk_writer_writes_the_records_add_message_writes(tmp_path):
     assert files[0] == files[1]
 
 
+def test_write_many_writes_what_write_writes_for_each_message(tmp_path):
+    samples = sample_messages()
+    files = []
+    for many in (True, False):
+        path = tmp_path / str(many) / 'bag'
+        with BagWriter(path, chunk_size=2048) as bag:
+            for topic, type_name, _ in samples:
+                bag.add_topic(topic, type_name)
+            for i in range(100):
+                pairs = [(topic.lstrip('/') if i % 2 else topic, cdr_bytes(msg))
+                         for topic, _, msg in samples]
+                if many:
+                    bag.write_many(pairs, 1_000_000_000 + 1000 * i)
+                else:
+                    for topic, data in pairs:
+                        bag.write(topic, data, 1_000_000_000 + 1000 * i)
+        files.append((path / 'bag_0.mcap').read_bytes())
+    assert files[0] == files[1]
+    with BagWriter(tmp_path / 'bad') as bag, pytest.raises(BagError, match='not added'):
+        bag.write_many([('/nowhere', b'')], 0)
+
+
 def test_schema_text_is_the_msg_file_then_each_dependency_once_after_80_equals():
     text = msgdefs.full_text('sensor_msgs/msg/Imu')
     own = (msgdefs.share_dir('sensor_msgs') / 'msg' / 'Imu.msg').read_text()

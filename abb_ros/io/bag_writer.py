@@ -285,12 +285,13 @@ class BagWriter:
         """Append one message (its CDR bytes) received at ``log_time_ns``."""
         self._chunks.write(topic, message, log_time_ns, publish_time_ns)
 
-    def write_many(self, topics, messages, log_time_ns: int) -> None:
-        """Append several messages (CDR bytes) received at ``log_time_ns``, e.g. one sample's.
+    def write_many(self, messages, log_time_ns: int) -> None:
+        """Append several messages received at ``log_time_ns``, e.g. one sample's.
 
-        The same as :meth:`write` for each pair of ``topics`` and ``messages`` in turn.
+        ``messages``: (topic, CDR bytes) pairs, as :func:`abb_ros.io.cdr.sample_cdr` gives
+        them; the same as :meth:`write` for each in turn.
         """
-        self._chunks.write_many(topics, messages, log_time_ns)
+        self._chunks.write_many(messages, log_time_ns)
 
     def _checked(self, topic: str, message) -> tuple[_Topic, bytes]:
         """Return the topic entry and the bytes of ``message``, or raise what is wrong."""

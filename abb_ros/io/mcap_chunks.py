@@ -157,32 +157,32 @@ class ChunkWriter:
         if _monotonic() >= self._next_flush:
             self.flush()
 
-    def write_many(self, topics, messages, log_time: int) -> None:
-        """Append the messages of ``topics`` in turn, all at ``log_time``, as :meth:`write`."""
+    def write_many(self, messages, log_time: int) -> None:
+        """Append ``messages``, (topic, bytes) pairs, all at ``log_time``, as :meth:`write`."""
         log_time = int(log_time)
         if log_time < self.first:
             self.first = log_time
         if log_time > self.last:
             self.last = log_time
-        channels, indexes = self.channels, self._index
-        for topic, message in zip(topics, messages):
+        channels, indexes, batch = self.channels, self._index, self._batch
+        chunk_size, pack = self._chunk_size, _pack_message
+        for topic, message in messages:
             entry = channels.get(topic)
             if entry is None or type(message) is not bytes:
                 entry, message = self._resolve(topic, message)
             sequence = entry.count
             entry.count += 1
             channel_id = entry.channel_id
-            batch = self._batch
             index = indexes.get(channel_id)
             if index is None:
                 index = indexes[channel_id] = []
             index += (log_time, len(batch))
-            batch += _pack_message(_MESSAGE_OPCODE, _MESSAGE_FIELDS + len(message),
-                                   channel_id, sequence, log_time, log_time)
+            batch += pack(_MESSAGE_OPCODE, _MESSAGE_FIELDS + len(message), channel_id,
+                          sequence, log_time, log_time)
             batch += message
-            if len(batch) > self._chunk_size:
+            if len(batch) > chunk_size:
                 self._end_chunk()
-                indexes = self._index
+                indexes, batch = self._index, self._batch
         if _monotonic() >= self._next_flush:
             self.flush()
 
@@ -199,8 +199,8 @@ class ChunkWriter:
         if _monotonic() >= self._next_flush:
             self.flush()
 
-    def _write_many_slow(self, topics, messages, log_time: int) -> None:
-        for topic, message in zip(topics, messages):
+    def _write_many_slow(self, messages, log_time: int) -> None:
+        for topic, message in messages:
             self._write_slow(topic, message, log_time)
 
     def _count(self, topic: str, message, log_time: int):
