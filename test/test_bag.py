@@ -147,22 +147,75 @@ def test_mcap_passes_the_mcap_library_validation_and_carries_rosbag2_records(tmp
     assert inner['duration']['nanoseconds'] == 49 * 1000 + len(samples) - 1
 
 
-def test_the_fast_message_appender_writes_the_file_add_message_writes(tmp_path):
-    """MessageAppender works on mcap's private writer state (abb_ros/io/mcap_append.py): with
-    it the file is the one mcap's own add_message writes, byte for byte (several chunks,
-    out-of-order log times included)."""
+def file_records(path):
+    """The records of an MCAP file, chunks decompressed, offsets and compressed sizes left out."""
+    import zstandard
+    from mcap.records import Chunk, ChunkIndex, Footer, MetadataIndex, SummaryOffset
+    from mcap.stream_reader import StreamReader
+
+    found = []
+    with open(path, 'rb') as f:
+        for record in StreamReader(f, emit_chunks=True).records:
+            if isinstance(record, Chunk):
+                data = zstandard.decompress(record.data, record.uncompressed_size)
+                record = ('chunk', record.message_start_time, record.message_end_time,
+                          record.uncompressed_size, record.uncompressed_crc, data)
+            elif isinstance(record, ChunkIndex):
+                record = ('chunk index', record.message_start_time, record.message_end_time,
+                          sorted(record.message_index_offsets), record.message_index_length,
+                          record.compression, record.uncompressed_size)
+            elif isinstance(record, MetadataIndex):
+                record = ('metadata index', record.name, record.length)
+            elif isinstance(record, (Footer, SummaryOffset)):
+                continue
+            found.append(record)
+    return found
+
+
+def test_the_chunk_writer_writes_the_records_add_message_writes(tmp_path):
+    """ChunkWriter works on mcap's private writer state (abb_ros/io/mcap_chunks.py): with it
+    the file holds the records mcap's own add_message writes, the same chunks once
+    decompressed (several chunks, out-of-order log times, a topic added mid-chunk)."""
     files = []
     for fast in (True, False):
         path = tmp_path / str(fast) / 'bag'
         with BagWriter(path, chunk_size=2048, fast_append=fast) as bag:
-            assert bag._append.fast is fast
-            for topic, type_name, _ in sample_messages():
+            assert bag._chunks.fast is fast
+            samples = sample_messages()
+            for topic, type_name, _ in samples[:-1]:
                 bag.add_topic(topic, type_name)
             for i in range(200):
-                for j, (topic, _, msg) in enumerate(sample_messages()):
+                if i == 100:
+                    bag.add_topic(samples[-1][0], samples[-1][1])
+                for j, (topic, _, msg) in enumerate(samples[:-1] if i < 100 else samples):
                     bag.write(topic, cdr_bytes(msg), 1_000_000_000 + 1000 * (i ^ 5) + j)
+                if i == 150:
+                    bag.flush()
+        files.append(file_records(path / 'bag_0.mcap'))
+    assert len(files[0]) > 100
+    assert files[0] == files[1]
+
+
+def test_write_many_writes_what_write_writes_for_each_message(tmp_path):
+    samples = sample_messages()
+    files = []
+    for many in (True, False):
+        path = tmp_path / str(many) / 'bag'
+        with BagWriter(path, chunk_size=2048) as bag:
+            for topic, type_name, _ in samples:
+                bag.add_topic(topic, type_name)
+            for i in range(100):
+                pairs = [(topic.lstrip('/') if i % 2 else topic, cdr_bytes(msg))
+                         for topic, _, msg in samples]
+                if many:
+                    bag.write_many(pairs, 1_000_000_000 + 1000 * i)
+                else:
+                    for topic, data in pairs:
+                        bag.write(topic, data, 1_000_000_000 + 1000 * i)
         files.append((path / 'bag_0.mcap').read_bytes())
     assert files[0] == files[1]
+    with BagWriter(tmp_path / 'bad') as bag, pytest.raises(BagError, match='not added'):
+        bag.write_many([('/nowhere', b'')], 0)
 
 
 def test_schema_text_is_the_msg_file_then_each_dependency_once_after_80_equals():

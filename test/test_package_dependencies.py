@@ -14,7 +14,8 @@ ROSDEP_KEYS = {
     'mcap': 'python3-mcap-pip', 'mcap_ros2': 'python3-mcap-ros2-support-pip',
     'foxglove': 'python3-foxglove-sdk-pip',
     'dask': 'python3-dask-pip', 'distributed': 'python3-distributed-pip',
-    'pyarrow': 'python3-pyarrow-pip', 'launch': 'launch', 'launch_ros': 'launch_ros',
+    'pyarrow': 'python3-pyarrow-pip', 'zstandard': 'python3-zstandard', 'lz4': 'python3-lz4',
+    'launch': 'launch', 'launch_ros': 'launch_ros',
     'ament_index_python': 'ament_index_python', 'rclpy': 'rclpy', 'pytest': 'python3-pytest',
 }
 """Top-level module -> its package.xml key; ROS message packages (``*_msgs``,

@@ -113,8 +113,7 @@ def run_scenario(scenario: Scenario, dt: float = DEFAULT_DT, publish_dt: float =
         count = 0
         for sample in samples:
             stamp_ns, encoded = cdr.sample_cdr(sample, dt_ns, imu_config, with_clock=True)
-            for topic, data in encoded:
-                bag.write(topic, data, stamp_ns)
+            bag.write_many(encoded, stamp_ns)
             count += len(encoded)
         return count
 

@@ -28,14 +28,13 @@ import errno
 import json
 import os
 import shutil
-import time
 from pathlib import Path
 
 import yaml
 from mcap.writer import CompressionType, Writer
 
 from abb_ros.io import msgdefs
-from abb_ros.io.mcap_append import MessageAppender
+from abb_ros.io.mcap_chunks import ChunkWriter
 
 METADATA_VERSION = 9
 ROS_DISTRO = 'jazzy'
@@ -168,7 +167,7 @@ def _open_new(path: Path):
     return open(path, 'xb', buffering=0)
 
 
-@dataclasses.dataclass
+@dataclasses.dataclass(slots=True)
 class _Topic:
     name: str
     type: str
@@ -217,16 +216,15 @@ class BagWriter:
         self._sink = _FileSink(self.mcap_path, opener, self._chunk_written)
         self._mcap = Writer(self._sink, chunk_size=int(chunk_size),
                             compression=_COMPRESSION[compression])
-        self._append = MessageAppender(self._mcap, fast=fast_append)
-        self._flush_period = float(flush_period)
-        self._next_flush = time.monotonic() + self._flush_period
+        self._chunks = ChunkWriter(self._mcap, self._sink, _COMPRESSION[compression],
+                                   fast=fast_append, flush_period=flush_period,
+                                   resolve=self._checked, on_error=self._fail)
+        # the chunk writer's methods themselves: one call less per message
+        self.write, self.write_many = self._chunks.write, self._chunks.write_many
         self._topics: dict[str, _Topic] = {}
         self._schemas: dict[str, int] = {}
         self._custom: dict[str, str] = {}
-        self._start_ns: int | None = None
-        self._end_ns = 0
         self._durable_span: tuple[int, int] | None = None   # (start, end) of durable messages
-        self.message_count = 0
         self.durable_count = 0
         self.closed = False
         self.error: OSError | None = None
@@ -238,6 +236,11 @@ class BagWriter:
 
     def __exit__(self, *exc) -> None:
         self.close()
+
+    @property
+    def message_count(self) -> int:
+        """Messages given so far."""
+        return sum(t.count for t in self._topics.values())
 
     @property
     def topics(self) -> dict[str, str]:
@@ -273,12 +276,25 @@ class BagWriter:
             self._mcap.register_channel, topic=name, message_encoding='cdr',
             schema_id=schema_id, metadata={'offered_qos_profiles': dump_yaml(profiles),
                                            'topic_type_hash': digest})
-        self._topics[name] = _Topic(name, type_name, channel_id, profiles, digest)
+        entry = self._topics[name] = _Topic(name, type_name, channel_id, profiles, digest)
+        self._chunks.channels[name] = self._chunks.channels[name.lstrip('/')] = entry
         self._write_metadata_yaml()
 
     def write(self, topic: str, message, log_time_ns: int, publish_time_ns: int | None = None
               ) -> None:
         """Append one message (its CDR bytes) received at ``log_time_ns``."""
+        self._chunks.write(topic, message, log_time_ns, publish_time_ns)
+
+    def write_many(self, messages, log_time_ns: int) -> None:
+        """Append several messages received at ``log_time_ns``, e.g. one sample's.
+
+        ``messages``: (topic, CDR bytes) pairs, as :func:`abb_ros.io.cdr.sample_cdr` gives
+        them; the same as :meth:`write` for each in turn.
+        """
+        self._chunks.write_many(messages, log_time_ns)
+
+    def _checked(self, topic: str, message) -> tuple[_Topic, bytes]:
+        """Return the topic entry and the bytes of ``message``, or raise what is wrong."""
         self._check_open()
         entry = self._topics.get(topic) or self._topics.get(topic_name(topic))
         if entry is None:
@@ -287,19 +303,7 @@ class BagWriter:
             raise BagError(f'topic {entry.name}: write() takes the CDR bytes of a message '
                            f'(as a raw subscription delivers them), got a '
                            f'{type(message).__name__}')
-        data = bytes(message)
-        log_time_ns = int(log_time_ns)
-        # counted before the call: the chunk that holds this message may be written within it
-        entry.count += 1
-        self.message_count += 1
-        self._start_ns = log_time_ns if self._start_ns is None else min(self._start_ns,
-                                                                         log_time_ns)
-        self._end_ns = max(self._end_ns, log_time_ns)
-        self._guard(self._append.add, entry.channel_id, log_time_ns, data,
-                    log_time_ns if publish_time_ns is None else int(publish_time_ns),
-                    entry.count - 1)
-        if time.monotonic() >= self._next_flush:
-            self.flush()
+        return entry, bytes(message)
 
     def _chunk_written(self) -> None:
         """Count every message given so far as durable: its chunk reached the file."""
@@ -307,13 +311,12 @@ class BagWriter:
             t.durable = t.count
         self.durable_count = self.message_count
         if self.message_count:
-            self._durable_span = (self._start_ns, self._end_ns)
+            self._durable_span = (self._chunks.first, self._chunks.last)
 
     def flush(self) -> None:
         """Write the chunk in progress (if any) to the OS now."""
         self._check_open()
-        self._guard(self._mcap.flush)
-        self._next_flush = time.monotonic() + self._flush_period
+        self._chunks.flush()
 
     def add_metadata(self, name: str, data: dict) -> None:
         """Add an MCAP metadata record (string -> string)."""
@@ -354,8 +357,10 @@ class BagWriter:
             return
         self._guard(self._mcap.add_metadata, 'rosbag2',    # the last chunk is written below
                     {'serialized_metadata': dump_yaml(self.metadata(durable=False))})
+        self._guard(self._chunks.close_chunk)
         self._guard(self._mcap.finish)
         self.closed = True
+        self._chunks.channels.clear()   # every write now asks _checked, which raises
         self._sink.close()
         self._write_metadata_yaml()
         (self.path / _RESERVE).unlink(missing_ok=True)
@@ -370,7 +375,7 @@ class BagWriter:
             start, end = self._durable_span or (0, 0)
         else:
             count = self.message_count
-            start, end = self._start_ns or 0, self._end_ns
+            start, end = (self._chunks.first, self._chunks.last) if count else (0, 0)
         duration = end - start if count else 0
         file_name = self.mcap_path.name
         topics = [{'topic_metadata': {'name': t.name, 'type': t.type,
@@ -411,8 +416,11 @@ class BagWriter:
                 pass
 
     def _guard(self, fn, *args, **kwargs):
+        """Call a writer method; move the records it put in its own chunk to the open one."""
         try:
-            return fn(*args, **kwargs)
+            result = fn(*args, **kwargs)
+            self._chunks.absorb()
+            return result
         except OSError as exc:
             self._fail(exc)
 
@@ -420,6 +428,7 @@ class BagWriter:
         """Handle a refused write: cut the half-written record, close, keep the bag readable."""
         self.error = exc
         self.closed = True
+        self._chunks.channels.clear()
         self._custom[INCOMPLETE_KEY] = (f'writing stopped: {exc.strerror or exc}; '
                                         f'{self.durable_count} messages kept')
         self._sink.cut()
