@@ -1,4 +1,4 @@
-"""Cost of the bench I/O: FG speed sensor, sensor faults, markers (prints figures; asserts
+"""Cost of the HIL I/O: FG speed sensor, sensor faults, markers (prints figures; asserts
 nothing).
 
 1. In this process, per call: SpeedSensor.update at 1 kHz samples of a drive at P3 speed,
@@ -11,7 +11,7 @@ nothing).
    ``--baseline-root DIR``, also the node of another checkout (e.g. ``git archive`` of the
    commit before the bench I/O), whose python -m abb_ros.nodes.simulator is then run from DIR.
 
-    .venv/bin/python benchmarks/bench_bench_io.py [--duration 20] [--baseline-root DIR]
+    .venv/bin/python benchmarks/bench_hil_io.py [--duration 20] [--baseline-root DIR]
 """
 
 import argparse

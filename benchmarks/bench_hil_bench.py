@@ -22,7 +22,7 @@ leaves the separate recorder out (the statuses then come from the in-process bag
 republishes one real sample's CDR bytes on its topics every period (docs/time_under_load.md,
 'The middleware floor').
 
-    .venv/bin/python benchmarks/bench_bench.py [--duration 60] [--hog] [--record-in-process]
+    .venv/bin/python benchmarks/bench_hil_bench.py [--duration 60] [--hog] [--record-in-process]
         [--no-recorder-node] [--floor] [--realtime-priority 50]
 """
 
