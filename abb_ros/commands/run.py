@@ -116,7 +116,7 @@ def run(args) -> dict:
             raise ParamError('duration', args.duration, '(0, inf) s')
         scenario.duration = float(args.duration)
     try:
-        check_duration(scenario.duration)
+        check_duration(scenario.duration, dt=options.get('dt'))
     except ParamError as exc:
         if args.duration is not None:
             raise
