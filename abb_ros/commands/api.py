@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import signal
 from pathlib import Path
 
 from abb_ros.io.drive_file import read_drive_yaml
@@ -16,8 +17,8 @@ from abb_ros.model.param_spec import STRING, ParamError, ParamSpec
 from abb_ros.model.params import DIMENSIONLESS_NAMES, PARAM_SPECS, DriveParams, parse_value
 from abb_ros.model.plant_spec import cli_names, spec_for_command
 
-__all__ = ['UsageError', 'CommandFailed', 'parse_settings', 'parse_spec_value', 'drive_params',
-           'check_output', 'output_files']
+__all__ = ['UsageError', 'CommandFailed', 'Terminated', 'stop_signals', 'signals_deferred',
+           'parse_settings', 'parse_spec_value', 'drive_params', 'check_output', 'output_files']
 
 
 class UsageError(Exception):
@@ -26,6 +27,47 @@ class UsageError(Exception):
 
 class CommandFailed(Exception):
     """The input was good but the command could not finish, e.g. a full disk (exit code 1)."""
+
+
+class Terminated(BaseException):
+    """SIGTERM arrived (exit code 143): like KeyboardInterrupt, it unwinds every ``finally``."""
+
+
+_DEFERRED = {'depth': 0, 'pending': None}
+
+
+def _on_signal(signum, frame):
+    if _DEFERRED['depth']:
+        _DEFERRED['pending'] = signum
+        return
+    raise KeyboardInterrupt if signum == signal.SIGINT else Terminated(signum)
+
+
+@contextlib.contextmanager
+def stop_signals():
+    """Turn SIGINT into KeyboardInterrupt and SIGTERM into :class:`Terminated` while inside.
+
+    The previous handlers come back on exit (``abb_ros.cli.main`` runs in-process in tests).
+    """
+    previous = {s: signal.signal(s, _on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+
+
+@contextlib.contextmanager
+def signals_deferred():
+    """Hold SIGINT and SIGTERM until the block is done (finishing a file must not be cut)."""
+    _DEFERRED['depth'] += 1
+    try:
+        yield
+    finally:
+        _DEFERRED['depth'] -= 1
+        pending, _DEFERRED['pending'] = _DEFERRED['pending'], None
+        if pending is not None and not _DEFERRED['depth']:
+            _on_signal(pending, None)
 
 
 def parse_settings(items, command: str | None = None) -> dict:
@@ -117,3 +159,4 @@ def output_files(*paths):
             with contextlib.suppress(OSError):
                 tmp.unlink()
         raise
+
