@@ -84,10 +84,33 @@ def _why(exc: OSError) -> str:
     return os.strerror(exc.errno) if exc.errno else str(exc)
 
 
+def _finish(bag, path, staged) -> None:
+    """Close the bag (signals held meanwhile) and move it into place; a failed close removes it."""
+    from abb_ros.commands.api import CommandFailed, commit_directory, signals_deferred
+    from abb_ros.io.bag_writer import BagWriteError
+    try:
+        with signals_deferred():
+            bag.close()
+    except BagWriteError as exc:
+        shutil.rmtree(staged, ignore_errors=True)
+        raise CommandFailed(f'--out {path}: finishing the bag failed ({_why(exc)}); the '
+                            'partial bag was removed') from None
+    finally:
+        commit_directory(path, staged)
+
+
 def run(args) -> dict:
     """Run the scenario headless (a bag with ``--out``) and return the summary."""
     from abb_ros.app.headless import check_duration, run_scenario
-    from abb_ros.commands.api import CommandFailed, UsageError, drive_params, parse_settings
+    from abb_ros.commands.api import (
+        CommandFailed,
+        UsageError,
+        commit_directory,
+        drive_params,
+        parse_settings,
+        signals_deferred,
+        stage_directory,
+    )
     from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
     from abb_ros.io.scenario import load_scenario
     from abb_ros.model.integrate import StateError
@@ -121,15 +144,16 @@ def run(args) -> dict:
         if args.duration is not None:
             raise
         raise UsageError(f'--scenario {args.scenario}: {exc}') from None
-    bag = None
+    bag = out = None
     if args.out:
-        existed = os.path.lexists(args.out)
+        out = stage_directory('--out', args.out, args.overwrite)
         try:
-            bag = BagWriter(args.out, overwrite=args.overwrite)
-            bag.set_drive_params(scenario.params)
+            with signals_deferred():
+                bag = BagWriter(out)
+                bag.set_drive_params(scenario.params)
         except (BagError, OSError) as exc:
-            if not existed:
-                shutil.rmtree(args.out, ignore_errors=True)
+            shutil.rmtree(out, ignore_errors=True)
+            commit_directory(args.out, out)
             if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
                 raise CommandFailed(f'--out {args.out}: {_why(exc)}; nothing was written'
                                     ) from None
@@ -150,23 +174,19 @@ def run(args) -> dict:
             bag.mark_incomplete(str(exc))
         raise
     except BagWriteError as exc:
-        shutil.rmtree(args.out, ignore_errors=True)
+        shutil.rmtree(out, ignore_errors=True)
         raise CommandFailed(f'--out {args.out}: writing the bag failed ({_why(exc)}); '
                             'the partial bag was removed') from None
     except BaseException:
         if bag is not None:
-            bag.mark_incomplete('the run was interrupted')
+            with signals_deferred():
+                bag.mark_incomplete('the run was interrupted')
         raise
     finally:
         if bar is not None:
             bar.close()
         if bag is not None:
-            try:
-                bag.close()
-            except BagWriteError as exc:
-                shutil.rmtree(args.out, ignore_errors=True)
-                raise CommandFailed(f'--out {args.out}: finishing the bag failed '
-                                    f'({_why(exc)}); the partial bag was removed') from None
+            _finish(bag, args.out, out)
     p = scenario.params
     y = result.y[-1]
     layout = StateLayout(p.n)
