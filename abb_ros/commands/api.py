@@ -19,6 +19,7 @@ from abb_ros.model.params import DIMENSIONLESS_NAMES, PARAM_SPECS, DriveParams, 
 from abb_ros.model.plant_spec import cli_names, spec_for_command
 
 __all__ = ['UsageError', 'CommandFailed', 'Terminated', 'stop_signals', 'signals_deferred',
+           'stop_point',
            'parse_settings', 'parse_spec_value', 'drive_params', 'check_output', 'output_files',
            'stage_directory', 'commit_directory']
 
@@ -70,6 +71,21 @@ def signals_deferred():
         pending, _DEFERRED['pending'] = _DEFERRED['pending'], None
         if pending is not None and not _DEFERRED['depth']:
             _on_signal(pending, None)
+
+
+def stop_point(progress=None):
+    """Return a progress callback that first raises a signal held by :func:`signals_deferred`.
+
+    Work run with signals held and this callback stops between two of its chunks only, never
+    in the middle of writing a message.
+    """
+    def report(done):
+        pending, _DEFERRED['pending'] = _DEFERRED['pending'], None
+        if pending is not None:
+            raise KeyboardInterrupt if pending == signal.SIGINT else Terminated(pending)
+        if progress is not None:
+            progress(done)
+    return report
 
 
 def parse_settings(items, command: str | None = None) -> dict:

@@ -110,6 +110,7 @@ def run(args) -> dict:
         parse_settings,
         signals_deferred,
         stage_directory,
+        stop_point,
     )
     from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
     from abb_ros.io.scenario import load_scenario
@@ -167,8 +168,9 @@ def run(args) -> dict:
                    desc=f'abb-sim run {scenario.name}', leave=False,
                    bar_format='{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]')
     try:
-        result = run_scenario(scenario, bag=bag, progress=bar.update if bar else None,
-                              **options)
+        with signals_deferred():    # a signal stops the run between chunks (stop_point)
+            result = run_scenario(scenario, bag=bag, progress=stop_point(bar.update if bar
+                                                                         else None), **options)
     except StateError as exc:
         if bag is not None:
             bag.mark_incomplete(str(exc))
