@@ -91,6 +91,7 @@ def _check_axes(args, settings, base, xs, ys):
                 raise UsageError(f'--set {key}: {axis} is the map\'s {flag} axis (swept over '
                                  f'--range-{flag[2:]}); give a fixed value only to another '
                                  'parameter')
+    apply_settings(base, settings)    # a fixed value out of range names itself, not an axis
     for axis, values, flag in ((args.x, xs, '--range-x'), (args.y, ys, '--range-y')):
         for end in (values[0], values[-1]):
             try:
