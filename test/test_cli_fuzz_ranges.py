@@ -123,3 +123,24 @@ def test_any_run_duration_keeps_the_contract(tmp_path, capsys, monkeypatch, seed
         with pytest.raises(ParamError):
             check_duration(value)
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('argv', [
+    ['stability', '--set', 'omega=5e-324'], ['freqs', '--set', 'k=nan'],
+    ['map', '--x', 'wbar', '--y', 'mbar', '--range-x', '0.2:1e300', '--out', 'm.png'],
+    ['run', '--duration', '1e300']])
+def test_the_console_script_keeps_the_contract(tmp_path, argv):
+    """The installed entry point, a fresh process: no warning text from any import either."""
+    import os
+    import subprocess
+    import sys
+    abb_sim = os.path.join(os.path.dirname(sys.executable), 'abb-sim')
+    t0 = time.perf_counter()
+    proc = subprocess.run([abb_sim, *argv], capture_output=True, text=True, timeout=120,
+                          cwd=tmp_path, stdin=subprocess.DEVNULL)
+    assert time.perf_counter() - t0 < 60
+    assert proc.returncode == 2, proc.stderr
+    assert len(proc.stderr.strip().splitlines()) == 1 and proc.stdout == ''
+    assert 'Warning' not in proc.stderr and 'Traceback' not in proc.stderr
+    assert list(tmp_path.iterdir()) == []
