@@ -212,6 +212,16 @@ def test_a_bad_sweep_spec_is_one_line_naming_the_field(tmp_path, capsys, case):
     assert not out.exists()
 
 
+def test_a_sweep_drive_over_the_step_limit_names_the_stability_field(tmp_path, capsys):
+    spec = tmp_path / 'spec.yaml'
+    spec.write_text(SPEC.format(parameters='  c: {dist: uniform, low: 1.0e+5, high: 2.0e+6}',
+                                extra='', stability='{wbar: [2]}'))
+    line = refused(capsys, ['sweep', str(spec), '--out', str(tmp_path / 'out'), '--serial',
+                            '--no-progress'])
+    assert "'compute.stability'" in line and 'a drawn drive' in line
+    assert not list((tmp_path / 'out').glob('part-*'))
+
+
 # ---- sweep directories that no sweep wrote -------------------------------------------------
 
 def _parquet(path, metadata=None):
