@@ -11,7 +11,7 @@ from __future__ import annotations
 from abb_ros.model.param_spec import COMMANDS, DRIVE_PREFIX, INTEGER, ParamSpec
 
 __all__ = ['DRIVE_SPECS', 'DRIVE_NODES', 'MAX_BALLS', 'RUBBER_C', 'METAL_C', 'SPAN',
-           'SPEED_SPEC', 'MAX_OMEGA']
+           'SPEED_SPEC', 'MAX_OMEGA', 'CLAMPED_DECK']
 
 RUBBER_C = 2.53
 """Washer damping c of rubber suspension washers [kg/s] (Table 1)."""
@@ -34,6 +34,11 @@ its meaning, so such a value is refused rather than computed."""
 MAX_OMEGA = 1.0e5
 """Fastest spindle speed accepted anywhere [rad/s] (about a million rpm, 60 times the fastest
 optical drive): ``omega`` and the speeds ``wbar`` stands for."""
+
+CLAMPED_DECK = 1.0e10
+"""Highest deck mass [kg] and deck inertia [kg m^2]: beyond SPAN, so that a deck made
+immovable by its mass (``ball_materials.HEAVY`` = 1e9, the clamped race of the contact
+tests) stays a valid drive."""
 
 SPEED_SPEC = ParamSpec('omega', None, 'rad/s', 'spindle speed of an operating point (or wbar '
                        'omega0); 0 stops the spindle; no default: the analysis needs it', low=0.0,
@@ -62,12 +67,16 @@ DRIVE_SPECS = (
     _drive('d', 0.030, 'm', 'distance between C (spindle axis) and P (deck mass centre), d',
            low=-1.0, high=1.0),
     _drive('R', 0.015, 'm', 'mean (pitch) radius of the ball race, R'),
-    _drive('M_P', 0.150, 'kg', 'mass of the feeding-deck assembly, M_P'),
+    _drive('M_P', 0.150, 'kg', 'mass of the feeding-deck assembly, M_P',
+           high=CLAMPED_DECK),
     _drive('M', 0.026, 'kg', 'mass of the equivalent rotor, M'),
     _drive('m', 0.43e-3, 'kg', 'mass of one balancing ball, m'),
-    _drive('J_Px', 1.43e-4, 'kg m^2', 'deck moment of inertia about x through P, J_Px'),
-    _drive('J_Py', 0.31e-4, 'kg m^2', 'deck moment of inertia about y through P, J_Py'),
-    _drive('J_Pz', 1.74e-4, 'kg m^2', 'deck moment of inertia about z through P, J_Pz'),
+    _drive('J_Px', 1.43e-4, 'kg m^2', 'deck moment of inertia about x through P, J_Px',
+           high=CLAMPED_DECK),
+    _drive('J_Py', 0.31e-4, 'kg m^2', 'deck moment of inertia about y through P, J_Py',
+           high=CLAMPED_DECK),
+    _drive('J_Pz', 1.74e-4, 'kg m^2', 'deck moment of inertia about z through P, J_Pz',
+           high=CLAMPED_DECK),
     _drive('J_x', 1.46e-6, 'kg m^2', 'rotor moment of inertia about x, J_x'),
     _drive('J_y', 1.46e-6, 'kg m^2', 'rotor moment of inertia about y, J_y (equal to J_x)'),
     _drive('J_z', 2.93e-6, 'kg m^2', 'rotor moment of inertia about the spin axis z, J_z'),

@@ -97,12 +97,13 @@ def markdown() -> str:
 
 def _limits() -> list[str]:
     """Return the section on the operating speed and the work limits of ``abb-sim``."""
-    from abb_ros.model.drive_spec import SPAN, SPEED_SPEC
+    from abb_ros.model.drive_spec import CLAMPED_DECK, SPAN, SPEED_SPEC
     from abb_ros.model.floquet import MAX_STEPS
     from abb_ros.model.integrate import MAX_RUN_STEPS
     return ['## Operating point and work limits (`abb-sim`)', ''] + _table([SPEED_SPEC]) + [
         '', f'Each drive parameter above lies within a factor of {SPAN:.0e} of its Table 1 '
-        'value (of a typical value where the default is 0): wider than any optical '
+        'value (of a typical value where the default is 0; the deck\'s mass and inertias up '
+        f'to {CLAMPED_DECK:.0e}, a deck clamped by its mass): wider than any optical '
         'drive, narrow enough that the analysis keeps its digits. Work that grows with the '
         'input is limited, and checked before it starts: at most '
         f'{MAX_STEPS} RK4 steps per period of one Floquet point (`stability`, `map`, the '
