@@ -7,7 +7,10 @@ one JSON object with ``--json``, as ``key: value`` lines otherwise. Bad input
 message naming the parameter and its valid range; a simulation whose state blows up
 (:class:`~abb_ros.model.integrate.StateError`), a command that cannot finish
 (:class:`CommandFailed`, e.g. a full disk) or any other refusal of the operating system
-(``OSError``) exits with code 1. Every error is one line on stderr.
+(``OSError``) exits with code 1, and so does a computation whose numbers overflow (numpy's
+warnings are errors here, never text beside a result). SIGINT exits with code 130 and SIGTERM
+with 143, at any moment after the dispatcher has loaded: the commands' ``finally`` blocks run
+(a bag is finished and marked incomplete). Every error is one line on stderr.
 """
 
 from __future__ import annotations
@@ -16,9 +19,7 @@ import argparse
 import importlib
 import json
 import sys
-
-from abb_ros.commands.api import CommandFailed, UsageError
-from abb_ros.model.params import ParamError
+import warnings
 
 __all__ = ['main', 'SUBCOMMANDS']
 
@@ -81,11 +82,31 @@ def _print_human(summary: dict) -> None:
 
 def main(argv=None) -> int:
     """Run the `abb-sim` command line ``argv``; return the exit status (0, 1 failed, 2 usage)."""
+    who = ['abb-sim']     # with the subcommand once it is known
+    try:
+        from abb_ros.commands.api import Terminated, stop_signals
+        with stop_signals():
+            try:
+                with warnings.catch_warnings():
+                    warnings.simplefilter('error', RuntimeWarning)
+                    return _dispatch(argv, who)
+            except Terminated:
+                print(f'{who[0]}: terminated', file=sys.stderr)
+                return 143
+    except KeyboardInterrupt:
+        print(f'{who[0]}: interrupted', file=sys.stderr)
+        return 130
+
+
+def _dispatch(argv, who: list) -> int:
+    from abb_ros.commands.api import CommandFailed, UsageError
+    from abb_ros.model.params import ParamError
     parser = build_parser()
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:    # --help (0) or a usage error, already printed (2)
         return exc.code if isinstance(exc.code, int) else 2
+    who[0] = f'abb-sim {args.command}'
     module = _load(args.command)
     try:
         summary = module.run(args)
@@ -103,14 +124,22 @@ def main(argv=None) -> int:
         where = f': {exc.filename}' if exc.filename else ''
         print(f'abb-sim {args.command}: error: {exc.strerror or exc}{where}', file=sys.stderr)
         return 1
-    except KeyboardInterrupt:
-        print(f'abb-sim {args.command}: interrupted', file=sys.stderr)
-        return 130
+    except (ArithmeticError, RuntimeWarning, _linalg_error()) as exc:
+        why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        print(f'abb-sim {args.command}: error: the computation failed numerically ({why}); '
+              'the parameters are beyond what it resolves', file=sys.stderr)
+        return 1
     if args.json:
         print(json.dumps(summary, default=_jsonable))
     else:
         _print_human(summary)
     return 0
+
+
+def _linalg_error():
+    """Return numpy's LinAlgError if numpy is loaded, else a stand-in."""
+    module = sys.modules.get('numpy.linalg')
+    return module.LinAlgError if module is not None else _NotRaised
 
 
 def _jsonable(obj):

@@ -267,11 +267,11 @@ def test_status_follows_a_speed_ramp_and_reports_the_latency(graph):
 
 
 def test_refused_parameter_change_returns_the_reason_and_the_node_keeps_running(graph):
-    """k = 0 passes the descriptor's closed range but not DriveParams' (0, inf); a zero speed
+    """J_y = 1e-5 passes the descriptor's range but not DriveParams' J_y = J_x; a zero speed
     range passes the simulator's rules but leaves nothing to analyse."""
-    results = graph.set_params('abb_analysis', drive__k=0.0)
+    results = graph.set_params('abb_analysis', drive__J_y=1e-5)
     assert not results[0].successful
-    assert "'drive.k'" in results[0].reason and 'valid range is (0, inf)' in results[0].reason
+    assert "'drive.J_y'" in results[0].reason and 'equal to J_x' in results[0].reason
     results = graph.set_params('abb_analysis', max_spindle_speed=0.0)
     assert not results[0].successful
     assert 'max_spindle_speed' in results[0].reason and 'speed range' in results[0].reason

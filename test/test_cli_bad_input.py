@@ -85,7 +85,7 @@ CONFIG_CASES = {
     'a number key': (TABLE1 + '      1: 2\n', "'1'"),
     'an unknown parameter': (TABLE1 + '      kk: 2\n', "'kk'"),
     'text for a number': (TABLE1 + '      k: abc\n', "'k' = 'abc'"),
-    'a negative stiffness': (TABLE1 + '      k: -1\n', '(0, inf) N/m'),
+    'a negative stiffness': (TABLE1 + '      k: -1\n', '[0.003972, 3.972e+09] N/m'),
 }
 
 
@@ -135,7 +135,7 @@ SCENARIO_CASES = {
     'phi_deg of the wrong length': ('initial: {phi_deg: [1, 2, 3]}\n', 'n = 2'),
     'a name that is a list': ('name: [1, 2]\n', "'scenario.name'"),
     'a duration that is text': ('duration: ten\n', "'scenario.duration'"),
-    'a duration of a microsecond': ('duration: 1.0e-6\n', '[0.001, inf) s'),
+    'a duration of a microsecond': ('duration: 1.0e-6\n', '[0.001, 10000] s'),
     'a command without t': ('spindle: {model: motor, commands: [{wbar: 2}]}\n', '{t: seconds'),
     'a negative tau': ('spindle: {model: motor, tau: -1}\n', "'scenario.spindle.tau'"),
     'a drive parameter that is text': ('drive: {k: stiff}\n', "'k' = 'stiff'"),
@@ -176,9 +176,9 @@ def test_the_shipped_scenarios_pass_the_schema():
 
 ARGV_CASES = {
     'a duration of 1 ns': (['run', '--duration', '1e-9'], "'duration' = 1e-09",
-                           '[0.001, inf) s'),
+                           '[0.001, 10000] s'),
     'a duration shorter than a publish period': (['run', '--duration', '0.0005'],
-                                                 '[0.001, inf) s'),
+                                                 '[0.001, 10000] s'),
     'a duration of nan': (['run', '--duration', 'nan'], "'duration'"),
     'a duration of inf': (['run', '--duration', 'inf'], "'duration'"),
     'a duration that is text': (['run', '--duration', 'ten'], '--duration', 'float'),

@@ -29,7 +29,7 @@ def test_no_abb_and_dimensionless_settings(abb_sim):
 
 @pytest.mark.parametrize('args,fragment', [
     (['--scenario', 'p9'], "'scenario'"),
-    (['--set', 'k=-3'], "'k' = -3.0 is invalid: valid range is (0, inf) N/m"),
+    (['--set', 'k=-3'], "'k' = -3.0 is invalid: valid range is [0.003972, 3.972e+09] N/m"),
     (['--set', 'wbarr=2'], "'wbarr'"),
     (['--set', 'n=2.5'], "'n'"),
     (['--set', 'mbar=abc'], "'mbar'"),

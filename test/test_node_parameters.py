@@ -36,12 +36,14 @@ def _start_fails(node, *params):
 
 
 @pytest.mark.parametrize('node,param,needle', [
-    ('simulator', 'drive.k:=abc', "'drive.k' = 'abc' is invalid: valid range is (0, inf) N/m"),
+    ('simulator', 'drive.k:=abc',
+     "'drive.k' = 'abc' is invalid: valid range is [0.003972, 3.972e+09] N/m"),
     ('simulator', 'drive.n:=2.0', "'drive.n' = 2.0 is invalid: valid range is [0, 64]"),
     ('simulator', 'seed:=[1, 2]', "'seed'"),
     ('simulator', 'imu.position:=[0.0, 1.0]', "'imu.position'"),
     ('simulator', 'drive.k:=-5.0', "'drive.k' = -5.0"),
-    ('analysis', 'drive.k:=abc', "'drive.k' = 'abc' is invalid: valid range is (0, inf) N/m"),
+    ('analysis', 'drive.k:=abc',
+     "'drive.k' = 'abc' is invalid: valid range is [0.003972, 3.972e+09] N/m"),
     ('analysis', 'table_points:=300.0', "'table_points' = 300.0"),
     ('simulator', "record.topics:=['bad name']", "'record.topics' = 'bad name' is invalid"),
     ('simulator', "record.topics:=[x//y]", "'record.topics' = 'x//y'"),

@@ -371,9 +371,9 @@ def test_refused_parameter_change_names_the_parameter_and_its_range(plant_factor
     plant = plant_factory(real_time_factor=0.0, publish_rate_hz=100, **{'imu.rate_hz': 100})
     states = plant.collect(JointState, 'joint_states')
     plant.wait(lambda: states, 'joint_states')
-    (k_zero,) = plant.set_params(**{'drive.k': 0.0})  # inside the ROS range [0, inf)
-    assert not k_zero.successful
-    assert "'drive.k'" in k_zero.reason and '(0, inf) N/m' in k_zero.reason
+    (j_y,) = plant.set_params(**{'drive.J_y': 1e-5})  # inside its ROS range, not = J_x
+    assert not j_y.successful
+    assert "'drive.J_y'" in j_y.reason and 'equal to J_x = 1.46e-06 kg m^2' in j_y.reason
     (rate,) = plant.set_params(publish_rate_hz=7)
     assert not rate.successful and 'divisor of integration_rate_hz' in rate.reason
     (pos,) = plant.set_params(**{'imu.position': [0.0, 1.0]})

@@ -18,7 +18,7 @@ import numpy as np
 
 from abb_ros.io import topics
 from abb_ros.io.scenario import Scenario
-from abb_ros.model.integrate import DEFAULT_DT, Simulation, initial_state
+from abb_ros.model.integrate import DEFAULT_DT, MAX_RUN_STEPS, Simulation, initial_state
 from abb_ros.model.sampling import PlantSampler
 from abb_ros.model.sensors import TYPICAL_IMU, ImuConfig, ImuModel
 from abb_ros.model.speed_sensor import SpeedSensor, SpeedSensorConfig
@@ -54,12 +54,21 @@ class RunResult:
         return span / self.wall_time if self.wall_time > 0 else float('inf')
 
 
-def check_duration(duration: float, publish_dt: float = PUBLISH_DT) -> None:
-    """Refuse a run shorter than one publish period: it would publish nothing."""
+def check_duration(duration: float, publish_dt: float = PUBLISH_DT, dt: float | None = None
+                   ) -> None:
+    """Refuse a run shorter than one publish period or longer than MAX_RUN_STEPS steps of dt.
+
+    A run shorter than a publish period would publish nothing; ``dt`` None is DEFAULT_DT.
+    """
+    from abb_ros.model.params import ParamError
+    dt = DEFAULT_DT if dt is None else dt
+    longest = MAX_RUN_STEPS * dt
     if not duration >= publish_dt * (1 - 1e-9):
-        from abb_ros.model.params import ParamError
-        raise ParamError('duration', duration, f'[{publish_dt:g}, inf) s',
+        raise ParamError('duration', duration, f'[{publish_dt:g}, {longest:g}] s',
                          'shorter than one publish period')
+    if not duration <= longest:
+        raise ParamError('duration', duration, f'[{publish_dt:g}, {longest:g}] s',
+                         f'at most {MAX_RUN_STEPS} steps of dt = {dt:g} s')
 
 
 def _steps_per(period: float, dt: float, what: str) -> int:
@@ -86,7 +95,7 @@ def run_scenario(scenario: Scenario, dt: float = DEFAULT_DT, publish_dt: float =
     from abb_ros.io import cdr
 
     imu_config = imu_config or TYPICAL_IMU
-    check_duration(scenario.duration, publish_dt)
+    check_duration(scenario.duration, publish_dt, dt)
     p = scenario.params
     y0 = initial_state(p, scenario.omega, phi0=scenario.phi0, deck0=scenario.deck0)
     sim = Simulation(p, scenario.omega, dt, spindle=scenario.spindle, y0=y0)

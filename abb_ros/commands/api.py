@@ -8,6 +8,8 @@ from __future__ import annotations
 
 import contextlib
 import os
+import shutil
+import signal
 from pathlib import Path
 
 from abb_ros.io.drive_file import read_drive_yaml
@@ -16,8 +18,10 @@ from abb_ros.model.param_spec import STRING, ParamError, ParamSpec
 from abb_ros.model.params import DIMENSIONLESS_NAMES, PARAM_SPECS, DriveParams, parse_value
 from abb_ros.model.plant_spec import cli_names, spec_for_command
 
-__all__ = ['UsageError', 'CommandFailed', 'parse_settings', 'parse_spec_value', 'drive_params',
-           'check_output', 'output_files']
+__all__ = ['UsageError', 'CommandFailed', 'Terminated', 'stop_signals', 'signals_deferred',
+           'stop_point',
+           'parse_settings', 'parse_spec_value', 'drive_params', 'check_output', 'output_files',
+           'stage_directory', 'commit_directory']
 
 
 class UsageError(Exception):
@@ -26,6 +30,62 @@ class UsageError(Exception):
 
 class CommandFailed(Exception):
     """The input was good but the command could not finish, e.g. a full disk (exit code 1)."""
+
+
+class Terminated(BaseException):
+    """SIGTERM arrived (exit code 143): like KeyboardInterrupt, it unwinds every ``finally``."""
+
+
+_DEFERRED = {'depth': 0, 'pending': None}
+
+
+def _on_signal(signum, frame):
+    if _DEFERRED['depth']:
+        _DEFERRED['pending'] = signum
+        return
+    raise KeyboardInterrupt if signum == signal.SIGINT else Terminated(signum)
+
+
+@contextlib.contextmanager
+def stop_signals():
+    """Turn SIGINT into KeyboardInterrupt and SIGTERM into :class:`Terminated` while inside.
+
+    The previous handlers come back on exit (``abb_ros.cli.main`` runs in-process in tests).
+    """
+    previous = {s: signal.signal(s, _on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+
+
+@contextlib.contextmanager
+def signals_deferred():
+    """Hold SIGINT and SIGTERM until the block is done (finishing a file must not be cut)."""
+    _DEFERRED['depth'] += 1
+    try:
+        yield
+    finally:
+        _DEFERRED['depth'] -= 1
+        pending, _DEFERRED['pending'] = _DEFERRED['pending'], None
+        if pending is not None and not _DEFERRED['depth']:
+            _on_signal(pending, None)
+
+
+def stop_point(progress=None):
+    """Return a progress callback that first raises a signal held by :func:`signals_deferred`.
+
+    Work run with signals held and this callback stops between two of its chunks only, never
+    in the middle of writing a message.
+    """
+    def report(done):
+        pending, _DEFERRED['pending'] = _DEFERRED['pending'], None
+        if pending is not None:
+            raise KeyboardInterrupt if pending == signal.SIGINT else Terminated(pending)
+        if progress is not None:
+            progress(done)
+    return report
 
 
 def parse_settings(items, command: str | None = None) -> dict:
@@ -117,3 +177,57 @@ def output_files(*paths):
             with contextlib.suppress(OSError):
                 tmp.unlink()
         raise
+
+
+def _one_bag(path: Path) -> str:
+    """Return why the directory ``path`` is not one bag (a metadata.yaml, its .mcap files)."""
+    if not path.is_dir() or path.is_symlink():
+        return 'it is not a directory'
+    names = sorted(p.name for p in path.iterdir())
+    mcaps = [n for n in names if n.endswith('.mcap')]
+    others = [n for n in names if n not in mcaps and n != 'metadata.yaml']
+    if others:
+        return f'it holds {others[0]}, which is not part of a bag'
+    if 'metadata.yaml' not in names and mcaps:
+        return f'it holds {len(mcaps)} recording(s) without a metadata.yaml'
+    if len(mcaps) > 1:
+        return f'it holds {len(mcaps)} recordings'
+    return ''
+
+
+def stage_directory(option: str, path, overwrite: bool) -> Path:
+    """Return where to write the directory ``path`` (a bag), refusing to replace one silently.
+
+    A new ``path`` is returned as it is. An existing one is refused (UsageError naming
+    ``option``) unless ``overwrite`` is given and it is one bag; then the new directory is
+    written in a hidden directory beside it, which :func:`commit_directory` moves into place,
+    so the old bag stays whole until the new one is there.
+    """
+    path = Path(path)
+    if not (path.exists() or path.is_symlink()):
+        return path
+    if not overwrite:
+        raise UsageError(f'{option} {path}: it exists; pass --overwrite to replace it')
+    why = _one_bag(path)
+    if why:
+        raise UsageError(f'{option} {path}: {why}; not replacing it (--overwrite replaces one '
+                         'bag directory only)')
+    staging = path.with_name(f'.{path.name}.partial')
+    shutil.rmtree(staging, ignore_errors=True)
+    staging.mkdir()
+    return staging / path.name
+
+
+def commit_directory(path, staged) -> None:
+    """Move ``staged`` (of :func:`stage_directory`) onto ``path`` if it was kept; tidy up."""
+    path, staged = Path(path), Path(staged)
+    if staged == path:
+        return
+    with signals_deferred():
+        if staged.exists():
+            old = path.with_name(f'.{path.name}.old')
+            shutil.rmtree(old, ignore_errors=True)
+            os.replace(path, old)
+            os.replace(staged, path)
+            shutil.rmtree(old, ignore_errors=True)
+        shutil.rmtree(staged.parent, ignore_errors=True)

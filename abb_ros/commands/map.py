@@ -82,6 +82,25 @@ def _res(text):
     return nx, ny
 
 
+def _check_axes(args, settings, base, xs, ys):
+    """Refuse a --set of a swept axis, and axis ends that make no valid drive, before work."""
+    from abb_ros.model.params import apply_settings
+    for flag, axis in (('--x', args.x), ('--y', args.y)):
+        for key in ((axis, 'omega') if axis == 'wbar' else (axis,)):
+            if key in settings:
+                raise UsageError(f'--set {key}: {axis} is the map\'s {flag} axis (swept over '
+                                 f'--range-{flag[2:]}); give a fixed value only to another '
+                                 'parameter')
+    apply_settings(base, settings)    # a fixed value out of range names itself, not an axis
+    for axis, values, flag in ((args.x, xs, '--range-x'), (args.y, ys, '--range-y')):
+        for end in (values[0], values[-1]):
+            try:
+                apply_settings(base, {**settings, axis: float(end)})
+            except ParamError as exc:
+                raise UsageError(f'{flag} {values[0]:g}:{values[-1]:g}: at {axis} = {end:g}, '
+                                 f'{exc}') from None
+
+
 def run(args) -> dict:
     """Compute the stability map, write the figure and the data file; return the summary."""
     import time
@@ -102,11 +121,18 @@ def run(args) -> dict:
         raise ParamError('members', args.members, f'[0, {MAX_MEMBERS}]')
     base = drive_params(args.config)
     settings = parse_settings(args.set, 'map')
+    _check_axes(args, settings, base, xs, ys)
     t0 = time.perf_counter()
     with tqdm(total=nx * ny * (2 if args.members else 1), unit='pt', file=sys.stderr,
               disable=args.no_progress, desc=f'{args.plane}-plane map') as bar:
-        smap = stability_map(base, args.x, xs, args.y, ys, settings, args.plane, bar.update,
-                             args.members)
+        try:
+            smap = stability_map(base, args.x, xs, args.y, ys, settings, args.plane,
+                                 bar.update, args.members)
+        except ParamError as exc:
+            if exc.name != 'omega':
+                raise
+            raise UsageError(f'the map\'s slowest speed: {exc}; raise the low end of the '
+                             'wbar range (--range-x/--range-y) or --set wbar') from None
     wall = time.perf_counter() - t0
     try:
         with output_files(data, out) as (data_tmp, out_tmp):

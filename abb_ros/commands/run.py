@@ -92,10 +92,10 @@ def _why(exc: OSError) -> str:
     return os.strerror(exc.errno) if exc.errno else str(exc)
 
 
-def _live_view(address: str | None, out_made: bool, out: str | None):
+def _live_view(address: str | None):
     """Start the live view of ``--live-view [HOST:]PORT`` (None without the option).
 
-    A live view that cannot listen removes the ``--out`` directory just made.
+    It starts before any file is made, so one that cannot listen leaves nothing behind.
     """
     if address is None:
         return None
@@ -104,19 +104,41 @@ def _live_view(address: str | None, out_made: bool, out: str | None):
     try:
         live = LiveView(*parse_address(address), server_time=True)
     except (ValueError, LiveViewError) as exc:
-        if out_made:
-            shutil.rmtree(out, ignore_errors=True)
         raise UsageError(f'--live-view {address}: {exc}') from None
     print(f'live view on {live.url} (Foxglove app: Open connection, Foxglove WebSocket)',
           file=sys.stderr, flush=True)
     return live
 
 
+def _finish(bag, path, staged) -> None:
+    """Close the bag (signals held meanwhile) and move it into place; a failed close removes it."""
+    from abb_ros.commands.api import CommandFailed, commit_directory, signals_deferred
+    from abb_ros.io.bag_writer import BagWriteError
+    try:
+        with signals_deferred():
+            bag.close()
+    except BagWriteError as exc:
+        shutil.rmtree(staged, ignore_errors=True)
+        raise CommandFailed(f'--out {path}: finishing the bag failed ({_why(exc)}); the '
+                            'partial bag was removed') from None
+    finally:
+        commit_directory(path, staged)
+
+
 def run(args) -> dict:
     """Run the scenario headless (a bag with ``--out``) and return the summary."""
     from abb_ros.app.headless import check_duration, run_scenario
     from abb_ros.app.run_sinks import Sinks
-    from abb_ros.commands.api import CommandFailed, UsageError, drive_params, parse_settings
+    from abb_ros.commands.api import (
+        CommandFailed,
+        UsageError,
+        commit_directory,
+        drive_params,
+        parse_settings,
+        signals_deferred,
+        stage_directory,
+        stop_point,
+    )
     from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
     from abb_ros.io.scenario import load_scenario
     from abb_ros.model.integrate import StateError
@@ -145,28 +167,31 @@ def run(args) -> dict:
             raise ParamError('duration', args.duration, '(0, inf) s')
         scenario.duration = float(args.duration)
     try:
-        check_duration(scenario.duration)
+        check_duration(scenario.duration, dt=options.get('dt'))
     except ParamError as exc:
         if args.duration is not None:
             raise
         raise UsageError(f'--scenario {args.scenario}: {exc}') from None
-    bag = None
-    existed = True
+    bag = out = None
     if args.out:
-        existed = os.path.lexists(args.out)
+        out = stage_directory('--out', args.out, args.overwrite)
+    live = _live_view(args.live_view)
+    if args.out:
         try:
-            bag = BagWriter(args.out, overwrite=args.overwrite)
-            bag.set_drive_params(scenario.params)
+            with signals_deferred():
+                bag = BagWriter(out)
+                bag.set_drive_params(scenario.params)
         except (BagError, OSError) as exc:
-            if not existed:
-                shutil.rmtree(args.out, ignore_errors=True)
+            if live is not None:
+                live.close()
+            shutil.rmtree(out, ignore_errors=True)
+            commit_directory(args.out, out)
             if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
                 raise CommandFailed(f'--out {args.out}: {_why(exc)}; nothing was written'
                                     ) from None
             why = _why(exc) if isinstance(exc, OSError) else str(exc)
             raise UsageError(f'--out {args.out}: {why}'.replace('pass overwrite=True',
                                                                  'pass --overwrite')) from None
-    live = _live_view(args.live_view, out_made=not existed, out=args.out)
     sinks = [sink for sink in (bag, live) if sink is not None]
     real_time = live is not None if args.real_time is None else args.real_time
     sink = Sinks(sinks, real_time) if sinks else None
@@ -177,19 +202,21 @@ def run(args) -> dict:
                    desc=f'abb-sim run {scenario.name}', leave=False,
                    bar_format='{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]')
     try:
-        result = run_scenario(scenario, bag=sink, progress=bar.update if bar else None,
-                              **options)
+        with signals_deferred():    # a signal stops the run between chunks (stop_point)
+            result = run_scenario(scenario, bag=sink, progress=stop_point(bar.update if bar
+                                                                          else None), **options)
     except StateError as exc:
         if bag is not None:
             bag.mark_incomplete(str(exc))
         raise
     except BagWriteError as exc:
-        shutil.rmtree(args.out, ignore_errors=True)
+        shutil.rmtree(out, ignore_errors=True)
         raise CommandFailed(f'--out {args.out}: writing the bag failed ({_why(exc)}); '
                             'the partial bag was removed') from None
     except BaseException:
         if bag is not None:
-            bag.mark_incomplete('the run was interrupted')
+            with signals_deferred():
+                bag.mark_incomplete('the run was interrupted')
         raise
     finally:
         if bar is not None:
@@ -197,12 +224,7 @@ def run(args) -> dict:
         if live is not None:
             live.close()
         if bag is not None:
-            try:
-                bag.close()
-            except BagWriteError as exc:
-                shutil.rmtree(args.out, ignore_errors=True)
-                raise CommandFailed(f'--out {args.out}: finishing the bag failed '
-                                    f'({_why(exc)}); the partial bag was removed') from None
+            _finish(bag, args.out, out)
     p = scenario.params
     y = result.y[-1]
     layout = StateLayout(p.n)
@@ -228,8 +250,6 @@ def run(args) -> dict:
         summary['contact_max_substeps'] = result.max_substeps
     if result.rolling_switches:
         summary['rolling_switches'] = result.rolling_switches
-    if live is not None:
-        summary['live_view'] = live.url
     if args.out:
         summary['bag'] = str(args.out)
         summary['messages'] = result.messages

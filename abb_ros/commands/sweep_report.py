@@ -17,10 +17,13 @@ def add_arguments(parser) -> None:
 def run(args) -> dict:
     """Write the sweep's figures and summary.json; return the key figures of the summary."""
     from abb_ros.sweep.report import make_report
+    from abb_ros.sweep.store import SweepFileError
     try:
         summary = make_report(args.sweep_dir, args.out)
     except (FileNotFoundError, NotADirectoryError) as exc:
         raise UsageError(f'{args.sweep_dir}: {exc}') from None
+    except SweepFileError as exc:
+        raise UsageError(str(exc)) from None
     keep = ('name', 'samples', 'samples_planned', 'yield', 'yield_all_speeds',
             'run_balanced_fraction', 'run_status_counts', 'influence_abs_spearman', 'figures')
     return {'out': str(args.out), **{k: summary[k] for k in keep if k in summary}}

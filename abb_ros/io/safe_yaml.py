@@ -1,7 +1,8 @@
 """YAML read with limits: every YAML file abb_ros reads goes through here.
 
-A parameter file, a scenario or a bag's ``metadata.yaml`` is read with a size cap, a nesting cap
-and no aliases (``*name``): a 1 KB "billion laughs" file of nested aliases would otherwise expand
+A parameter file, a scenario or a bag's ``metadata.yaml`` is read with a size cap, a nesting
+cap, no aliases (``*name``) and no key twice in one mapping (YAML would keep the last one
+silently): a 1 KB "billion laughs" file of nested aliases would otherwise expand
 to gigabytes when it is printed or walked, and a file of ten thousand ``[`` would exhaust the
 parser's recursion. Any problem (missing file, a directory, not UTF-8, malformed, over a limit)
 is one :class:`YamlFileError` that names the file and what is wrong.
@@ -57,19 +58,28 @@ def _one_line(exc: yaml.YAMLError) -> str:
 
 
 def _check_events(text: str) -> None:
-    """Refuse aliases and deep nesting from the event stream, before anything is built."""
-    depth = 0
+    """Refuse aliases, deep nesting and repeated keys from the event stream, before building."""
+    open_ = []     # per open collection: [keys seen, next node is a key] or None (a sequence)
     for event in yaml.parse(text, Loader=_LOADER):
         if isinstance(event, yaml.AliasEvent):
             raise yaml.YAMLError(f'YAML aliases (*name) are not accepted '
                                  f'(line {event.start_mark.line + 1})')
+        if isinstance(event, (yaml.ScalarEvent, yaml.CollectionStartEvent)) and open_ \
+                and open_[-1] is not None:
+            keys, is_key = open_[-1]
+            if is_key and isinstance(event, yaml.ScalarEvent):
+                if event.value in keys:
+                    raise yaml.YAMLError(f'the key {event.value!r} appears twice in one '
+                                         f'mapping (line {event.start_mark.line + 1})')
+                keys.add(event.value)
+            open_[-1][1] = not is_key
         if isinstance(event, yaml.CollectionStartEvent):
-            depth += 1
-            if depth > MAX_DEPTH:
+            open_.append([set(), True] if isinstance(event, yaml.MappingStartEvent) else None)
+            if len(open_) > MAX_DEPTH:
                 raise yaml.YAMLError(f'nested deeper than {MAX_DEPTH} levels '
                                      f'(line {event.start_mark.line + 1})')
         elif isinstance(event, yaml.CollectionEndEvent):
-            depth -= 1
+            open_.pop()
 
 
 def load_text(text: str, where='<text>', max_bytes: int = MAX_BYTES):

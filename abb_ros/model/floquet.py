@@ -47,8 +47,9 @@ from abb_ros.model.jit import Kernels, KernelSet, prange
 from abb_ros.model.linear import in_plane_harmonics, out_of_plane_harmonics, stack_params
 from abb_ros.model.params import ParamError
 
-__all__ = ['STEPS_PER_RADIAN', 'MIN_STEPS', 'JIT', 'PY', 'SERIAL', 'monodromy_batch', 'steps_for',
-           'monodromy', 'monodromy_reference', 'multipliers', 'max_multiplier', 'PLANES',
+__all__ = ['STEPS_PER_RADIAN', 'MIN_STEPS', 'MAX_STEPS', 'JIT', 'PY', 'SERIAL', 'monodromy_batch',
+           'steps_for', 'monodromy', 'monodromy_reference', 'multipliers', 'max_multiplier',
+           'PLANES',
            'equilibria', 'max_multiplier_batch', 'sweep_speed', 'PointStability',
            'point_stability', 'StabilityMap', 'stability_map', 'MAP_AXES', 'BALANCED', 'UNSTABLE',
            'NO_EQUILIBRIUM', 'INVARIANCE_TOL', 'FamilyInvarianceError', 'MultiplierBatch',
@@ -58,6 +59,11 @@ STEPS_PER_RADIAN = 8.0
 """RK4 steps per radian of the fastest phase advance in tau (chosen in test_floquet's accuracy
 study: |lambda|max within 1e-6 of a DOP853 reference at rtol 1e-12; the error falls as
 STEPS_PER_RADIAN**-4, and 12 gave 3e-8 at worst on a random sample)."""
+
+MAX_STEPS = 100_000
+"""Most RK4 steps per period of one point (a few seconds of work): the steps follow from the
+ratio of the drive's fastest natural rate to the spindle speed, so a speed far below the
+resonances (0.01 rad/s) is refused before any work, naming the slowest speed that fits."""
 
 MIN_STEPS = 32
 """Fewest RK4 steps per period."""
@@ -341,13 +347,50 @@ def _rate_estimate(Mh, Ch, Kh, omega):
     """Estimate the fastest rate [1/rad of tau] of each point, from the constant harmonic, plus 1.
 
     sqrt of the largest eigenvalue of M0^-1 K0 / omega^2 (oscillation) plus the largest one of
-    M0^-1 C0 / omega (decay); the +1 covers the phase advance of the rotating terms.
+    M0^-1 C0 / omega (decay); the +1 covers the phase advance of the rotating terms. A point
+    whose matrices overflow (a speed near zero) has rate inf.
     """
     Minv = np.linalg.inv(Mh[:, 0])
     w = omega[:, None, None]
-    osc = np.abs(np.linalg.eigvals(Minv @ Kh[:, 0] / w ** 2)).max(axis=-1)
-    dec = np.abs(np.linalg.eigvals(Minv @ Ch[:, 0] / w)).max(axis=-1)
-    return np.sqrt(osc) + dec + 1.0
+    with np.errstate(over='ignore', divide='ignore', invalid='ignore'):
+        K, C = Minv @ Kh[:, 0] / w ** 2, Minv @ Ch[:, 0] / w
+    rate = np.full(len(omega), np.inf)
+    ok = np.isfinite(K).all(axis=(1, 2)) & np.isfinite(C).all(axis=(1, 2))
+    if ok.any():
+        osc = np.abs(np.linalg.eigvals(K[ok])).max(axis=-1)
+        dec = np.abs(np.linalg.eigvals(C[ok])).max(axis=-1)
+        rate[ok] = np.sqrt(osc) + dec + 1.0
+    return rate
+
+
+def _built(p, builder, omegas, phi, tau_end, sel):
+    """Return the harmonics and the fastest rate (:func:`_rate_estimate`) of the points ``sel``."""
+    sub = type(p)(**{f: v[sel] if isinstance(v, np.ndarray) else v for f, v in vars(p).items()})
+    Mh, Ch, Kh = builder(sub, omegas[sel], phi[sel])
+    return Mh, Ch, Kh, _rate_estimate(Mh, Ch, Kh, omegas[sel])
+
+
+def _check_steps(p, builder, omegas, phi, tau_end, chunks):
+    """Refuse, before any integration, a batch with a point needing over MAX_STEPS steps.
+
+    Returns the harmonics and rates of a single chunk (so they are built once), else [].
+    """
+    worst, where, kept = 0.0, 0.0, []
+    for sel in chunks:
+        Mh, Ch, Kh, rate = _built(p, builder, omegas, phi, tau_end, sel)
+        if len(chunks) == 1:
+            kept = [(Mh, Ch, Kh, rate)]
+        i = int(np.argmax(rate))
+        if STEPS_PER_RADIAN * rate[i] * tau_end > worst:
+            worst, where = STEPS_PER_RADIAN * float(rate[i]) * tau_end, float(omegas[sel][i])
+    if worst > MAX_STEPS:
+        slowest = where * worst / MAX_STEPS
+        valid = f'at least about {slowest:.3g} rad/s for this drive' if math.isfinite(
+            slowest) else 'a speed well above 0 rad/s'
+        raise ParamError('omega', where, valid,
+                         f'{worst:.3g} RK4 steps per period, over the limit of {MAX_STEPS}: '
+                         'the drive\'s fastest rate (stiffness, damping) is far above the speed')
+    return kept
 
 
 def equilibria(params_list):
@@ -410,12 +453,12 @@ def multipliers_batch(params_list, omegas, plane='in', phi_star=None, progress=N
     invariance = np.zeros(B)
     p = stack_params(params_list)
     idx = np.flatnonzero(exists)
-    for start in range(0, idx.size, CHUNK):
-        sel = idx[start:start + CHUNK]
-        sub = type(p)(**{f: v[sel] if isinstance(v, np.ndarray) else v
-                         for f, v in vars(p).items()})
-        Mh, Ch, Kh = builder(sub, omegas[sel], phi[sel])
-        steps = steps_for(_rate_estimate(Mh, Ch, Kh, omegas[sel]), tau_end)
+    chunks = [idx[start:start + CHUNK] for start in range(0, idx.size, CHUNK)]
+    built = _check_steps(p, builder, omegas, phi, tau_end, chunks)
+    for sel in chunks:
+        Mh, Ch, Kh, rate = built.pop(0) if built else _built(p, builder, omegas, phi, tau_end,
+                                                               sel)
+        steps = steps_for(rate, tau_end)
         Phi = monodromy_batch(Mh, Ch, Kh, omegas[sel], tau_end, steps, kern)
         if plane == 'in' and phi.shape[1] > 1:
             U, k = tangent_frame(phi[sel])

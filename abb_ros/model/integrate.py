@@ -33,10 +33,15 @@ from abb_ros.model.params import DriveParams, ParamError
 from abb_ros.model.plant_spec import MOTOR_DEFAULTS
 from abb_ros.model.state import StateLayout, wrap_angle
 
-__all__ = ['DEFAULT_DT', 'ConstantSpeed', 'Ramp', 'SpindleMotor', 'StateError', 'Simulation',
-           'initial_state', 'reference_solution', 'Trajectory', 'simulate', 'TorqueMotor']
+__all__ = ['DEFAULT_DT', 'MAX_RUN_STEPS', 'ConstantSpeed', 'Ramp', 'SpindleMotor', 'StateError',
+           'Simulation', 'initial_state', 'reference_solution', 'Trajectory', 'simulate',
+           'TorqueMotor']
 
 DEFAULT_DT = 1.0 / 10000.0
+
+MAX_RUN_STEPS = 100_000_000
+"""Most fixed steps of one run (duration / dt): 10^4 simulated seconds at 10 kHz, hours of
+work and a bag of gigabytes; a longer run is refused before it starts."""
 
 CONTACT_DT_VERIFIED = (1e-5, 2e-4)
 """Steps [s] over which the contact step's rebound accuracy (1e-5 m/s or 7.8e-5 of the speed,

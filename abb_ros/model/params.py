@@ -21,7 +21,7 @@ import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
-from abb_ros.model.drive_spec import DRIVE_SPECS, MAX_BALLS, METAL_C, RUBBER_C
+from abb_ros.model.drive_spec import DRIVE_SPECS, MAX_BALLS, METAL_C, RUBBER_C, SPEED_SPEC
 from abb_ros.model.param_spec import ParamError, ParamSpec
 
 __all__ = [
@@ -230,7 +230,7 @@ def apply_settings(params: DriveParams, settings: Mapping[str, Any],
         if key in PARAM_SPECS:
             si[key] = value
         elif key == 'omega':
-            omega = _checked_nonneg('omega', value, 'rad/s')
+            omega = SPEED_SPEC.check(value)
         elif key in DIMENSIONLESS_NAMES:
             dimless[key] = value
         else:
@@ -239,9 +239,14 @@ def apply_settings(params: DriveParams, settings: Mapping[str, Any],
     if si:
         params = params.replace(**si)
     for key in DIMENSIONLESS_NAMES:
-        if key not in dimless:
-            continue
-        value = dimless[key]
+        if key in dimless:
+            params, omega = _apply_dimensionless(params, omega, key, dimless[key])
+    return params, omega
+
+
+def _apply_dimensionless(params, omega, key, value):
+    """Apply one Eq. (39) setting; an SI value out of range is refused naming ``key``."""
+    try:
         if key == 'mbar':
             _checked_positive('mbar', value)
             params = params.replace(m=value * params.M)
@@ -253,9 +258,18 @@ def apply_settings(params: DriveParams, settings: Mapping[str, Any],
         elif key == 'Dbar':
             Dbar = _checked_nonneg('Dbar', value)
             params = params.replace(D=Dbar * params.m * params.R ** 2 * params.omega0)
-        elif key == 'wbar':
-            omega = _checked_nonneg('wbar', value) * params.omega0
+        else:
+            omega = SPEED_SPEC.check(_checked_nonneg('wbar', value) * params.omega0)
+    except ParamError as exc:
+        if exc.name == key:
+            raise
+        raise ParamError(key, value, f'{exc.name} in {exc.valid}',
+                         f'{exc.name} would be {_short(exc.value)}') from None
     return params, omega
+
+
+def _short(value):
+    return f'{value:.6g}' if isinstance(value, float) else repr(value)
 
 
 def _checked_nonneg(name, value, unit=''):

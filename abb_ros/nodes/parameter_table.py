@@ -87,11 +87,28 @@ def markdown() -> str:
               'controller': CONTROLLER_SPECS}
     for key, specs in groups.items():
         lines += ['## ' + titles[key], ''] + _table(specs) + ['']
+    lines += _limits()
     lines.append('The analysis node and the example controller also declare `drive.*` and '
                  '`max_spindle_speed` (above); the analysis node copies them from the '
                  'simulator it follows; the example controller also declares `motor.*` '
                  '(simulator, above), which must be the simulator\'s in torque mode.')
     return '\n'.join(lines) + '\n'
+
+
+def _limits() -> list[str]:
+    """Return the section on the operating speed and the work limits of ``abb-sim``."""
+    from abb_ros.model.drive_spec import CLAMPED_DECK, SPAN, SPEED_SPEC
+    from abb_ros.model.floquet import MAX_STEPS
+    from abb_ros.model.integrate import MAX_RUN_STEPS
+    return ['## Operating point and work limits (`abb-sim`)', ''] + _table([SPEED_SPEC]) + [
+        '', f'Each drive parameter above lies within a factor of {SPAN:.0e} of its Table 1 '
+        'value (of a typical value where the default is 0; the deck\'s mass and inertias up '
+        f'to {CLAMPED_DECK:.0e}, a deck clamped by its mass): wider than any optical '
+        'drive, narrow enough that the analysis keeps its digits. Work that grows with the '
+        'input is limited, and checked before it starts: at most '
+        f'{MAX_STEPS} RK4 steps per period of one Floquet point (`stability`, `map`, the '
+        f'sweeps; a speed far below the resonances is refused) and at most {MAX_RUN_STEPS} '
+        'steps per run (`run --duration`, duration / dt); docs/cli.md lists the others.', '']
 
 
 def main(argv=None) -> int:

@@ -83,6 +83,19 @@ def compute_partition(spec, index: int, columns: dict) -> dict:
     return out
 
 
+def _multipliers(multipliers_batch, plist, omegas, plane, kern):
+    """Run multipliers_batch; a drive over its step limit is refused naming the spec's field."""
+    from abb_ros.model.params import ParamError
+    try:
+        return multipliers_batch(plist, omegas, plane, kern=kern)
+    except ParamError as exc:
+        if exc.name != 'omega':
+            raise
+        raise ParamError('compute.stability', exc.value, exc.valid,
+                         f'a drawn drive at this speed: {exc.why}; narrow its parameters or '
+                         'raise the slowest speed') from None
+
+
 def _stability(spec, params, groups) -> dict:
     from abb_ros.model.floquet import SERIAL, multipliers_batch
     speeds = spec.speeds
@@ -95,7 +108,7 @@ def _stability(spec, params, groups) -> dict:
         plist = [params[i] for i in idx for _ in range(S)]
         omegas = np.tile(speeds, idx.size)
         for plane in ('in', 'out'):
-            res = multipliers_batch(plist, omegas, plane, kern=SERIAL)
+            res = _multipliers(multipliers_batch, plist, omegas, plane, SERIAL)
             lam[plane][idx] = res.lam.reshape(idx.size, S)
             if plane == 'in':
                 neutral[idx] = res.neutral.reshape(idx.size, S)[:, 0]

@@ -52,7 +52,10 @@ def check_out_dir(spec, out_dir, resume: bool) -> Path:
         if not resume:
             raise SweepError(f'--out {out}: exists and is not empty (pass --resume to finish '
                              'the sweep it holds, or choose a new directory)')
-        manifest = store.read_manifest(out)
+        try:
+            manifest = store.read_manifest(out)
+        except store.SweepFileError as exc:
+            raise SweepError(f'--resume: {exc}; no sweep to resume') from None
         if manifest is None:
             raise SweepError(f'--out {out}: holds no {store.MANIFEST}, so no sweep to resume')
         held = json.dumps(manifest.get('spec'), sort_keys=True, separators=(',', ':'))

@@ -42,6 +42,7 @@ import numpy as np
 
 from abb_ros.io.safe_yaml import YamlFileError, load_file
 from abb_ros.io.scenario import finite_number as _num
+from abb_ros.model.drive_spec import MAX_OMEGA
 from abb_ros.model.params import DIMENSIONLESS_NAMES, PARAM_SPECS, ParamError, apply_settings
 
 __all__ = ['MAX_SAMPLES', 'MAX_SPEC_BYTES', 'MAX_SPEEDS', 'SweepSpec', 'load_spec', 'parse_spec',
@@ -65,6 +66,9 @@ MAX_DURATION = 1000.0
 SAMPLEABLE = tuple(PARAM_SPECS) + tuple(n for n in DIMENSIONLESS_NAMES if n != 'wbar')
 """Parameters a spec may vary: the SI drive parameters and the Eq. (39) names but wbar (speeds
 belong to ``compute``)."""
+
+_SAME_FIELD = {'mbar': 'm', 'epsbar': 'eps', 'zeta': 'c', 'Dbar': 'D'}
+"""Eq. (39) names and the SI field each sets: a spec may vary one of the two."""
 
 DISTRIBUTIONS = {
     'uniform': ({'low', 'high'}, set()),
@@ -213,6 +217,10 @@ def parse_spec(doc, base_dir=None) -> SweepSpec:
         if pname not in SAMPLEABLE:
             raise ParamError(f'parameters.{pname}', dist, 'one of ' + ', '.join(SAMPLEABLE),
                              'unknown parameter')
+        twin = _SAME_FIELD.get(pname) or {v: k for k, v in _SAME_FIELD.items()}.get(pname)
+        if twin in params_doc:
+            raise ParamError(f'parameters.{pname}', dist, f'one of {pname} and {twin}, not '
+                             'both', f'both set {_SAME_FIELD.get(pname, pname)}')
         parameters[pname] = _distribution(f'parameters.{pname}', pname, dist, nominal)
 
     sampling = _mapping('sampling', doc.get('sampling') or {}, _SAMPLING_KEYS)
@@ -241,9 +249,9 @@ def parse_spec(doc, base_dir=None) -> SweepSpec:
         raise ParamError('operating_omega', doc['operating_omega'],
                          'absent when operating_wbar is given (one of the two)')
     if 'operating_wbar' in doc:
-        operating = _num('operating_wbar', doc['operating_wbar'], 0.0, True) * nominal.omega0
+        operating = _speed('operating_wbar', doc['operating_wbar'], nominal.omega0)
     elif 'operating_omega' in doc:
-        operating = _num('operating_omega', doc['operating_omega'], 0.0, True)
+        operating = _speed('operating_omega', doc['operating_omega'], 1.0)
     else:
         operating = scenario.commands[-1].omega if scenario.commands else scenario.omega
         if operating <= 0:
@@ -285,7 +293,7 @@ def _speeds(st, omega0, operating):
             raise ParamError(f'compute.stability.{key}', lst,
                              f'a list of 1..{MAX_SPEEDS} positive speeds')
         scale = omega0 if key == 'wbar' else 1.0
-        values = [_num(f'compute.stability.{key}', v, 0.0, True) * scale for v in lst]
+        values = [_speed(f'compute.stability.{key}', v, scale) for v in lst]
     elif 'range' in st:
         rng = _mapping('compute.stability.range', st['range'], _RANGE_KEYS, required=('points',))
         keys = [k for k in ('wbar', 'omega') if k in rng]
@@ -296,8 +304,9 @@ def _speeds(st, omega0, operating):
         lohi = rng[key]
         if not isinstance(lohi, list) or len(lohi) != 2:
             raise ParamError(f'compute.stability.range.{key}', lohi, 'a list [low, high]')
-        lo = _num(f'compute.stability.range.{key}', lohi[0], 0.0, True)
-        hi = _num(f'compute.stability.range.{key}', lohi[1], 0.0, True)
+        scale = omega0 if key == 'wbar' else 1.0
+        lo = _speed(f'compute.stability.range.{key}', lohi[0], scale) / scale
+        hi = _speed(f'compute.stability.range.{key}', lohi[1], scale) / scale
         if not hi > lo:
             raise ParamError(f'compute.stability.range.{key}', lohi,
                              'a non-empty range [low, high] with low < high')
@@ -307,6 +316,12 @@ def _speeds(st, omega0, operating):
     # the operating speed replaces a listed speed within round-off of it (linspace end points)
     values = [v for v in values if abs(v - operating) > 1e-9 * operating] + [operating]
     return np.unique(np.asarray(values, dtype=float))
+
+
+def _speed(where, value, scale):
+    """Return the speed [rad/s] of ``value`` (wbar: ``scale`` omega0, omega: 1), checked."""
+    unit = 'rad/s' if scale == 1.0 else f'(omega0 = {scale:.6g} rad/s)'
+    return _num(where, value, 0.0, True, MAX_OMEGA / scale, unit) * scale
 
 
 def _check_value(where, name, value, nominal):
@@ -342,7 +357,7 @@ def _distribution(where, name, dist, nominal):
             raise ParamError(f'{where}.high', dist['high'],
                              f'greater than low = {out["low"]:g} (the range is empty)')
         if kind == 'normal':
-            out['std'] = _num(f'{where}.std', dist['std'], 0.0, True)
+            _check_normal(where, out, dist)
         if kind == 'grid':
             out['points'] = _int(f'{where}.points', dist['points'], 2, MAX_SAMPLES)
             out['values'] = [float(v) for v in np.linspace(out['low'], out['high'],
@@ -359,6 +374,21 @@ def _distribution(where, name, dist, nominal):
         _check_value(f'{where}.values', name, v, nominal)
     out['values'] = [int(v) if name == 'n' else float(v) for v in values]
     return out
+
+
+def _check_normal(where, out, dist):
+    """Check a truncated normal: its mean within its bounds, its spread not lost to them."""
+    width = out['high'] - out['low']
+    if not out['low'] <= out['mean'] <= out['high']:
+        raise ParamError(f'{where}.mean', dist['mean'],
+                         f'[{out["low"]:g}, {out["high"]:g}] (between low and high)')
+    out['std'] = _num(f'{where}.std', dist['std'], 0.0, True)
+    if out['std'] > width:
+        raise ParamError(f'{where}.std', dist['std'], f'(0, {width:g}] (at most high - low)',
+                         'the bounds would cut the normal to almost uniform: use dist: uniform')
+    if out['std'] < 1e-9 * max(abs(out['mean']), width):
+        raise ParamError(f'{where}.std', dist['std'], f'at least {1e-9 * width:g}',
+                         'a spread below the round-off of the mean draws one value')
 
 
 # ---- drawing -----------------------------------------------------------------------------

@@ -19,7 +19,8 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ['package_version', 'spec_json', 'part_path', 'write_partition', 'finished_partitions',
-           'read_results', 'read_manifest', 'write_manifest', 'MANIFEST', 'SPEC_KEY',
+           'read_results', 'read_manifest', 'SweepFileError', 'write_manifest', 'MANIFEST',
+           'SPEC_KEY',
            'VERSION_KEY']
 
 MANIFEST = '_sweep.json'
@@ -64,13 +65,26 @@ def write_manifest(out_dir, spec, partitions: int) -> None:
                         (json.dumps(doc, indent=1, sort_keys=True) + '\n').encode())
 
 
+class SweepFileError(ValueError):
+    """A file of a sweep directory that is not what abb-sim sweep writes (names the file)."""
+
+
 def read_manifest(out_dir) -> dict | None:
-    """Return the manifest of the sweep in ``out_dir``, or None without one."""
+    """Return the manifest of the sweep in ``out_dir``, or None without one.
+
+    Raises SweepFileError for a manifest that is not a JSON object with a spec.
+    """
     path = Path(out_dir) / MANIFEST
     if not path.exists():
         return None
-    with open(path, encoding='utf-8') as f:
-        return json.load(f)
+    try:
+        with open(path, encoding='utf-8') as f:
+            doc = json.load(f)
+    except (ValueError, UnicodeDecodeError) as exc:
+        raise SweepFileError(f'{path}: not a sweep manifest (not JSON: {exc})') from None
+    if not isinstance(doc, dict) or not isinstance(doc.get('spec'), dict):
+        raise SweepFileError(f'{path}: not a sweep manifest (a JSON object with a spec)')
+    return doc
 
 
 def to_table(result: dict, spec):
@@ -126,20 +140,43 @@ def remove_temporaries(out_dir) -> None:
             os.remove(Path(out_dir) / entry)
 
 
+def _read_part(pq, path):
+    """Read one part file; SweepFileError names a file that is not a part of a sweep."""
+    import pyarrow as pa
+    try:
+        table = pq.read_table(path)
+    except (pa.ArrowException, OSError, ValueError) as exc:
+        why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise SweepFileError(f'{path}: not a readable Parquet file ({why})') from None
+    meta = table.schema.metadata or {}
+    if SPEC_KEY not in meta or 'sample' not in table.column_names:
+        raise SweepFileError(f'{path}: a Parquet file, but not a part of an abb-sim sweep (no '
+                             f'{SPEC_KEY.decode()} metadata or sample column)')
+    try:
+        json.loads(meta[SPEC_KEY])
+    except ValueError:
+        raise SweepFileError(f'{path}: its {SPEC_KEY.decode()} metadata is not JSON') from None
+    return table
+
+
 def read_results(out_dir):
     """Read all finished partitions as one pyarrow Table sorted by sample.
 
     Returns the table and the metadata of the first file ({'spec': dict, 'version': str});
-    raises FileNotFoundError without any.
+    raises FileNotFoundError without any and SweepFileError for a file that is not a part.
     """
     import pyarrow as pa
     import pyarrow.parquet as pq
     files = sorted(p for p in Path(out_dir).iterdir() if _PART.match(p.name))
     if not files:
         raise FileNotFoundError(f'no part-*.parquet files in {out_dir}')
-    tables = [pq.read_table(p) for p in files]
+    tables = [_read_part(pq, p) for p in files]
     meta = tables[0].schema.metadata or {}
-    table = pa.concat_tables([t.replace_schema_metadata(None) for t in tables])
+    try:
+        table = pa.concat_tables([t.replace_schema_metadata(None) for t in tables])
+    except pa.ArrowException as exc:
+        raise SweepFileError(f'{out_dir}: its part files do not hold one sweep ({exc})'
+                             ) from None
     table = table.sort_by('sample')
     info = {'spec': json.loads(meta.get(SPEC_KEY, b'{}')),
             'version': meta.get(VERSION_KEY, b'unknown').decode()}

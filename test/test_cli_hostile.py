@@ -1,0 +1,289 @@
+"""Hostile command lines, class by class: exit code 2 (1 for a runtime failure), one line naming
+the flag, field or parameter and what is valid, nothing on stderr beside it, within a bound time,
+and nothing left behind that looks like a success.
+
+The classes: extreme but finite numbers, work that grows with the input (checked before the
+work), sweep specs, sweep directories that no sweep wrote, outputs that exist, and map flags
+that name an axis the map sweeps. Run in-process through ``cli.main(argv)``.
+"""
+
+import time
+
+import pytest
+
+from abb_ros.cli import main
+
+
+@pytest.fixture(scope='module', autouse=True)
+def imported():
+    """Import every command module once, so that time limits measure the command alone."""
+    from abb_ros import cli
+    for name in cli.SUBCOMMANDS:
+        cli._load(name)
+    import abb_ros.app.headless  # noqa: F401
+    import abb_ros.model.floquet  # noqa: F401
+
+
+def refused(capsys, argv, code=2, seconds=5.0):
+    """Run ``argv``; return its single stderr line after checking the contract."""
+    t0 = time.perf_counter()
+    got = main(argv)
+    elapsed = time.perf_counter() - t0
+    out = capsys.readouterr()
+    lines = out.err.strip().splitlines()
+    assert got == code, out.err
+    assert len(lines) == 1, out.err
+    assert 'Traceback' not in out.err and 'Warning' not in out.err
+    assert elapsed < seconds, f'{elapsed:.1f} s'
+    return lines[0]
+
+
+# ---- extreme but finite numbers, and work that follows from the input ----------------------
+
+MAP = ['map', '--x', 'wbar', '--y', 'mbar', '--res', '2x2', '--no-progress', '--out', 'm.png']
+
+EXTREME_CASES = {
+    'a stiffness of 1e300': (['stability', '--set', 'wbar=2', '--set', 'k=1e300'],
+                             "'k' = 1e+300", '3.972e+09] N/m'),
+    'a ball mass of 1e-300': (['stability', '--set', 'wbar=2', '--set', 'm=1e-300'], "'m'"),
+    'a race radius of 1e10': (['stability', '--set', 'wbar=2', '--set', 'R=1e10'], "'R'"),
+    'a damping of 1e300': (['stability', '--set', 'wbar=2', '--set', 'c=1e300'], "'c'"),
+    'a drag of 1e300': (['stability', '--set', 'wbar=2', '--set', 'D=1e300'], "'D'"),
+    'zeta of 1e300': (['stability', '--set', 'wbar=2', '--set', 'zeta=1e300'], "'zeta'",
+                      'c in [0, 2.53e+06] kg/s'),
+    'Dbar of 1e300': (['stability', '--set', 'wbar=2', '--set', 'Dbar=1e300'], "'Dbar'"),
+    'a speed of 1e300 rad/s': (['stability', '--set', 'omega=1e300'], "'omega'",
+                               '[0, 100000] rad/s'),
+    'wbar of 1e300': (['stability', '--set', 'wbar=1e300'], "'wbar'", 'omega in'),
+    'wbar of 1e-300': (['stability', '--set', 'wbar=1e-300'], "'omega'", 'RK4 steps'),
+    'a speed of 0.01 rad/s': (['stability', '--set', 'omega=0.01'], "'omega' = 0.01",
+                              'at least about', 'limit of 100000'),
+    'a speed of 5e-324 rad/s': (['stability', '--set', 'omega=5e-324'], "'omega'"),
+    'the largest damping at wbar 2': (['stability', '--set', 'wbar=2', '--set', 'c=2.5e6'],
+                                      "'omega'", 'RK4 steps'),
+    'the largest drag at wbar 2': (['stability', '--set', 'wbar=2', '--set', 'D=5'],
+                                   "'omega'", 'RK4 steps'),
+    'freqs of a stiffness of 1e300': (['freqs', '--set', 'k=1e300'], "'k'"),
+    'freqs of masses of 1e-300': (['freqs', '--set', 'M=1e-300', '--set', 'M_P=1e-300'],
+                                  "'M_P' = 1e-300"),
+    'freqs of a deck width of 1e300': (['freqs', '--set', 'a=1e300'], "'a'"),
+    'a map range up to 1e300': (MAP + ['--range-x', '0.2:1e300'], '--range-x',
+                                'wbar = 1e+300'),
+    'a map of a stiffness of 1e10': (MAP + ['--set', 'k=1e10'], "error: parameter 'k'"),
+    'a map zeta range up to 1e300': (['map', '--x', 'zeta', '--y', 'mbar', '--res', '2x2',
+                                      '--set', 'wbar=2', '--range-x', '0:1e300', '--out',
+                                      'm.png'], '--range-x', "'zeta'"),
+    'a map from wbar 0': (MAP + ['--range-x', '0:3'], "slowest speed", '--range-x'),
+    'a run of 1e300 s': (['run', '--duration', '1e300', '--no-progress'], "'duration'",
+                         '[0.001, 10000] s', '100000000 steps'),
+    'a run of 1e5 s': (['run', '--duration', '1e5', '--no-progress'], "'duration'"),
+    'a run of 6000 s at 20 kHz': (['run', '--duration', '6000', '--set',
+                                  'integration_rate_hz=20000', '--no-progress'],
+                                 '[0.001, 5000] s'),
+}
+
+
+@pytest.mark.parametrize('case', sorted(EXTREME_CASES))
+def test_an_extreme_value_is_a_range_error_before_any_work(tmp_path, capsys, monkeypatch,
+                                                           case):
+    monkeypatch.chdir(tmp_path)
+    argv, *needles = EXTREME_CASES[case]
+    line = refused(capsys, argv)
+    for needle in needles:
+        assert needle in line
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_the_ranges_keep_the_papers_drives_valid(capsys):
+    """Table 1, metal washers, heavy balls of Fig. 8 and the stiff drive of the blow-up test."""
+    for argv in (['stability', '--set', 'wbar=0.2'], ['stability', '--set', 'wbar=3.5'],
+                 ['stability', '--set', 'wbar=2', '--set', 'mbar=2.5'],
+                 ['freqs', '--set', 'k=1e9'], ['freqs', '--set', 'c=0.66']):
+        assert main(argv) == 0, capsys.readouterr().err
+        assert capsys.readouterr().err == ''
+
+
+# ---- outputs that exist, flags naming a swept axis -----------------------------------------
+
+def _bag(path):
+    assert main(['run', '--duration', '0.01', '--no-progress', '--out', str(path)]) == 0
+    return sorted(p.name for p in path.iterdir())
+
+
+def test_run_out_onto_an_existing_bag_needs_overwrite(tmp_path, capsys):
+    bag = tmp_path / 'bag'
+    before = _bag(bag)
+    mcap = (bag / 'bag_0.mcap').read_bytes()
+    capsys.readouterr()
+    line = refused(capsys, ['run', '--duration', '0.02', '--no-progress', '--out', str(bag)])
+    assert '--out' in line and '--overwrite' in line
+    assert (bag / 'bag_0.mcap').read_bytes() == mcap
+    assert main(['run', '--duration', '0.02', '--no-progress', '--out', str(bag),
+                 '--overwrite']) == 0
+    assert sorted(p.name for p in bag.iterdir()) == before
+    assert (bag / 'bag_0.mcap').read_bytes() != mcap
+    assert sorted(p.name for p in tmp_path.iterdir()) == ['bag']
+
+
+@pytest.mark.parametrize('case', ['two recordings', 'a recording without metadata',
+                                  'a foreign file', 'a file'])
+def test_run_overwrite_replaces_one_bag_only(tmp_path, capsys, case):
+    out = tmp_path / 'recs'
+    if case == 'a file':
+        out.write_text('x')
+    else:
+        out.mkdir()
+        names = {'two recordings': ['metadata.yaml', 'a.mcap', 'b.mcap'],
+                 'a recording without metadata': ['a.mcap'],
+                 'a foreign file': ['metadata.yaml', 'a.mcap', 'notes.txt']}[case]
+        for name in names:
+            (out / name).write_text(name)
+    before = sorted(tmp_path.rglob('*'))
+    line = refused(capsys, ['run', '--duration', '0.01', '--no-progress', '--out', str(out),
+                            '--overwrite'])
+    assert f'--out {out}' in line and 'not replacing it' in line
+    assert sorted(tmp_path.rglob('*')) == before
+
+
+@pytest.mark.parametrize('argv, needle', [
+    (['--x', 'wbar', '--y', 'mbar', '--set', 'wbar=2'], '--set wbar'),
+    (['--x', 'wbar', '--y', 'mbar', '--set', 'omega=300'], '--set omega'),
+    (['--x', 'zeta', '--y', 'mbar', '--set', 'wbar=2', '--set', 'mbar=0.1'], '--set mbar'),
+])
+def test_map_refuses_a_fixed_value_of_a_swept_axis(tmp_path, capsys, monkeypatch, argv, needle):
+    monkeypatch.chdir(tmp_path)
+    line = refused(capsys, ['map', *argv, '--res', '2x2', '--out', 'm.png', '--no-progress'])
+    assert needle in line and 'axis' in line
+    assert list(tmp_path.iterdir()) == []
+
+
+# ---- sweep specs ---------------------------------------------------------------------------
+
+SPEC = """\
+scenario: p3
+parameters:
+{parameters}
+samples: 2
+{extra}compute:
+  stability: {stability}
+"""
+
+SPEC_CASES = {
+    'a normal whose mean is outside its bounds': (
+        '  k: {dist: normal, mean: 5000, std: 100, low: 3500, high: 4500}', '', '{wbar: [2]}',
+        "'parameters.k.mean' = 5000", '[3500, 4500]'),
+    'a normal wider than its bounds': (
+        '  k: {dist: normal, mean: 4000, std: 5000, low: 3500, high: 4500}', '',
+        '{wbar: [2]}', "'parameters.k.std'", 'uniform'),
+    'a normal of no spread': (
+        '  k: {dist: normal, mean: 4000, std: 1.0e-300, low: 3500, high: 4500}', '',
+        '{wbar: [2]}', "'parameters.k.std'", 'round-off'),
+    'a parameter named twice': (
+        '  k: {dist: uniform, low: 3500, high: 4500}\n  k: {dist: uniform, low: 1, high: 2}',
+        '', '{wbar: [2]}', "'k' appears twice", 'line 4'),
+    'an SI name and its Eq. 39 twin': (
+        '  c: {dist: uniform, low: 0.5, high: 1}\n  zeta: {dist: uniform, low: 0.01, '
+        'high: 0.02}', '', '{wbar: [2]}', "'parameters.c'", 'not both'),
+    'an operating speed of 1e300': (
+        '  k: {dist: uniform, low: 3500, high: 4500}', 'operating_wbar: 1.0e+300\n',
+        '{wbar: [2]}', "'operating_wbar'"),
+    'an operating omega of 1e300': (
+        '  k: {dist: uniform, low: 3500, high: 4500}', 'operating_omega: 1.0e+300\n',
+        '{wbar: [2]}', "'operating_omega'", '100000'),
+    'a stability range up to 1e300': (
+        '  k: {dist: uniform, low: 3500, high: 4500}', '',
+        '{range: {wbar: [1, 1.0e+300], points: 3}}', "'compute.stability.range.wbar'"),
+    'a stability speed of 1e300': (
+        '  k: {dist: uniform, low: 3500, high: 4500}', '', '{omega: [1.0e+300]}',
+        "'compute.stability.omega'"),
+}
+
+
+@pytest.mark.parametrize('case', sorted(SPEC_CASES))
+def test_a_bad_sweep_spec_is_one_line_naming_the_field(tmp_path, capsys, case):
+    parameters, extra, stability, *needles = SPEC_CASES[case]
+    spec = tmp_path / 'spec.yaml'
+    spec.write_text(SPEC.format(parameters=parameters, extra=extra, stability=stability))
+    out = tmp_path / 'out'
+    line = refused(capsys, ['sweep', str(spec), '--out', str(out), '--serial',
+                            '--no-progress'])
+    for needle in needles:
+        assert needle in line
+    assert not out.exists()
+
+
+def test_a_sweep_drive_over_the_step_limit_names_the_stability_field(tmp_path, capsys):
+    spec = tmp_path / 'spec.yaml'
+    spec.write_text(SPEC.format(parameters='  c: {dist: uniform, low: 1.0e+5, high: 2.0e+6}',
+                                extra='', stability='{wbar: [2]}'))
+    line = refused(capsys, ['sweep', str(spec), '--out', str(tmp_path / 'out'), '--serial',
+                            '--no-progress'])
+    assert "'compute.stability'" in line and 'a drawn drive' in line
+    assert not list((tmp_path / 'out').glob('part-*'))
+
+
+# ---- sweep directories that no sweep wrote -------------------------------------------------
+
+def _parquet(path, metadata=None):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+    table = pa.table({'x': [1.0, 2.0]}).replace_schema_metadata(metadata)
+    pq.write_table(table, path)
+
+
+@pytest.mark.parametrize('case', ['garbage', 'not a sweep', 'empty file'])
+def test_sweep_report_of_a_foreign_part_is_one_line_naming_it(tmp_path, capsys, case):
+    sweep = tmp_path / 'sweep'
+    sweep.mkdir()
+    part = sweep / 'part-00000.parquet'
+    if case == 'garbage':
+        part.write_bytes(b'PAR1' + bytes(range(256)) * 8 + b'PAR1')
+    elif case == 'empty file':
+        part.write_bytes(b'')
+    else:
+        _parquet(part)
+    line = refused(capsys, ['sweep-report', str(sweep), '--out', str(tmp_path / 'report')])
+    assert str(part) in line
+    assert not (tmp_path / 'report').exists()
+
+
+@pytest.mark.parametrize('text', ['{"spec": ', '[1, 2]', '\xff\xfe', '{"spec": 3}'])
+def test_resume_from_a_corrupt_manifest_is_one_line_naming_it(tmp_path, capsys, text):
+    spec = tmp_path / 'spec.yaml'
+    spec.write_text(SPEC.format(parameters='  k: {dist: uniform, low: 3500, high: 4500}',
+                                extra='', stability='{wbar: [2]}'))
+    out = tmp_path / 'out'
+    out.mkdir()
+    (out / '_sweep.json').write_bytes(text.encode('latin-1'))
+    line = refused(capsys, ['sweep', str(spec), '--out', str(out), '--serial', '--resume',
+                            '--no-progress'])
+    assert '_sweep.json' in line and 'not a sweep manifest' in line
+    assert sorted(p.name for p in out.iterdir()) == ['_sweep.json']
+
+
+def test_a_repeated_key_in_a_parameter_file_is_refused(tmp_path, capsys):
+    config = tmp_path / 'drive.yaml'
+    config.write_text('/**:\n  ros__parameters:\n    drive:\n      k: 4000\n      k: 5000\n')
+    line = refused(capsys, ['freqs', '--config', str(config)])
+    assert str(config) in line and "'k' appears twice" in line
+
+
+def test_numpy_warnings_are_errors_inside_abb_sim_only(capsys, monkeypatch):
+    """A computation that warns ends in one line (exit 1); the caller's filters come back."""
+    import warnings
+
+    import numpy as np
+
+    from abb_ros.commands import freqs
+
+    def overflow(args):
+        return {'x': float(np.float64(1e300) * np.float64(1e300))}
+
+    monkeypatch.setattr(freqs, 'run', overflow)
+    line = refused(capsys, ['freqs'], code=1)
+    assert 'numerically' in line and 'overflow' in line
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter('always')
+        np.float64(1e300) * np.float64(1e300)
+    assert caught and issubclass(caught[0].category, RuntimeWarning)
+

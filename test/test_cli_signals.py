@@ -1,0 +1,85 @@
+"""Signals to the `abb-sim` console script at random moments, in real subprocesses.
+
+SIGINT during start-up (the commands, numpy and numba loading): exit code 130 and one line,
+no traceback. SIGTERM while ``run --out`` writes its bag: exit code 143 and one line, and the
+bag is closed whole and marked incomplete (its metadata.yaml counts what the MCAP holds).
+The moments are drawn from a seeded generator; the counts keep each test within ~20 s.
+"""
+
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+
+ABB_SIM = os.path.join(os.path.dirname(sys.executable), 'abb-sim')
+
+
+def _start(args):
+    return subprocess.Popen([ABB_SIM, *args], stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            stdin=subprocess.DEVNULL, text=True)
+
+
+def _wait_for_python(proc):
+    """Wait until the interpreter has started (its handlers exist from then on)."""
+    time.sleep(0.05)
+    return proc.poll() is None
+
+
+@pytest.mark.slow
+def test_sigint_at_any_moment_of_start_up_is_exit_130_in_one_line(tmp_path):
+    rng = np.random.default_rng(7)
+    for delay in rng.uniform(0.0, 1.5, 6):
+        out = tmp_path / f'bag{delay:.3f}'
+        proc = _start(['run', '--duration', '0.05', '--no-progress', '--out', str(out)])
+        _wait_for_python(proc)
+        time.sleep(delay)
+        proc.send_signal(signal.SIGINT)
+        stdout, stderr = proc.communicate(timeout=120)
+        lines = stderr.strip().splitlines()
+        assert 'Traceback' not in stderr, stderr
+        if proc.returncode == 0:   # it finished first
+            assert lines == [] and 'bag:' in stdout
+            continue
+        if proc.returncode == -signal.SIGINT:   # before the interpreter ran, or after main
+            assert stderr == ''
+            assert not out.exists() or ('bag:' in stdout and _closed_or_marked(out))
+            continue
+        assert proc.returncode == 130, stderr
+        assert len(lines) == 1 and lines[0].endswith('interrupted'), stderr
+        assert not out.exists() or _closed_or_marked(out)
+
+
+def _closed_or_marked(bag):
+    from abb_ros.io.bag_reader import read_bag
+    from abb_ros.io.bag_writer import INCOMPLETE_KEY
+    from abb_ros.io.safe_yaml import load_file
+    info = load_file(bag / 'metadata.yaml')['rosbag2_bagfile_information']
+    held = sum(1 for _ in read_bag(bag))
+    assert info['message_count'] == held
+    return INCOMPLETE_KEY in info.get('custom_data', {}) or held > 0
+
+
+@pytest.mark.slow
+def test_sigterm_while_writing_a_bag_leaves_it_closed_and_marked(tmp_path):
+    from abb_ros.io.bag_writer import INCOMPLETE_KEY
+    from abb_ros.io.safe_yaml import load_file
+    rng = np.random.default_rng(11)
+    for i, delay in enumerate(rng.uniform(1.0, 3.0, 3)):
+        out = tmp_path / f'bag{i}'
+        proc = _start(['run', '--duration', '600', '--no-progress', '--out', str(out)])
+        _wait_for_python(proc)
+        time.sleep(delay)
+        proc.send_signal(signal.SIGTERM)
+        stdout, stderr = proc.communicate(timeout=120)
+        lines = stderr.strip().splitlines()
+        assert proc.returncode == 143, stderr
+        assert len(lines) == 1 and 'terminated' in lines[0] and 'Traceback' not in stderr
+        assert stdout == ''
+        if out.exists():    # not yet made when the signal came during start-up
+            assert _closed_or_marked(out)
+            info = load_file(out / 'metadata.yaml')['rosbag2_bagfile_information']
+            assert 'interrupted' in info['custom_data'][INCOMPLETE_KEY]
