@@ -362,13 +362,17 @@ class Simulation:
         if status != kernels.OK:
             raise StateError(int(status), self.t)
 
-    def trajectory(self, nsteps: int, every: int) -> np.ndarray:
+    def trajectory(self, nsteps: int, every: int, out: np.ndarray | None = None
+                   ) -> np.ndarray:
         """Advance nsteps; return the states after every ``every`` steps.
 
-        Shape (nsteps // every, 2N). Raises :class:`StateError` like :meth:`advance`.
+        Shape (nsteps // every, 2N), in ``out`` when given (at least that many rows). Raises
+        :class:`StateError` like :meth:`advance`; ``out`` then holds the states of the
+        (steps done) // every periods completed.
         """
         rows = int(nsteps) // int(every)
-        out = np.empty((rows, self.y.size))
+        if out is None:
+            out = np.empty((rows, self.y.size))
         done, got, status = self.kern.trajectory(
             self.y, self.t0, self.dt, self.steps, int(nsteps), int(every), self._P, self._S,
             self._work, out)
@@ -382,6 +386,19 @@ class Simulation:
         """Return q'' at the current state, shape (N,) (a new array; the scratch is reused)."""
         qdd = np.empty(self.N)
         self.kern.accel(self.t, self.y, self.params.n, self._P, self._S, qdd, self._solver)
+        return qdd
+
+    def accelerations_along(self, ys: np.ndarray, steps) -> np.ndarray:
+        """Return q'' at each state ``ys[j]`` of step ``steps[j]``, shape (len(ys), N).
+
+        The same values as :meth:`accelerations` at each of those states in turn (the
+        spindle command is the present one).
+        """
+        qdd = np.empty((len(ys), self.N))
+        accel, n, P, S, solver = self.kern.accel, self.params.n, self._P, self._S, self._solver
+        t0, dt = self.t0, self.dt
+        for y, step, out in zip(ys, steps, qdd):
+            accel(t0 + step * dt, y, n, P, S, out, solver)
         return qdd
 
     @property
