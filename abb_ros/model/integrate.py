@@ -392,13 +392,11 @@ class Simulation:
         """Return q'' at each state ``ys[j]`` of step ``steps[j]``, shape (len(ys), N).
 
         The same values as :meth:`accelerations` at each of those states in turn (the
-        spindle command is the present one).
+        spindle command is the present one), in one compiled call.
         """
         qdd = np.empty((len(ys), self.N))
-        accel, n, P, S, solver = self.kern.accel, self.params.n, self._P, self._S, self._solver
-        t0, dt = self.t0, self.dt
-        for y, step, out in zip(ys, steps, qdd):
-            accel(t0 + step * dt, y, n, P, S, out, solver)
+        self.kern.accel_rows(ys, self.t0, self.dt, np.asarray(steps, dtype=np.int64),
+                             self.params.n, self._P, self._S, qdd, self._solver)
         return qdd
 
     @property
