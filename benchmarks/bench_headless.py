@@ -6,8 +6,9 @@ sampled topic at its rate, in this process:
   2. ``abb-sim run --out`` (messages encoded by abb_ros.io.cdr, MCAP writing and closing
      included): wall time, real-time factor, messages/s, ratio to the baseline;
   3. the same loop with a bag that drops the messages: the share of the writing;
-and the cost per message of each part: sampling, contents, CDR encoding (against rclpy's
-serialize_message of the same messages, the reference), BagWriter.write.
+and the cost per message of each part: sampling a batch of periods, its CDR encoding, the
+live node's per-sample contents and encoding (against rclpy's serialize_message of the same
+messages, the reference), BagWriter.write.
 
     .venv/bin/python benchmarks/bench_headless.py [--duration 10] [--scenario p3_n10]
 """
@@ -35,6 +36,7 @@ from abb_ros.io.scenario import load_scenario
 from abb_ros.model.integrate import DEFAULT_DT, Simulation, initial_state
 from abb_ros.model.sampling import PlantSampler
 from abb_ros.model.sensors import TYPICAL_IMU, ImuModel
+from abb_ros.model.speed_sensor import SpeedSensor
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -70,19 +72,20 @@ def sampler_for(scenario) -> PlantSampler:
     p = scenario.params
     y0 = initial_state(p, scenario.omega, phi0=scenario.phi0, deck0=scenario.deck0)
     sim = Simulation(p, scenario.omega, DEFAULT_DT, spindle=scenario.spindle, y0=y0)
-    return PlantSampler(sim, ImuModel(TYPICAL_IMU, 0), EVERY, EVERY)
+    return PlantSampler(sim, ImuModel(TYPICAL_IMU, 0), EVERY, EVERY, speed=SpeedSensor())
 
 
 def per_message_costs(scenario, periods: int = 2000) -> dict[str, float]:
     """Mean cost per message [us] of each part, on the samples of ``periods`` periods."""
     sampler = sampler_for(scenario)
-    sampler.next_period()
+    sampler.next_periods(1)
     wall0 = time.perf_counter()
-    samples = [s for _ in range(periods) for s in sampler.next_period()]
+    batches = [sampler.next_periods(periods // 2) for _ in range(2)]
     sampling = time.perf_counter() - wall0
+    samples = [s for batch in batches for s in batch.samples()]
     count = sum(len(cdr.sample_cdr(s, DT_NS, TYPICAL_IMU, with_clock=True)[1])
                 for s in samples)
-    costs = {'RK4 steps + IMU reading (PlantSampler)': sampling / count * 1e6}
+    costs = {'RK4 steps + IMU + FG (PlantSampler.next_periods)': sampling / count * 1e6}
 
     def timed(name, fn, repeat=3):
         """Best of ``repeat`` passes (the first one also warms caches up)."""
@@ -94,9 +97,11 @@ def per_message_costs(scenario, periods: int = 2000) -> dict[str, float]:
         costs[name] = best / count * 1e6
         return result
 
-    timed('contents (ros_messages.sample_contents)', lambda: [
+    timed('CDR of the batches (abb_ros.io.cdr.batch_cdr)', lambda: [
+        cdr.batch_cdr(b, DT_NS, TYPICAL_IMU, with_clock=True) for b in batches])
+    timed('per sample, as the live node: contents', lambda: [
         ros_messages.sample_contents(s, DT_NS, TYPICAL_IMU, with_clock=True) for s in samples])
-    encoded = timed('contents + CDR (abb_ros.io.cdr)', lambda: [
+    encoded = timed('per sample: contents + CDR (cdr.sample_cdr)', lambda: [
         cdr.sample_cdr(s, DT_NS, TYPICAL_IMU, with_clock=True) for s in samples])
     messages = [deserialize_message(data, message_class(STATE_TOPIC_TYPES[topic]))
                 for _, pairs in encoded for topic, data in pairs]
@@ -160,7 +165,7 @@ def main():
     print(f'\n  cost per message [us] (mean over 2000 periods of {scenario.name}; '
           'best of 3 but the first two):')
     for name, us in per_message_costs(scenario).items():
-        print(f'    {name:44s} {us:7.2f}')
+        print(f'    {name:50s} {us:7.2f}')
 
 
 if __name__ == '__main__':

@@ -101,3 +101,39 @@ def test_layout_aligns_each_primitive_to_its_size_after_the_encapsulation_header
     # An empty sequence of doubles is not aligned for its (absent) elements.
     assert cdr.Layout().const('B', 1).sequence('d', 0).constant_bytes()[4:] == \
         b'\x01\x00\x00\x00' + b'\x00\x00\x00\x00'
+
+
+@pytest.mark.parametrize('n', [0, 1, 3, 12])
+def test_a_batch_encodes_to_the_bytes_of_its_samples_one_by_one(n):
+    from abb_ros.model.sampling import SampleBatch
+    rng = np.random.default_rng(n)
+    rows = 40
+    batch = SampleBatch(list(range(7, 7 + 10 * rows, 10)), n,
+                        _awkward_floats(rng, (rows, 2 * n_coords(n))),
+                        _awkward_floats(rng, (rows, 6)), _awkward_floats(rng, rows).tolist())
+    config = ImuConfig(accel_noise_density=3e-3, gyro_noise_density=1e-4)
+    for with_clock in (False, True):
+        expected = [cdr.sample_cdr(s, 100_000, config, 12_345, with_clock)
+                    for s in batch.samples()]
+        assert cdr.batch_cdr(batch, 100_000, config, 12_345, with_clock) == expected
+
+
+def test_a_samplers_batch_holds_the_samples_of_its_periods_one_by_one():
+    from abb_ros.model.integrate import Simulation
+    from abb_ros.model.params import DriveParams
+    from abb_ros.model.sampling import PlantSampler
+    from abb_ros.model.sensors import ImuModel
+    from abb_ros.model.speed_sensor import SpeedSensor
+
+    def sampler():
+        sim = Simulation(DriveParams(n=2), 300.0, 1e-4)
+        return PlantSampler(sim, ImuModel(TYPICAL_IMU, 3), 10, 10, speed=SpeedSensor(seed=3))
+
+    one, many = sampler(), sampler()
+    assert many.batches()
+    expected = [cdr.sample_cdr(s, 100_000, TYPICAL_IMU, with_clock=True)
+                for _ in range(300) for s in one.next_period()]
+    got = cdr.batch_cdr(many.next_periods(120), 100_000, TYPICAL_IMU, with_clock=True)
+    got += cdr.batch_cdr(many.next_periods(180), 100_000, TYPICAL_IMU, with_clock=True)
+    assert got == expected
+    assert many.sim.steps == one.sim.steps and np.array_equal(many.sim.y, one.sim.y)

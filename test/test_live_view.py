@@ -230,6 +230,23 @@ def test_sinks_hold_messages_until_their_stamp_is_due():
     assert slept == pytest.approx([0.01, 0.01])
 
 
+def test_sinks_write_a_samples_messages_to_every_sink_with_or_without_write_many():
+    got = []
+
+    class Each:
+        def write(self, topic, data, stamp_ns):
+            got.append(('each', topic, data, stamp_ns))
+
+    class Many:
+        def write_many(self, messages, stamp_ns):
+            got.append(('many', list(messages), stamp_ns))
+
+    pairs = [('a', b'1'), ('b', b'2')]
+    Sinks([Each(), Many()]).write_many(pairs, 7)
+    assert got == [('each', 'a', b'1', 7), ('each', 'b', b'2', 7), ('many', pairs, 7)]
+    one = Many()
+    assert Sinks([one]).write_many == one.write_many   # one unpaced sink: called directly
+
 # ---- the simulator node -------------------------------------------------------------------------
 
 @pytest.mark.ros

@@ -140,6 +140,15 @@ def run_scenario(scenario: Scenario, dt: float = DEFAULT_DT, publish_dt: float =
         if bag is None:   # no messages wanted: the compiled loop samples the state alone
             states.append(sim.trajectory(chunk * publish_every, publish_every))
             times.extend(sim.t0 + (sim.steps - publish_every * np.arange(chunk - 1, -1, -1)) * dt)
+        elif sampler.batches():   # many periods in one compiled call, encoded at once
+            batch = sampler.next_periods(chunk)
+            for stamp_ns, encoded in cdr.batch_cdr(batch, dt_ns, imu_config, with_clock=True):
+                bag.write_many(encoded, stamp_ns)
+                written += len(encoded)
+            if batch.error is not None:
+                raise batch.error
+            times.extend(sim.t0 + np.array(batch.steps) * dt)
+            states.append(batch.y)
         else:
             for _ in range(chunk):
                 written += write(sampler.next_period())

@@ -1,10 +1,11 @@
 """Where a headless run's messages go: a bag, a live view, or both, optionally at real time.
 
 :func:`abb_ros.app.headless.run_scenario` hands its messages to one ``bag`` (``add_topic``,
-``write``); :class:`Sinks` is that one object for several, so the bag and the live view get the
-same CDR bytes with the same stamps. With ``real_time`` a message is held until the wall clock
-has caught up with its stamp (counted from the first message), so a viewer sees the run unfold
-at 1 simulated second per wall second; a run that cannot keep up goes as fast as it can.
+``write_many``); :class:`Sinks` is that one object for several, so the bag and the live view
+get the same CDR bytes with the same stamps. With ``real_time`` a message is held until the
+wall clock has caught up with its stamp (counted from the first message), so a viewer sees the
+run unfold at 1 simulated second per wall second; a run that cannot keep up goes as fast as it
+can.
 """
 
 from __future__ import annotations
@@ -38,6 +39,9 @@ class Sinks:
         self._clock = clock
         self._sleep = sleep
         self._origin = None   # (first stamp [ns], wall clock then [s])
+        self._many = [_write_many_of(sink) for sink in self.sinks]
+        if len(self._many) == 1 and not real_time:   # one sink, unpaced: straight to it
+            self.write_many = self._many[0]
 
     def add_topic(self, topic: str, type_name: str) -> None:
         """Add ``topic`` to every sink."""
@@ -51,6 +55,16 @@ class Sinks:
         for sink in self.sinks:
             sink.write(topic, data, stamp_ns)
 
+    def write_many(self, messages, stamp_ns: int) -> None:
+        """Write several messages of one stamp, (topic, CDR bytes) pairs, to every sink.
+
+        The same as :meth:`write` for each in turn.
+        """
+        if self.real_time:
+            self._wait_for(stamp_ns)
+        for write_many in self._many:
+            write_many(messages, stamp_ns)
+
     def _wait_for(self, stamp_ns: int) -> None:
         if self._origin is None:
             self._origin = (stamp_ns, self._clock())
@@ -58,3 +72,15 @@ class Sinks:
         ahead = (stamp_ns - first) * 1e-9 - (self._clock() - start)
         if ahead > AHEAD_S:
             self._sleep(ahead)
+
+
+def _write_many_of(sink):
+    """Return ``sink.write_many``, or a loop over ``sink.write`` for a sink without it."""
+    many = getattr(sink, 'write_many', None)
+    if many is not None:
+        return many
+
+    def write_each(messages, stamp_ns: int) -> None:
+        for topic, data in messages:
+            sink.write(topic, data, stamp_ns)
+    return write_each

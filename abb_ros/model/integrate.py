@@ -367,13 +367,17 @@ class Simulation:
         if status != kernels.OK:
             raise StateError(int(status), self.t)
 
-    def trajectory(self, nsteps: int, every: int) -> np.ndarray:
+    def trajectory(self, nsteps: int, every: int, out: np.ndarray | None = None
+                   ) -> np.ndarray:
         """Advance nsteps; return the states after every ``every`` steps.
 
-        Shape (nsteps // every, 2N). Raises :class:`StateError` like :meth:`advance`.
+        Shape (nsteps // every, 2N), in ``out`` when given (at least that many rows). Raises
+        :class:`StateError` like :meth:`advance`; ``out`` then holds the states of the
+        (steps done) // every periods completed.
         """
         rows = int(nsteps) // int(every)
-        out = np.empty((rows, self.y.size))
+        if out is None:
+            out = np.empty((rows, self.y.size))
         done, got, status = self.kern.trajectory(
             self.y, self.t0, self.dt, self.steps, int(nsteps), int(every), self._P, self._S,
             self._work, out)
@@ -387,6 +391,17 @@ class Simulation:
         """Return q'' at the current state, shape (N,) (a new array; the scratch is reused)."""
         qdd = np.empty(self.N)
         self.kern.accel(self.t, self.y, self.params.n, self._P, self._S, qdd, self._solver)
+        return qdd
+
+    def accelerations_along(self, ys: np.ndarray, steps) -> np.ndarray:
+        """Return q'' at each state ``ys[j]`` of step ``steps[j]``, shape (len(ys), N).
+
+        The same values as :meth:`accelerations` at each of those states in turn (the
+        spindle command is the present one), in one compiled call.
+        """
+        qdd = np.empty((len(ys), self.N))
+        self.kern.accel_rows(ys, self.t0, self.dt, np.asarray(steps, dtype=np.int64),
+                             self.params.n, self._P, self._S, qdd, self._solver)
         return qdd
 
     @property

@@ -196,6 +196,26 @@ def deck_pose_twist(y, n, out):
         out[3 + i] = quat[i]
 
 
+@kernel
+def imu_readings(ys, qdds, n, r, gravity, z, k, bias, out):
+    """Write the IMU samples at the states ``ys`` (rows) into the rows of ``out``.
+
+    :func:`imu_reading` of each row in turn, with the accelerations ``qdds`` (rows), the
+    next 12 of the normals ``z`` and the bias carried on from row to row.
+    """
+    N = PHI + n
+    for j in range(ys.shape[0]):
+        imu_reading(ys[j, :N], ys[j, N:], qdds[j], r, gravity, z[12 * j:12 * j + 12], k, bias,
+                    out[j])
+
+
+@kernel
+def deck_pose_twists(ys, n, out):
+    """Write :func:`deck_pose_twist` of each state ``ys[j]`` into ``out[j]`` (13 columns)."""
+    for j in range(ys.shape[0]):
+        deck_pose_twist(ys[j], n, out[j])
+
+
 JIT, PY = kernel.build()
 """The IMU model's kernels compiled (numba) and as Python (see abb_ros.model.jit)."""
 
@@ -300,3 +320,15 @@ class ImuModel:
         JIT.imu_reading(q, qd, qdd, self._position, self.config.gravity, z, self._k,
                         self.bias, out)
         return ImuReading(out[:3], out[3:])
+
+    def read_many(self, ys, qdds, n: int) -> np.ndarray:
+        """Return the readings at the states ``ys`` (rows, ``n`` balls), rows (accel, gyro).
+
+        Shape (len(ys), 6); the readings, generator and bias of :meth:`read` at each state
+        (q, q' of the row, q'' the row of ``qdds``) in turn, in one compiled call.
+        """
+        z = self._normals.take(12 * len(ys))
+        out = np.empty((len(ys), 6))
+        JIT.imu_readings(ys, qdds, n, self._position, self.config.gravity, z, self._k,
+                         self.bias, out)
+        return out

@@ -60,6 +60,16 @@ def accel(t, y, n, P, S, qdd, solver):
         qdd[PHI + b] = acc * inv
 
 
+@kernel
+def accel_rows(ys, t0, dt, steps, n, P, S, qdds, solver):
+    """Fill each row ``qdds[j]`` with :func:`accel` at the state ``ys[j]`` of step ``steps[j]``.
+
+    The time of row j is t0 + steps[j] dt, as :meth:`Simulation.t` computes it.
+    """
+    for j in range(ys.shape[0]):
+        accel(t0 + steps[j] * dt, ys[j], n, P, S, qdds[j], solver)
+
+
 @kernel(inline=True)
 def deriv(t, y, n, P, S, dy, solver):
     """Fill dy with y' = [q', q''] at (t, y) (q'' into ``solver.qdd`` on the way)."""
