@@ -250,6 +250,8 @@ def run(args) -> dict:
         summary['contact_max_substeps'] = result.max_substeps
     if result.rolling_switches:
         summary['rolling_switches'] = result.rolling_switches
+    if live is not None:
+        summary['live_view'] = live.url
     if args.out:
         summary['bag'] = str(args.out)
         summary['messages'] = result.messages
