@@ -29,6 +29,15 @@ from abb_ros.io.ros_messages import (
     joint_names,
     sample_contents,
 )
+from abb_ros.io.topics import (
+    CLOCK_TOPIC,
+    DECK_IMU,
+    DECK_POSE,
+    DECK_TWIST,
+    DIAGNOSTICS,
+    JOINT_STATES,
+    SPINDLE_SPEED,
+)
 from abb_ros.model import sensors
 from abb_ros.model.state import StateLayout
 
@@ -125,7 +134,7 @@ def _header(frame_id: str) -> Layout:
 @functools.lru_cache(maxsize=None)
 def _joint_state_layout(n: int, efforts: int = 0):
     joints = n + 1
-    return (_header(TOPIC_FRAMES['joint_states']).strings(joint_names(n))
+    return (_header(TOPIC_FRAMES[JOINT_STATES]).strings(joint_names(n))
             .sequence('d', joints).sequence('d', joints).sequence('d', efforts).compile())
 
 
@@ -143,8 +152,8 @@ def _fixed(frame_id: str, doubles: int):
     return _header(frame_id).var('d', doubles).compile()
 
 
-_POSE = _fixed(TOPIC_FRAMES['deck/pose'], 7)      # Point, Quaternion
-_TWIST = _fixed(TOPIC_FRAMES['deck/twist'], 6)    # Vector3 linear, angular
+_POSE = _fixed(TOPIC_FRAMES[DECK_POSE], 7)      # Point, Quaternion
+_TWIST = _fixed(TOPIC_FRAMES[DECK_TWIST], 6)    # Vector3 linear, angular
 
 
 def pose_stamped(sec: int, nanosec: int, content) -> bytes:
@@ -165,7 +174,7 @@ def _diagonal(value: float) -> tuple[float, ...]:
 
 @functools.lru_cache(maxsize=8)
 def _imu_layout(accel_variance: float, gyro_variance: float):
-    return (_header(TOPIC_FRAMES['deck/imu'])
+    return (_header(TOPIC_FRAMES[DECK_IMU])
             .const('d', 0.0, 0.0, 0.0, 1.0)                 # orientation: identity (unknown)
             .const('d', -1.0, *(0.0,) * 8)                  # orientation_covariance[0] = -1
             .var('d', 3).const('d', *_diagonal(gyro_variance))
@@ -222,9 +231,9 @@ def diagnostics(stamp_ns: int, name: str, level: bytes, message: str, values: di
     return diagnostic_array(sec, nanosec, diagnostics_content(name, level, message, values))
 
 
-ENCODERS = {'joint_states': joint_state, 'deck/pose': pose_stamped,
-            'deck/twist': twist_stamped, 'deck/imu': imu, '/clock': clock,
-            '/diagnostics': diagnostic_array, 'spindle/speed': float64}
+ENCODERS = {JOINT_STATES: joint_state, DECK_POSE: pose_stamped,
+            DECK_TWIST: twist_stamped, DECK_IMU: imu, CLOCK_TOPIC: clock,
+            DIAGNOSTICS: diagnostic_array, SPINDLE_SPEED: float64}
 """Topic -> encoder(sec, nanosec, content) of ros_messages' content for that topic."""
 
 
@@ -307,9 +316,9 @@ def batch_cdr(batch, dt_ns: int, imu_config, epoch_ns: int = 0, with_clock: bool
         raise struct.error(f'stamp {stamps[-1]} ns out of range of builtin_interfaces/Time')
     deck = np.empty((len(y), 13))
     sensors.JIT.deck_pose_twists(y, n, deck)
-    topics = ['/clock'] if with_clock else []
+    topics = [CLOCK_TOPIC] if with_clock else []
     messages = [_rows(_CLOCK).pack(sec, nanosec)] if with_clock else []
-    topics += ['joint_states', 'deck/pose', 'deck/twist']
+    topics += [JOINT_STATES, DECK_POSE, DECK_TWIST]
     messages += [
         _rows(_joint_state_layout(n, 0)).pack(
             sec, nanosec, y[:, [s.theta_index, *index[s.phi_slice]]],
@@ -320,7 +329,7 @@ def batch_cdr(batch, dt_ns: int, imu_config, epoch_ns: int = 0, with_clock: bool
         topics.append(SPEED_TOPIC)
         messages.append(_rows(_FLOAT64).pack(batch.speed))
     imu_layout = _imu_layout(imu_config.accel_variance, imu_config.gyro_variance)
-    topics.append('deck/imu')
+    topics.append(DECK_IMU)
     messages.append(_rows(imu_layout).pack(sec, nanosec, batch.imu[:, 3:], batch.imu[:, :3]))
     return [(stamp, list(zip(topics, row)))
             for stamp, row in zip(stamps.tolist(), zip(*messages))]

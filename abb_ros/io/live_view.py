@@ -36,12 +36,13 @@ import foxglove
 from foxglove.websocket import Capability, ServerListener
 
 from abb_ros.io import msgdefs
+from abb_ros.io.topics import CLOCK_TOPIC
 
 DEFAULT_HOST = '127.0.0.1'
 """The server listens on loopback unless told otherwise: it has no authentication."""
 DEFAULT_PORT = 8765
 """The Foxglove WebSocket port the app proposes (and foxglove_bridge uses)."""
-CLOCK_TOPIC = '/clock'
+CLOCK_TOPIC = CLOCK_TOPIC
 ENCODING = 'cdr'
 SCHEMA_ENCODING = 'ros2msg'
 SERVER_NAME = 'abb_ros'

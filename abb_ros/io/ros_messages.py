@@ -15,7 +15,16 @@ import numpy as np
 from builtin_interfaces.msg import Time
 
 from abb_ros.io import topics
-from abb_ros.io.topics import FRAME_BASE, FRAME_DECK
+from abb_ros.io.topics import (
+    CLOCK_TOPIC,
+    DECK_IMU,
+    DECK_POSE,
+    DECK_TWIST,
+    FRAME_BASE,
+    FRAME_DECK,
+    JOINT_STATES,
+    SPINDLE_SPEED,
+)
 from abb_ros.model import sensors
 from abb_ros.model.sampling import Sample
 from abb_ros.model.sensors import ImuConfig
@@ -33,7 +42,7 @@ TOPIC_TYPES = {t.name: topics.message_class(t.type) for t in topics.published_by
 STATE_TOPICS = tuple(t.name for t in topics.TOPICS if t.rate == topics.STATE)
 """Topics published at ``publish_rate_hz`` from the state; ``deck/imu`` has its own rate."""
 
-SPEED_TOPIC = 'spindle/speed'
+SPEED_TOPIC = SPINDLE_SPEED
 """The FG's measured speed [rad/s] (std_msgs/Float64, no stamp), with the state topics."""
 
 
@@ -99,17 +108,17 @@ def sample_contents(sample: Sample, dt_ns: int, imu_config: ImuConfig, epoch_ns:
     ``joint_states`` content is (n, position, velocity, effort), effort [] in speed mode,
     else [motor torque, 0 (balls)...] [N m].
     """
-    out = [('/clock', None)] if with_clock else []
+    out = [(CLOCK_TOPIC, None)] if with_clock else []
     y = sample.y
     if y is not None:
         effort = [] if sample.effort is None else [sample.effort] + [0.0] * sample.n
         pose, twist = deck_pose_twist_content(y, sample.n)
-        out += [('joint_states', (sample.n,) + joint_state_content(y, sample.n) + (effort,)),
-                ('deck/pose', pose), ('deck/twist', twist)]
+        out += [(JOINT_STATES, (sample.n,) + joint_state_content(y, sample.n) + (effort,)),
+                (DECK_POSE, pose), (DECK_TWIST, twist)]
     if sample.speed is not None:
         out.append((SPEED_TOPIC, sample.speed))
     if sample.imu is not None:
-        out.append(('deck/imu', deck_imu_content(sample.imu, imu_config)))
+        out.append((DECK_IMU, deck_imu_content(sample.imu, imu_config)))
     return sample.stamp_ns(dt_ns, epoch_ns), out
 
 

@@ -11,9 +11,10 @@ from __future__ import annotations
 import importlib
 from dataclasses import dataclass
 
-__all__ = ['FRAME_BASE', 'FRAME_DECK', 'STATE', 'IMU', 'CLOCK', 'EVENT', 'SPEED', 'COMMAND',
-           'SAMPLED',
-           'Topic', 'TOPICS', 'by_name', 'published_by', 'sampled_topics', 'recorded_topics',
+__all__ = ['JOINT_STATES', 'DECK_POSE', 'DECK_TWIST', 'DECK_IMU', 'SPINDLE_SPEED', 'CLOCK_TOPIC',
+           'MARKERS', 'STABILITY_MARGIN', 'DIAGNOSTICS', 'SPEED_CMD', 'CURRENT_CMD', 'FRAME_BASE',
+           'FRAME_DECK', 'STATE', 'IMU', 'CLOCK', 'EVENT', 'SPEED', 'COMMAND', 'SAMPLED', 'Topic',
+           'TOPICS', 'by_name', 'published_by', 'sampled_topics', 'recorded_topics',
            'message_class']
 
 FRAME_BASE = 'base'
@@ -39,6 +40,30 @@ SAMPLED = (CLOCK, STATE, IMU, SPEED)
 """Roles of the topics a simulation sample produces (what a headless bag holds)."""
 
 
+JOINT_STATES = 'joint_states'
+"""Spindle and ball angles and rates (sensor_msgs/JointState)."""
+DECK_POSE = 'deck/pose'
+"""The deck's pose in the base frame."""
+DECK_TWIST = 'deck/twist'
+"""The deck's twist in its own frame."""
+DECK_IMU = 'deck/imu'
+"""The IMU on the deck."""
+SPINDLE_SPEED = 'spindle/speed'
+"""The FG speed sensor's measured spindle speed."""
+CLOCK_TOPIC = '/clock'
+"""Simulated time, when the simulator owns it."""
+MARKERS = 'visualization/markers'
+"""The drive's MarkerArray."""
+STABILITY_MARGIN = 'stability/margin'
+"""The analysis node's stability margin."""
+DIAGNOSTICS = '/diagnostics'
+"""Status of the nodes."""
+SPEED_CMD = 'spindle/speed_cmd'
+"""Spindle speed command (input of the simulator)."""
+CURRENT_CMD = 'spindle/current_cmd'
+"""Motor current command, torque mode (input of the simulator)."""
+
+
 @dataclass(frozen=True)
 class Topic:
     """One topic: ``frame`` is the header.frame_id of a stamped message, None if unstamped."""
@@ -52,19 +77,19 @@ class Topic:
 
 
 TOPICS = (
-    Topic('joint_states', 'sensor_msgs/msg/JointState', '', STATE, ('simulator',)),
-    Topic('deck/pose', 'geometry_msgs/msg/PoseStamped', FRAME_BASE, STATE, ('simulator',)),
-    Topic('deck/twist', 'geometry_msgs/msg/TwistStamped', FRAME_DECK, STATE, ('simulator',)),
-    Topic('deck/imu', 'sensor_msgs/msg/Imu', FRAME_DECK, IMU, ('simulator',)),
-    Topic('spindle/speed', 'std_msgs/msg/Float64', None, SPEED, ('simulator',)),
-    Topic('/clock', 'rosgraph_msgs/msg/Clock', None, CLOCK, ('simulator',), recorded=False),
-    Topic('visualization/markers', 'visualization_msgs/msg/MarkerArray', FRAME_BASE, EVENT,
+    Topic(JOINT_STATES, 'sensor_msgs/msg/JointState', '', STATE, ('simulator',)),
+    Topic(DECK_POSE, 'geometry_msgs/msg/PoseStamped', FRAME_BASE, STATE, ('simulator',)),
+    Topic(DECK_TWIST, 'geometry_msgs/msg/TwistStamped', FRAME_DECK, STATE, ('simulator',)),
+    Topic(DECK_IMU, 'sensor_msgs/msg/Imu', FRAME_DECK, IMU, ('simulator',)),
+    Topic(SPINDLE_SPEED, 'std_msgs/msg/Float64', None, SPEED, ('simulator',)),
+    Topic(CLOCK_TOPIC, 'rosgraph_msgs/msg/Clock', None, CLOCK, ('simulator',), recorded=False),
+    Topic(MARKERS, 'visualization_msgs/msg/MarkerArray', FRAME_BASE, EVENT,
           ('simulator',)),
-    Topic('stability/margin', 'std_msgs/msg/Float64', None, EVENT, ('analysis',)),
-    Topic('/diagnostics', 'diagnostic_msgs/msg/DiagnosticArray', None, EVENT,
+    Topic(STABILITY_MARGIN, 'std_msgs/msg/Float64', None, EVENT, ('analysis',)),
+    Topic(DIAGNOSTICS, 'diagnostic_msgs/msg/DiagnosticArray', None, EVENT,
           ('simulator', 'analysis')),
-    Topic('spindle/speed_cmd', 'std_msgs/msg/Float64', None, COMMAND, ()),
-    Topic('spindle/current_cmd', 'std_msgs/msg/Float64', None, COMMAND, ()),
+    Topic(SPEED_CMD, 'std_msgs/msg/Float64', None, COMMAND, ()),
+    Topic(CURRENT_CMD, 'std_msgs/msg/Float64', None, COMMAND, ()),
 )
 """Every topic. The simulator creates its publishers, a headless bag its topics (the order is
 part of the bag's bytes) and the recorder lists its defaults in this order."""

@@ -48,6 +48,7 @@ from std_msgs.msg import Float64
 
 from abb_ros.io import cdr, ros_messages
 from abb_ros.io.joint_speed import JointSpeedReader
+from abb_ros.io.topics import DIAGNOSTICS, JOINT_STATES, STABILITY_MARGIN
 from abb_ros.model import speed_bands
 from abb_ros.model.param_spec import DRIVE_PREFIX
 from abb_ros.model.params import DriveParams, ParamError
@@ -110,12 +111,12 @@ class AnalysisNode(Node):
         self.worker = TableWorker()
         self._request_table()
 
-        self._margin_pub = self.create_publisher(Float64, 'stability/margin', QOS_DEPTH)
-        self._diag_pub = self.create_publisher(ros_messages.TOPIC_TYPES['/diagnostics'],
-                                               '/diagnostics', QOS_DEPTH)
+        self._margin_pub = self.create_publisher(Float64, STABILITY_MARGIN, QOS_DEPTH)
+        self._diag_pub = self.create_publisher(ros_messages.TOPIC_TYPES[DIAGNOSTICS],
+                                               DIAGNOSTICS, QOS_DEPTH)
         self._taps = Taps(self)
         self._joint_states = self._taps.subscribe(
-            JointState, 'joint_states', QoSProfile(depth=1,
+            JointState, JOINT_STATES, QoSProfile(depth=1,
                                                    reliability=ReliabilityPolicy.BEST_EFFORT))
         self.create_subscription(ParameterEvent, '/parameter_events', self._on_parameter_event,
                                  qos_profile_parameter_events)

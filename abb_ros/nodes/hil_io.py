@@ -19,6 +19,7 @@ from rclpy.parameter import Parameter
 from std_srvs.srv import Trigger
 
 from abb_ros.io import cdr, markers
+from abb_ros.io.topics import DIAGNOSTICS, MARKERS
 from abb_ros.model import disturbances
 from abb_ros.model.sensor_faults import ImuFaults, SpeedFaults
 from abb_ros.model.speed_sensor import SpeedSensor
@@ -26,7 +27,7 @@ from abb_ros.nodes.hil_settings import HilSettings
 
 __all__ = ['HilIO', 'MARKERS_TOPIC']
 
-MARKERS_TOPIC = 'visualization/markers'
+MARKERS_TOPIC = MARKERS
 
 
 class HilIO:
@@ -49,7 +50,7 @@ class HilIO:
         self._last_event = ''
         self._marker_slot = None
         self._markers_pub = node._pubs[MARKERS_TOPIC]   # created from the topic list
-        self._diag_pub = node._pubs['/diagnostics']
+        self._diag_pub = node._pubs[DIAGNOSTICS]
         node.create_service(Trigger, '~/apply_shock', self._on_shock)
         node.create_service(Trigger, '~/swap_disc', self._on_swap)
         self._active = {}

@@ -31,6 +31,7 @@ from rclpy.node import Node
 
 from abb_ros.io import cdr
 from abb_ros.io.bag_writer import BagError, BagWriter
+from abb_ros.io.topics import DIAGNOSTICS
 from abb_ros.model.param_spec import ParamError
 from abb_ros.nodes import ros_params
 from abb_ros.nodes.entry_point import run_node
@@ -56,7 +57,7 @@ class Recorder(Node):
         self.bag = BagWriter(output or default_output(), chunk_size=chunk_size,
                              compression=compression)
         self.exit_code = None
-        self._diag_pub = self.create_publisher(DiagnosticArray, '/diagnostics', 10)
+        self._diag_pub = self.create_publisher(DiagnosticArray, DIAGNOSTICS, 10)
         self.recording = Recording(self, self.bag, topics, self._depth,
                                    on_failure=self._on_failure)
         self.graph = self.recording.graph

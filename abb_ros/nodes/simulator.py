@@ -33,6 +33,7 @@ from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 
 from abb_ros.io import cdr, ros_messages
+from abb_ros.io.topics import CURRENT_CMD, DIAGNOSTICS, SPEED_CMD
 from abb_ros.model.integrate import Simulation, StateError, initial_state
 from abb_ros.model.params import ParamError
 from abb_ros.model.sampling import PlantSampler
@@ -94,8 +95,8 @@ class SimulatorNode(Node):
         self._bag_topics = {topic: (pub.topic_name, _type_name(ros_messages.TOPIC_TYPES[topic]),
                                     pub.qos_profile) for topic, pub in self._pubs.items()}
         self.hil = HilIO(self, QOS_DEPTH)   # FG, faults, disturbances, markers
-        self.create_subscription(Float64, 'spindle/speed_cmd', self._on_speed_cmd, QOS_DEPTH)
-        self.create_subscription(Float64, 'spindle/current_cmd', self._on_current_cmd,
+        self.create_subscription(Float64, SPEED_CMD, self._on_speed_cmd, QOS_DEPTH)
+        self.create_subscription(Float64, CURRENT_CMD, self._on_current_cmd,
                                  QOS_DEPTH)
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(SetBool, '~/pause', self._on_pause)
@@ -368,7 +369,7 @@ class SimulatorNode(Node):
         window = self.pacer.close_window(self.sim.steps, not (self.paused or self.fault))
         level, message, values = simulation_status(self, window)
         stamp_ns = self.stamp_ns()
-        self._send('/diagnostics', cdr.diagnostics(
+        self._send(DIAGNOSTICS, cdr.diagnostics(
             stamp_ns, f'{self.get_fully_qualified_name()}: simulation', level, message, values),
             stamp_ns)
         self.hil.publish_diagnostics()

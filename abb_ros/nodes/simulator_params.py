@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 
+from abb_ros.io.topics import CURRENT_CMD, DIAGNOSTICS, SPEED_CMD, STABILITY_MARGIN
 from abb_ros.model.param_spec import BOOL, DOUBLE_ARRAY, INTEGER, STRING, STRING_ARRAY, ParamSpec
 from abb_ros.model.plant_spec import (
     IMU_SPECS,
@@ -98,8 +99,8 @@ _BENCH = (
               applies='at start-up', nodes=_SIM),
 )
 
-LIVE_VIEW_TOPICS = ('stability/margin', '/diagnostics', 'spindle/speed_cmd',
-                    'spindle/current_cmd')
+LIVE_VIEW_TOPICS = (STABILITY_MARGIN, DIAGNOSTICS, SPEED_CMD,
+                    CURRENT_CMD)
 """The bench's topics other nodes publish, which the live view serves by default."""
 
 _LIVE_VIEW = (

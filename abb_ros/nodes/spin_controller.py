@@ -32,6 +32,7 @@ from rclpy.node import Node
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
+from abb_ros.io.topics import CURRENT_CMD, JOINT_STATES, SPEED_CMD, STABILITY_MARGIN
 from abb_ros.model import speed_bands
 from abb_ros.model.integrate import TorqueMotor
 from abb_ros.model.params import DriveParams, ParamError
@@ -44,7 +45,7 @@ from abb_ros.nodes.parameter_table import specs_for
 NODE_NAME = 'abb_spin_controller'
 QOS_DEPTH = 10
 WARN_THROTTLE_S = 5.0
-COMMAND_TOPICS = {'speed': 'spindle/speed_cmd', 'torque': 'spindle/current_cmd'}
+COMMAND_TOPICS = {'speed': SPEED_CMD, 'torque': CURRENT_CMD}
 """The command topic of each mode."""
 MOTOR_PREFIX = 'motor.'
 
@@ -80,8 +81,8 @@ class SpinController(Node):
         self.add_on_set_parameters_callback(self._validate)
         self.add_post_set_parameters_callback(lambda _: self._plan())
         self._pub = self.create_publisher(Float64, COMMAND_TOPICS[mode], QOS_DEPTH)
-        self.create_subscription(JointState, 'joint_states', self._on_joint_states, QOS_DEPTH)
-        self.create_subscription(Float64, 'stability/margin', self._on_margin, QOS_DEPTH)
+        self.create_subscription(JointState, JOINT_STATES, self._on_joint_states, QOS_DEPTH)
+        self.create_subscription(Float64, STABILITY_MARGIN, self._on_margin, QOS_DEPTH)
         self.get_logger().info(
             f'mode {mode}; unbalanced bands [rad/s]: '
             + ', '.join(f'{b.lo:.0f}-{b.hi:.0f}' for b in self.bands)

@@ -13,6 +13,7 @@ import re
 import numpy as np
 
 from abb_ros.io.bag_reader import read_bag, read_drive_params
+from abb_ros.io.topics import DECK_POSE, JOINT_STATES
 from abb_ros.model.params import DriveParams
 from abb_ros.model.state import rbar, wrap_degrees
 
@@ -76,11 +77,11 @@ def load_time_response(path, R: float | None = None) -> TimeResponse:
     joint_t, joint = [], []
     names = None
     for topic, msg, log_time in read_bag(path):
-        if topic.endswith('/deck/pose'):
+        if topic.endswith('/' + DECK_POSE):
             p, q = msg.pose.position, msg.pose.orientation
             pose_t.append(_stamp(msg, log_time))
             pose.append((p.x, p.y, p.z, q.x, q.y, q.z, q.w))
-        elif topic.endswith('/joint_states'):
+        elif topic.endswith('/' + JOINT_STATES):
             if names is None:
                 names = sorted((int(m.group(1)), i) for i, n in enumerate(msg.name)
                                if (m := _BALL.match(n)))

@@ -32,6 +32,7 @@ from dataclasses import fields
 
 import numpy as np
 
+from abb_ros.io.topics import CURRENT_CMD, DECK_POSE, JOINT_STATES, SPEED_CMD, STABILITY_MARGIN
 from abb_ros.model.params import DriveParams
 from abb_ros.model.plant_spec import MOTOR_DEFAULTS
 from abb_ros.model.state import rbar
@@ -42,9 +43,9 @@ DEADLINE_S = 30.0
 """Longest wait for one period (step reply, the controller's answers, the harness' data)."""
 DEFAULT_RATE_HZ = 200
 """Publish (and control) rate of a lockstep plant unless given: 50 RK4 steps per period."""
-COMMAND_TOPIC = 'spindle/speed_cmd'
-CURRENT_TOPIC = 'spindle/current_cmd'
-MARGIN_TOPIC = 'stability/margin'
+COMMAND_TOPIC = SPEED_CMD
+CURRENT_TOPIC = CURRENT_CMD
+MARGIN_TOPIC = STABILITY_MARGIN
 
 
 class LockstepTimeout(AssertionError):
@@ -138,8 +139,8 @@ class LockstepPlant:
             self.executor.add_node(n)
         self._step_client = self.node.create_client(
             Trigger, f'{self.sim.get_fully_qualified_name()}/step')
-        self._states = self.record('joint_states', JointState)
-        self._poses = self.record('deck/pose', PoseStamped)
+        self._states = self.record(JOINT_STATES, JointState)
+        self._poses = self.record(DECK_POSE, PoseStamped)
         self._commands = []
         self._cmd_seen = self.record(COMMAND_TOPIC)
         self._current_seen = self.record(CURRENT_TOPIC)
