@@ -20,6 +20,8 @@ pytestmark = pytest.mark.ros
 
 ROOT = Path(__file__).resolve().parents[1]
 DEADLINE_S = 30.0
+RESEND_S = 2.0
+"""A request unanswered this long is sent again (a lost request, not a slow node)."""
 
 
 def _command(node, params):
@@ -79,16 +81,29 @@ class _Client:
         self.executor.add_node(self.node)
 
     def call(self, kind, name, request):
+        """Call ``name`` once it is up; resend a request whose reply is lost.
+
+        A request sent just as the service is discovered can go unanswered (the server has
+        not matched the reply's reader yet); get and set are idempotent, so it is sent again
+        every RESEND_S. The node's start-up and the reply each have DEADLINE_S.
+        """
         client = self.node.create_client(kind, name)
         deadline = time.monotonic() + DEADLINE_S
         while not client.service_is_ready():
-            assert time.monotonic() < deadline, f'no service {name}'
+            assert time.monotonic() < deadline, \
+                f'timed out after {DEADLINE_S} s: no service {name}'
             self.executor.spin_once(timeout_sec=0.05)
-        future = client.call_async(request)
-        while not future.done():
-            assert time.monotonic() < deadline, f'no reply from {name}'
-            self.executor.spin_once(timeout_sec=0.05)
-        return future.result()
+        deadline = time.monotonic() + DEADLINE_S
+        while True:
+            future = client.call_async(request)
+            resend = time.monotonic() + RESEND_S
+            while not future.done() and time.monotonic() < resend:
+                assert time.monotonic() < deadline, \
+                    f'timed out after {DEADLINE_S} s: no reply from {name}'
+                self.executor.spin_once(timeout_sec=0.05)
+            if future.done():
+                return future.result()
+            client.remove_pending_request(future)
 
     def get(self, node, name):
         return self.call(GetParameters, f'/{node}/get_parameters',
