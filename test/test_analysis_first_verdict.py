@@ -37,6 +37,7 @@ def test_statuses_before_the_first_verdict_are_stale_and_say_why(tmp_path):
         msg = JointState(name=['spindle', 'ball_1', 'ball_2'], position=[0.0, 1.0, -1.0],
                          velocity=[2.7 * OMEGA0, 0.0, 0.0])
         probe.wait_for(lambda: probe.statuses, 60.0, 'a first status of the analysis node')
+        first_publish_at = time.monotonic()   # no verdict can come before the first speed
         deadline = time.monotonic() + 120
         while not probe.margins:
             assert time.monotonic() < deadline, 'no verdict within 120 s'
@@ -56,7 +57,12 @@ def test_statuses_before_the_first_verdict_are_stale_and_say_why(tmp_path):
         output = log.read()
         log.close()
     assert code == 0, output
-    before = [s for s in probe.statuses if s[0] < margin_at[0] - 0.05]
+    # Before the first verdict: what came before the first joint_states, and what came well
+    # before the first margin (a verdict's status arrives with its margin). On a fast
+    # machine the table may be ready before discovery ends, so the verdict follows the
+    # first joint_states at once.
+    before = [s for s in probe.statuses
+              if s[0] < max(first_publish_at, margin_at[0] - 0.05)]
     assert before, 'no status before the first verdict'
     assert all(s[2] == DiagnosticStatus.STALE for s in before), [s[2:4] for s in before]
     reasons = ('computing the stability table', 'no joint_states yet')
