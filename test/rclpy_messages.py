@@ -11,7 +11,6 @@ from __future__ import annotations
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
 from abb_ros.io.ros_messages import (
-    SPEED_TOPIC,
     TOPIC_FRAMES,
     TOPIC_TYPES,
     diagnostics_content,
@@ -19,6 +18,7 @@ from abb_ros.io.ros_messages import (
     sample_contents,
     time_msg,
 )
+from abb_ros.io.topics import SPINDLE_SPEED
 
 
 def _joint_state(msg, stamp, content):
@@ -68,7 +68,7 @@ def _float64(msg, stamp, content):
 
 
 _FILL = {'joint_states': _joint_state, 'deck/pose': _pose, 'deck/twist': _twist,
-         'deck/imu': _imu, '/clock': _clock, SPEED_TOPIC: _float64}
+         'deck/imu': _imu, '/clock': _clock, SPINDLE_SPEED: _float64}
 
 
 def sample_messages(sample, dt_ns: int, imu_config, epoch_ns: int = 0,

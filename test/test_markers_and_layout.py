@@ -17,10 +17,10 @@ from abb_ros.io.markers import (
     marker_array,
     marker_poses,
 )
+from abb_ros.io.topics import MARKERS
 from abb_ros.model.integrate import initial_state
 from abb_ros.model.params import DriveParams
 from abb_ros.model.sensors import euler_quaternion, euler_rotation
-from abb_ros.nodes.hil_io import MARKERS_TOPIC
 
 ROOT = Path(__file__).resolve().parents[1]
 LAYOUT = ROOT / 'config' / 'foxglove_layout.json'
@@ -108,7 +108,7 @@ def _layout_topics(layout) -> set[str]:
 def test_the_foxglove_layout_is_json_whose_panels_name_topics_the_bench_publishes():
     layout = json.loads(LAYOUT.read_text())
     published = {'/' + t.lstrip('/') for t in
-                 [*ros_messages.TOPIC_TYPES, MARKERS_TOPIC, *ANALYSIS_TOPICS]}
+                 [*ros_messages.TOPIC_TYPES, MARKERS, *ANALYSIS_TOPICS]}
     topics = _layout_topics(layout)
     assert topics and topics <= published, topics - published
     assert {'/visualization/markers', '/joint_states', '/spindle/speed', '/deck/pose',

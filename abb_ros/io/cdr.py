@@ -23,7 +23,6 @@ import struct
 import numpy as np
 
 from abb_ros.io.ros_messages import (
-    SPEED_TOPIC,
     TOPIC_FRAMES,
     diagnostics_content,
     joint_names,
@@ -326,7 +325,7 @@ def batch_cdr(batch, dt_ns: int, imu_config, epoch_ns: int = 0, with_clock: bool
         _rows(_POSE).pack(sec, nanosec, deck[:, :7]),
         _rows(_TWIST).pack(sec, nanosec, deck[:, 7:])]
     if batch.speed is not None:
-        topics.append(SPEED_TOPIC)
+        topics.append(SPINDLE_SPEED)
         messages.append(_rows(_FLOAT64).pack(batch.speed))
     imu_layout = _imu_layout(imu_config.accel_variance, imu_config.gyro_variance)
     topics.append(DECK_IMU)

@@ -42,7 +42,6 @@ DEFAULT_HOST = '127.0.0.1'
 """The server listens on loopback unless told otherwise: it has no authentication."""
 DEFAULT_PORT = 8765
 """The Foxglove WebSocket port the app proposes (and foxglove_bridge uses)."""
-CLOCK_TOPIC = CLOCK_TOPIC
 ENCODING = 'cdr'
 SCHEMA_ENCODING = 'ros2msg'
 SERVER_NAME = 'abb_ros'

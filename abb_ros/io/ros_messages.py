@@ -32,7 +32,7 @@ from abb_ros.model.state import StateLayout
 
 __all__ = ['FRAME_BASE', 'FRAME_DECK', 'TOPIC_TYPES', 'STATE_TOPICS', 'time_msg',
            'joint_names', 'TOPIC_FRAMES', 'joint_state_content', 'deck_pose_twist_content',
-           'deck_imu_content', 'diagnostics_content', 'sample_contents', 'SPEED_TOPIC']
+           'deck_imu_content', 'diagnostics_content', 'sample_contents']
 
 HARDWARE_ID = 'abb_ros'
 
@@ -41,9 +41,6 @@ TOPIC_TYPES = {t.name: topics.message_class(t.type) for t in topics.published_by
 
 STATE_TOPICS = tuple(t.name for t in topics.TOPICS if t.rate == topics.STATE)
 """Topics published at ``publish_rate_hz`` from the state; ``deck/imu`` has its own rate."""
-
-SPEED_TOPIC = SPINDLE_SPEED
-"""The FG's measured speed [rad/s] (std_msgs/Float64, no stamp), with the state topics."""
 
 
 def time_msg(stamp_ns: int) -> Time:
@@ -116,7 +113,7 @@ def sample_contents(sample: Sample, dt_ns: int, imu_config: ImuConfig, epoch_ns:
         out += [(JOINT_STATES, (sample.n,) + joint_state_content(y, sample.n) + (effort,)),
                 (DECK_POSE, pose), (DECK_TWIST, twist)]
     if sample.speed is not None:
-        out.append((SPEED_TOPIC, sample.speed))
+        out.append((SPINDLE_SPEED, sample.speed))
     if sample.imu is not None:
         out.append((DECK_IMU, deck_imu_content(sample.imu, imu_config)))
     return sample.stamp_ns(dt_ns, epoch_ns), out

@@ -25,9 +25,7 @@ from abb_ros.model.sensor_faults import ImuFaults, SpeedFaults
 from abb_ros.model.speed_sensor import SpeedSensor
 from abb_ros.nodes.hil_settings import HilSettings
 
-__all__ = ['HilIO', 'MARKERS_TOPIC']
-
-MARKERS_TOPIC = MARKERS
+__all__ = ['HilIO']
 
 
 class HilIO:
@@ -49,7 +47,7 @@ class HilIO:
         self.counters = dict(shocks=0, disc_swaps=0)
         self._last_event = ''
         self._marker_slot = None
-        self._markers_pub = node._pubs[MARKERS_TOPIC]   # created from the topic list
+        self._markers_pub = node._pubs[MARKERS]   # created from the topic list
         self._diag_pub = node._pubs[DIAGNOSTICS]
         node.create_service(Trigger, '~/apply_shock', self._on_shock)
         node.create_service(Trigger, '~/swap_disc', self._on_swap)

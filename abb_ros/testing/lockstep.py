@@ -43,9 +43,6 @@ DEADLINE_S = 30.0
 """Longest wait for one period (step reply, the controller's answers, the harness' data)."""
 DEFAULT_RATE_HZ = 200
 """Publish (and control) rate of a lockstep plant unless given: 50 RK4 steps per period."""
-COMMAND_TOPIC = SPEED_CMD
-CURRENT_TOPIC = CURRENT_CMD
-MARGIN_TOPIC = STABILITY_MARGIN
 
 
 class LockstepTimeout(AssertionError):
@@ -142,8 +139,8 @@ class LockstepPlant:
         self._states = self.record(JOINT_STATES, JointState)
         self._poses = self.record(DECK_POSE, PoseStamped)
         self._commands = []
-        self._cmd_seen = self.record(COMMAND_TOPIC)
-        self._current_seen = self.record(CURRENT_TOPIC)
+        self._cmd_seen = self.record(SPEED_CMD)
+        self._current_seen = self.record(CURRENT_CMD)
         self._currents = []
         self._command_pub = None
         self._explicit_answers = None
@@ -169,7 +166,7 @@ class LockstepPlant:
         from abb_ros.io import ros_messages
         got = []
         kind = kind or ros_messages.TOPIC_TYPES.get(topic) or (
-            Float64 if topic in (COMMAND_TOPIC, CURRENT_TOPIC, MARGIN_TOPIC) else None)
+            Float64 if topic in (SPEED_CMD, CURRENT_CMD, STABILITY_MARGIN) else None)
         if kind is None:
             raise ValueError(f'record({topic!r}): give the message type (kind=...)')
         self.node.create_subscription(kind, topic, got.append, self._qos, raw=raw)
@@ -180,7 +177,7 @@ class LockstepPlant:
         """Commands the plant waits for after each period (see the module doc)."""
         if self._explicit_answers is not None:
             return self._explicit_answers
-        cmd = {self.node.resolve_topic_name(t) for t in (COMMAND_TOPIC, CURRENT_TOPIC)}
+        cmd = {self.node.resolve_topic_name(t) for t in (SPEED_CMD, CURRENT_CMD)}
         return int(any(p.topic_name in cmd for n in self._nodes[1:] if n is not self.node
                        for p in n.publishers))
 
@@ -252,9 +249,9 @@ class LockstepPlant:
         """
         from std_msgs.msg import Float64
         if self._command_pub is None:
-            self._command_pub = self.node.create_publisher(Float64, COMMAND_TOPIC, self._qos)
+            self._command_pub = self.node.create_publisher(Float64, SPEED_CMD, self._qos)
             self.spin_until(lambda: self._command_pub.get_subscription_count() >= 1,
-                       f'the plant subscribing to {COMMAND_TOPIC}')
+                       f'the plant subscribing to {SPEED_CMD}')
         before = self._received()
         self._command_pub.publish(Float64(data=float(omega)))
         self.spin_until(lambda: self._received() > before, 'the plant receiving the command')
