@@ -29,26 +29,33 @@ def _wait_for_python(proc):
     return proc.poll() is None
 
 
+def _signal_after(args, sig, delay):
+    """Start ``abb-sim args``, send ``sig`` ``delay`` s after start-up; (code, out, err, lines)."""
+    proc = _start(args)
+    _wait_for_python(proc)
+    time.sleep(delay)
+    proc.send_signal(sig)
+    stdout, stderr = proc.communicate(timeout=120)
+    return proc.returncode, stdout, stderr, stderr.strip().splitlines()
+
+
 @pytest.mark.slow
 def test_sigint_at_any_moment_of_start_up_is_exit_130_in_one_line(tmp_path):
     rng = np.random.default_rng(7)
     for delay in rng.uniform(0.0, 1.5, 6):
         out = tmp_path / f'bag{delay:.3f}'
-        proc = _start(['run', '--duration', '0.05', '--no-progress', '--out', str(out)])
-        _wait_for_python(proc)
-        time.sleep(delay)
-        proc.send_signal(signal.SIGINT)
-        stdout, stderr = proc.communicate(timeout=120)
-        lines = stderr.strip().splitlines()
+        code, stdout, stderr, lines = _signal_after(
+            ['run', '--duration', '0.05', '--no-progress', '--out', str(out)], signal.SIGINT,
+            delay)
         assert 'Traceback' not in stderr, stderr
-        if proc.returncode == 0:   # it finished first
+        if code == 0:   # it finished first
             assert lines == [] and 'bag:' in stdout
             continue
-        if proc.returncode == -signal.SIGINT:   # before the interpreter ran, or after main
+        if code == -signal.SIGINT:   # before the interpreter ran, or after main
             assert stderr == ''
             assert not out.exists() or ('bag:' in stdout and _closed_or_marked(out))
             continue
-        assert proc.returncode == 130, stderr
+        assert code == 130, stderr
         assert len(lines) == 1 and lines[0].endswith('interrupted'), stderr
         assert not out.exists() or _closed_or_marked(out)
 
@@ -70,13 +77,10 @@ def test_sigterm_while_writing_a_bag_leaves_it_closed_and_marked(tmp_path):
     rng = np.random.default_rng(11)
     for i, delay in enumerate(rng.uniform(1.0, 3.0, 3)):
         out = tmp_path / f'bag{i}'
-        proc = _start(['run', '--duration', '600', '--no-progress', '--out', str(out)])
-        _wait_for_python(proc)
-        time.sleep(delay)
-        proc.send_signal(signal.SIGTERM)
-        stdout, stderr = proc.communicate(timeout=120)
-        lines = stderr.strip().splitlines()
-        assert proc.returncode == 143, stderr
+        code, stdout, stderr, lines = _signal_after(
+            ['run', '--duration', '600', '--no-progress', '--out', str(out)], signal.SIGTERM,
+            delay)
+        assert code == 143, stderr
         assert len(lines) == 1 and 'terminated' in lines[0] and 'Traceback' not in stderr
         assert stdout == ''
         if out.exists():    # not yet made when the signal came during start-up

@@ -54,6 +54,13 @@ def wait_counts(plant, *expected):
                'message counts ' + str([n for _, n in expected]))
 
 
+def step_periods(plant, states, count):
+    """Step a fresh lockstep plant ``count`` periods, each until its joint_states arrived."""
+    for k in range(1, count + 1):
+        assert plant.step().success
+        plant.wait(lambda: len(states) >= k, f'period {k}')
+
+
 def hil_status(plant, ns):
     return plant.diag.get(f'{ns}/abb_simulator: faults and disturbances')
 
@@ -125,9 +132,7 @@ def test_after_a_disc_swap_the_balls_re_settle_at_the_new_phi_star(plants):
     plant = plants(**LOCKSTEP, **params, **{'disturbance.disc_eps': 0.15e-3,
                                                    'disturbance.disc_angle_deg': 30.0})
     states = plant.collect(JointState, 'joint_states')
-    for k in range(1, 4):
-        assert plant.step().success
-        plant.wait(lambda: len(states) >= k, f'period {k}')
+    step_periods(plant, states, 3)
     before = states[-1]
     reply = plant.call(Trigger, '/abb_simulator/swap_disc', Trigger.Request())
     assert reply.success, reply.message
@@ -272,8 +277,6 @@ def test_markers_off_at_rate_zero(plants):
     plant = plants(**LOCKSTEP, **{'visualization.rate_hz': 0.0})
     states = plant.collect(JointState, 'joint_states')
     markers = plant.collect(MarkerArray, 'visualization/markers')
-    for i in range(1, 31):
-        assert plant.step().success
-        plant.wait(lambda: len(states) >= i, f'period {i}')
+    step_periods(plant, states, 30)
     plant.spin_for(0.2)
     assert markers == []
