@@ -200,11 +200,9 @@ def study_collision():
     ledger; both go to collision_energy.png.
     """
     from abb_ros.model.dynamics.integrate import ConstantSpeed, Simulation
-    from abb_ros.model.parameters.ball_materials import (
-        clamped_race,
-        collision_state,
-        race_energy_ledger,
-    )
+    from abb_ros.model.parameters.ball_materials import clamped_race
+    sys.path.insert(0, os.path.join(ROOT, 'test'))
+    from race_ledger import collision_state, race_energy_ledger
     plt = _plt()
     fig, ax = plt.subplots(1, 2, figsize=(10, 3.8))
     dt = 1e-7

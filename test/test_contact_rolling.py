@@ -11,16 +11,12 @@ import math
 
 import numpy as np
 import pytest
+from race_ledger import collision_state, race_energy_ledger
 
 from abb_ros.model.dynamics import kernels
 from abb_ros.model.dynamics.equations import solver_buffers
 from abb_ros.model.dynamics.integrate import ConstantSpeed, Ramp, Simulation, initial_state
-from abb_ros.model.parameters.ball_materials import (
-    STEEL_E,
-    clamped_race,
-    collision_state,
-    race_energy_ledger,
-)
+from abb_ros.model.parameters.ball_materials import STEEL_E, clamped_race
 from abb_ros.model.parameters.params import DriveParams, ParamError
 
 M_BALL = 0.78e-3
