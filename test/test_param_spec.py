@@ -10,7 +10,7 @@ import pytest
 import yaml
 
 from abb_ros.cli import main
-from abb_ros.model.parameters import plant_spec
+from abb_ros.commands import settings
 from abb_ros.model.parameters.drive_spec import DRIVE_SPECS
 from abb_ros.model.parameters.param_spec import ParamError
 from abb_ros.model.parameters.params import DriveParams
@@ -48,8 +48,8 @@ def test_shipped_yaml_files_name_every_simulator_parameter_with_the_spec_default
 
 def test_docs_parameter_table_is_generated_from_the_spec():
     committed = (ROOT / 'docs' / 'parameters.md').read_text()
-    assert committed == parameter_table.markdown(), \
-        'regenerate: python -m abb_ros.nodes.parameter_table --markdown > docs/parameters.md'
+    assert committed == parameter_table.markdown(settings.commands_taking), \
+        'regenerate: python scripts/make_parameters_doc.py > docs/parameters.md'
     for spec in SPECS:
         assert f'| `{spec.name}` |' in committed and spec.valid_text() in committed
 
@@ -112,9 +112,9 @@ def test_open_and_closed_bounds_read_as_intervals():
 
 def test_cli_set_names_come_from_the_spec():
     assert {'k', 'n', 'imu.accel_noise_density', 'seed', 'spindle.tau'} <= set(
-        plant_spec.cli_names('run'))
-    assert 'imu.accel_noise_density' not in plant_spec.cli_names('stability')
-    assert 'real_time_factor' not in plant_spec.cli_names('run')
+        settings.cli_names('run'))
+    assert 'imu.accel_noise_density' not in settings.cli_names('stability')
+    assert 'real_time_factor' not in settings.cli_names('run')
 
 
 def test_stability_refuses_a_node_parameter_naming_the_valid_ones(capsys):
@@ -171,3 +171,4 @@ def test_run_set_imu_rate_and_spindle_motor_apply_headless(capsys, tmp_path):
                  '--set', 'spindle.initial_speed=100', '--set', 'spindle.tau=0.01']) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary['omega_rad_s'] == pytest.approx(100.0)
+

@@ -14,31 +14,28 @@ from abb_ros.model.parameters.param_spec import INTEGER, STRING, ParamSpec
 __all__ = ['CONTROLLER_SPECS']
 
 _INF = math.inf
-_CTL = ('spin_controller',)
 
 CONTROLLER_SPECS = (
     ParamSpec('target_speed', None, 'rad/s', 'speed to reach and hold; default wbar = 2.7 (P3) '
-              'with the drive omega0', low=0.0, high=_INF, applies='at once', nodes=_CTL),
+              'with the drive omega0', low=0.0, high=_INF, applies='at once'),
     ParamSpec('acceleration', 500.0, 'rad/s^2', 'run-up acceleration of the reference outside '
               'the unbalanced bands (inside them the drive\'s own limit applies)', low=1e-3,
-              high=_INF, applies='at once', nodes=_CTL),
+              high=_INF, applies='at once'),
     ParamSpec('kp', 0.0, '', 'proportional gain on the speed error (command correction per '
               'rad/s); 0: trust the drive\'s own speed loop', low=0.0, high=100.0,
-              applies='at once', nodes=_CTL),
+              applies='at once'),
     ParamSpec('ki', 0.0, '1/s', 'integral gain on the speed error while holding, for a drive '
-              'whose speed loop leaves a steady error', low=0.0, high=1000.0, applies='at once',
-              nodes=_CTL),
+              'whose speed loop leaves a steady error', low=0.0, high=1000.0, applies='at once'),
     ParamSpec('mode', 'speed', '', 'command mode: speed (spindle/speed_cmd; kp, ki) or '
               'torque (spindle/current_cmd from the speed loop; loop_bandwidth, motor.*)',
-              STRING, choices=('speed', 'torque'), read_only=True, applies='at start-up',
-              nodes=_CTL),
+              STRING, choices=('speed', 'torque'), read_only=True, applies='at start-up'),
     ParamSpec('loop_bandwidth', 60.0, 'rad/s', 'torque mode: crossover of the speed loop '
               '(kp = (J_z + I_r) wc / K_t, ki = kp wc / 4)', low=0.0, low_open=True,
-              high=1e4, applies='at once', nodes=_CTL),
+              high=1e4, applies='at once'),
     ParamSpec('guard_wbar', 0.1, '', 'distance kept from an unbalanced band, in wbar',
-              low=0.0, high=1.0, read_only=True, applies='at start-up', nodes=_CTL),
+              low=0.0, high=1.0, read_only=True, applies='at start-up'),
     ParamSpec('table_points', 300, '', 'speeds in the band table over 0..max_spindle_speed',
-              INTEGER, 16, 20000, read_only=True, applies='at start-up', nodes=_CTL),
+              INTEGER, 16, 20000, read_only=True, applies='at start-up'),
 )
 """The example controller's parameters (spin_controller)."""
 

@@ -1,16 +1,15 @@
 """The drive's parameters (Table 1 of Kim, Lee & Chung 2005, SI), one ParamSpec each.
 
 :class:`abb_ros.model.parameters.params.DriveParams` takes its fields, defaults and checks from
-:data:`DRIVE_SPECS`; the simulator, the analysis node and the example controller declare them
-as ``drive.*``, and every ``abb-sim`` subcommand takes them with ``--set`` (without
-``drive.``).
+:data:`DRIVE_SPECS`; the nodes declare them as ``drive.*``, the ``abb-sim`` subcommands take
+them with ``--set`` (without ``drive.``).
 """
 
 from __future__ import annotations
 
-from abb_ros.model.parameters.param_spec import COMMANDS, DRIVE_PREFIX, INTEGER, ParamSpec
+from abb_ros.model.parameters.param_spec import DRIVE_PREFIX, INTEGER, ParamSpec
 
-__all__ = ['DRIVE_SPECS', 'DRIVE_NODES', 'MAX_BALLS', 'RUBBER_C', 'METAL_C', 'SPAN',
+__all__ = ['DRIVE_SPECS', 'MAX_BALLS', 'RUBBER_C', 'METAL_C', 'SPAN',
            'SPEED_SPEC', 'MAX_OMEGA', 'CLAMPED_DECK']
 
 RUBBER_C = 2.53
@@ -19,9 +18,6 @@ METAL_C = 0.66
 """Washer damping c of metal suspension washers [kg/s] (Table 1)."""
 MAX_BALLS = 64
 """Largest ball count accepted (the race of a real drive holds about 10)."""
-
-DRIVE_NODES = ('simulator', 'analysis', 'spin_controller')
-"""The nodes that take the drive's parameters (and max_spindle_speed)."""
 
 
 SPAN = 1e6
@@ -42,7 +38,7 @@ tests) stays a valid drive."""
 
 SPEED_SPEC = ParamSpec('omega', None, 'rad/s', 'spindle speed of an operating point (or wbar '
                        'omega0); 0 stops the spindle; no default: the analysis needs it', low=0.0,
-                       high=MAX_OMEGA, commands=COMMANDS)
+                       high=MAX_OMEGA)
 """The spindle speed of an operating point (``--set omega=`` or ``wbar=``)."""
 
 
@@ -55,8 +51,8 @@ def _drive(name, default, unit, description, ref=None, **kw):
     ref = default if ref is None else ref
     kw.setdefault('low', ref / SPAN)
     kw.setdefault('high', ref * SPAN)
-    return ParamSpec(DRIVE_PREFIX + name, default, unit, description, nodes=DRIVE_NODES,
-                     commands=COMMANDS, applies='at the next step', **kw)
+    return ParamSpec(DRIVE_PREFIX + name, default, unit, description,
+                     applies='at the next step', **kw)
 
 
 _NONNEG = dict(low=0.0)
@@ -87,8 +83,7 @@ DRIVE_SPECS = (
            **_NONNEG),
     _drive('eps', 0.25e-3, 'm', 'mass eccentricity of the rotor, epsilon', **_NONNEG),
     ParamSpec('drive.n', 2, '', 'number of balancing balls, n (0 = drive without ABB)',
-              INTEGER, 0, MAX_BALLS, applies='on ~/reset (simulator)', nodes=DRIVE_NODES,
-              commands=COMMANDS),
+              INTEGER, 0, MAX_BALLS, applies='on ~/reset (simulator)'),
     # ---- ball size, contact, rolling (docs/ball_size_contact_rolling.md); zero = the paper ----
     _drive('r_ball', 0.0, 'm', 'ball radius (0 = point balls, the paper); needed by contact '
            'and rolling resistance; less than R', ref=2.873e-3, **_NONNEG),
@@ -106,7 +101,7 @@ DRIVE_SPECS = (
            'takes away in 1 ms)'),
     ParamSpec('drive.ball_rotation', 0, '', '1 = the balls roll on the race (their spin '
               'inertia 2/5 m r_ball^2 adds 2/5 m R^2 to the ball mass term), 0 = the paper',
-              INTEGER, 0, 1, applies='at the next step', nodes=DRIVE_NODES, commands=COMMANDS),
+              INTEGER, 0, 1, applies='at the next step'),
 )
 """The physical parameters of Table 1 (rubber washers, eps = 0.25 mm, n = 2), SI, and the
 optional terms beyond the paper (zero = the paper's model)."""

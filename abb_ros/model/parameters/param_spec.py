@@ -1,9 +1,10 @@
 """The parameter spec: one declaration per parameter, one check, one error.
 
 A :class:`ParamSpec` holds a parameter's ROS name, default, unit, type, range (open or closed
-ends), description, whether it is read-only, when a change applies, and which nodes and
-``abb-sim`` subcommands take it. :meth:`ParamSpec.check` is the one validation; an invalid
-value raises :class:`ParamError`, one line naming the parameter and what is valid.
+ends), description, whether it is read-only and when a change applies; it names none of
+its consumers (data flows one way: the nodes and the command line say which parameters they
+take). :meth:`ParamSpec.check` is the one validation; an invalid value raises
+:class:`ParamError`, one line naming the parameter and what is valid.
 
 The lists live beside what they configure: the drive's in
 :mod:`abb_ros.model.parameters.drive_spec`, the plant's (step and publish rates, spindle, IMU,
@@ -18,13 +19,11 @@ import math
 from dataclasses import dataclass
 from typing import Any
 
-__all__ = ['ParamError', 'ParamSpec', 'DRIVE_PREFIX', 'COMMANDS', 'DOUBLE', 'INTEGER', 'BOOL',
+__all__ = ['ParamError', 'ParamSpec', 'DRIVE_PREFIX', 'DOUBLE', 'INTEGER', 'BOOL',
            'STRING', 'DOUBLE_ARRAY', 'STRING_ARRAY']
 
 DRIVE_PREFIX = 'drive.'
 """ROS prefix of the drive's parameters (``drive.k``; ``--set`` and DriveParams say ``k``)."""
-COMMANDS = ('run', 'stability', 'freqs', 'map')
-"""``abb-sim`` subcommands with ``--set``."""
 
 DOUBLE, INTEGER, BOOL, STRING = 'double', 'integer', 'bool', 'string'
 DOUBLE_ARRAY, STRING_ARRAY = 'double_array', 'string_array'
@@ -76,8 +75,6 @@ class ParamSpec:
     high_open: bool = False
     read_only: bool = False
     applies: str = ''
-    nodes: tuple = ()
-    commands: tuple = ()
     length: int | None = None
     choices: tuple = ()
 
