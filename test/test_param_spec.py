@@ -172,3 +172,15 @@ def test_run_set_imu_rate_and_spindle_motor_apply_headless(capsys, tmp_path):
     summary = json.loads(capsys.readouterr().out)
     assert summary['omega_rad_s'] == pytest.approx(100.0)
 
+
+def test_the_step_in_seconds_is_one_over_every_valid_rate():
+    """The nodes and ``abb-sim run`` take the step from plant_spec.step_of, whose seconds equal
+    1 / rate for every divisor of 1e9 the spec accepts: live and headless runs integrate with
+    the same float step (``dt_ns * 1e-9`` differs at 18 of them, e.g. 15625 Hz)."""
+    from abb_ros.model.parameters.plant_spec import PLANT, step_of
+    spec = PLANT['integration_rate_hz']
+    rates = [r for r in range(spec.low, spec.high + 1) if 1_000_000_000 % r == 0]
+    assert len(rates) > 50
+    for rate in rates:
+        dt_ns, dt = step_of(rate)
+        assert dt_ns * rate == 1_000_000_000 and dt == 1.0 / rate, rate

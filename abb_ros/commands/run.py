@@ -52,11 +52,11 @@ def add_arguments(parser):
 
 def _run_options(node: dict) -> dict:
     """run_scenario's keyword arguments for the node parameters given with --set."""
-    from abb_ros.model.parameters.plant_spec import check_rates, imu_config
+    from abb_ros.model.parameters.plant_spec import check_rates, imu_config, step_of
     check_rates(node)
     options = {}
     if 'integration_rate_hz' in node:
-        options['dt'] = 1.0 / node['integration_rate_hz']
+        options['dt'] = step_of(node['integration_rate_hz'])[1]
     if 'publish_rate_hz' in node:
         options['publish_dt'] = 1.0 / node['publish_rate_hz']
     if any(k.startswith('imu.') for k in node):

@@ -36,7 +36,7 @@ from abb_ros.model.parameters.param_spec import (
     ParamSpec,
 )
 from abb_ros.model.parameters.params import DriveParams, ParamError
-from abb_ros.model.parameters.plant_spec import check_rates, imu_config
+from abb_ros.model.parameters.plant_spec import check_rates, imu_config, step_of
 from abb_ros.model.sensors.imu import ImuConfig
 from abb_ros.nodes.hil_settings import HilSettings, hil_settings
 from abb_ros.nodes.parameter_table import specs_for
@@ -153,7 +153,12 @@ class SimSettings:
     @property
     def dt_ns(self) -> int:
         """The integration step [ns]."""
-        return 1_000_000_000 // self.integration_rate_hz
+        return step_of(self.integration_rate_hz)[0]
+
+    @property
+    def dt(self) -> float:
+        """The integration step [s]."""
+        return step_of(self.integration_rate_hz)[1]
 
     @property
     def publish_every(self) -> int:

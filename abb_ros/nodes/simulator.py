@@ -72,7 +72,7 @@ class SimulatorNode(Node):
         self.drive, self.settings = ros_params.declare_all(self)
         s = self.settings
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
-        self.sim = Simulation(self.drive, s.initial_speed, s.dt_ns * 1e-9, spindle=s.spindle())
+        self.sim = Simulation(self.drive, s.initial_speed, s.dt, spindle=s.spindle())
         self.imu = ImuModel(s.imu, seed=s.seed)
         self.sampler = PlantSampler(self.sim, self.imu, s.publish_every, s.imu_every)
         _warm_up(self.sim)

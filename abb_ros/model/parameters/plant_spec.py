@@ -15,7 +15,7 @@ from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuConfig
 
 __all__ = ['STEP_SPECS', 'MAX_SPINDLE_SPEED', 'SPINDLE_SPECS', 'SEED', 'IMU_SPECS',
            'MOTOR_DEFAULTS', 'MOTOR_SPECS', 'PLANT_SPECS', 'PLANT', 'imu_config',
-           'check_rates']
+           'check_rates', 'step_of']
 
 _INF = math.inf
 _AT_STEP = 'at the next step'
@@ -126,3 +126,19 @@ def check_rates(values: Mapping[str, Any]) -> None:
         if rate % value:
             raise ParamError(name, value, f'a divisor of integration_rate_hz = {rate}')
 
+
+def step_of(rate_hz: int) -> tuple[int, float]:
+    """Return the fixed integration step of ``rate_hz``, a divisor of 1e9 (:func:`check_rates`).
+
+    The one place the step is derived from the rate, for the nodes and the command line.
+
+    Returns
+    -------
+    dt_ns : int
+        The step [ns].
+    dt : float
+        The same step [s]: ``dt_ns / 1e9``, which equals ``1 / rate_hz`` for every divisor of
+        1e9 (``dt_ns * 1e-9`` would not, e.g. at 15625 Hz).
+    """
+    dt_ns = 1_000_000_000 // int(rate_hz)
+    return dt_ns, dt_ns / 1e9
