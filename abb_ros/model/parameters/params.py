@@ -32,7 +32,7 @@ from abb_ros.model.parameters.param_spec import ParamError, ParamSpec
 
 __all__ = [
     'ParamError', 'DriveParams', 'PARAM_SPECS', 'DIMENSIONLESS_NAMES', 'METAL_C', 'RUBBER_C',
-    'apply_settings', 'parse_value', 'omega_from_wbar', 'MAX_BALLS',
+    'apply_settings', 'parse_value', 'MAX_BALLS',
 ]
 
 PARAM_SPECS: dict[str, ParamSpec] = {s.short: s for s in DRIVE_SPECS}
@@ -193,11 +193,6 @@ class DriveParams:
                 raise ParamError(str(key), values[key], 'one of ' + ', '.join(PARAM_SPECS),
                                  'unknown parameter')
         return (base or cls()).replace(**dict(values))
-
-
-def omega_from_wbar(params: DriveParams, wbar: float) -> float:
-    """Spindle speed [rad/s] for the dimensionless speed wbar, Eq. (39)."""
-    return wbar * params.omega0
 
 
 def parse_value(name: str, text: str) -> float:
