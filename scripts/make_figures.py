@@ -162,6 +162,7 @@ def _title(head, scenario_name, sets):
 
 def make_time_responses(names, workdir: Path) -> None:
     """Run the scenarios into bags in ``workdir`` (a bag already there is reused), plot."""
+    from abb_ros.io.time_response import load_time_response
     from abb_ros.plots import time_response as plots
     needed = list(dict.fromkeys(run for name in names for run in TIME_FIGURES[name][1]))
     responses = {}
@@ -179,7 +180,7 @@ def make_time_responses(names, workdir: Path) -> None:
             angles = ', '.join(f'{a:.2f}' for a in summary['ball_angles_deg'])
             print(f'  final rbar {summary["final_rbar"]:.3g}, ball angles [{angles}] deg, '
                   f'real-time factor {summary["real_time_factor"]:.1f}', file=sys.stderr)
-        responses[run] = plots.load_time_response(bag)
+        responses[run] = load_time_response(bag)
     TIME_DIR.mkdir(parents=True, exist_ok=True)
     for name in names:
         kind, runs, head = TIME_FIGURES[name]

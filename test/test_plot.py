@@ -15,7 +15,7 @@ from sensor_msgs.msg import JointState
 
 from abb_ros.cli import main
 from abb_ros.io.bag_writer import BagWriter
-from abb_ros.plots.time_response import euler_from_quaternion, load_time_response
+from abb_ros.io.time_response import euler_from_quaternion, load_time_response
 
 R_RACE = 0.015
 PHI_END = np.radians(106.0)

@@ -31,6 +31,7 @@ def add_arguments(parser) -> None:
 def run(args) -> dict:
     """Read the bag(s), write the time-response figures; return the summary."""
     from abb_ros.commands.api import CommandFailed, UsageError, check_output, output_files
+    from abb_ros.io.time_response import TimeResponseError, load_time_response
     from abb_ros.model.dynamics.state import wrap_degrees
     from abb_ros.plots import time_response as plots
 
@@ -41,10 +42,10 @@ def run(args) -> dict:
         raise UsageError(f'--out {out}: exists and is not a directory')
     check_output('--out', out / 'rbar_balls.png')
     try:
-        resp = plots.load_time_response(args.bag, R=args.R)
-        other = (plots.load_time_response(args.compare, R=args.R)
+        resp = load_time_response(args.bag, R=args.R)
+        other = (load_time_response(args.compare, R=args.R)
                  if args.compare else None)
-    except (BagError, plots.PlotError, OSError) as exc:
+    except (BagError, TimeResponseError, OSError) as exc:
         raise UsageError(str(exc)) from None
     figures = [out / 'rbar_balls.png', out / 'deck.png']
     if other is not None:
