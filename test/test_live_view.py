@@ -45,8 +45,9 @@ def foxglove_client(url: str, timeout: float = DEADLINE_S, **options) -> dict:
         pytest.skip('the npm package @foxglove/ws-protocol is not installed: '
                     'npm ci --prefix test/live_view_client')
     options.setdefault('timeout_s', timeout)
-    out = subprocess.run([node, str(CLIENT_DIR / 'client.mjs'), url, json.dumps(options)],
-                         capture_output=True, text=True, timeout=timeout + 15)
+    out = subprocess.run([node, str(CLIENT_DIR / 'client.mjs'), url, '-'],
+                         input=json.dumps(options), capture_output=True, text=True,
+                         timeout=timeout + 15)   # options on stdin: large payloads
     assert out.returncode == 0, out.stderr + out.stdout
     return json.loads(out.stdout)
 
@@ -154,13 +155,27 @@ def served():
     view.close()
 
 
-def test_foxglove_client_sees_the_channels_messages_time_and_services(served):
+SUBPROTOCOLS = [None, 'foxglove.sdk.v1']
+"""What the tests offer: the client's default (``foxglove.websocket.v1``: Lichtblick,
+foxglove_bridge before 3.x) and foxglove-sdk's name (the current Foxglove app)."""
+
+
+def offer(subprotocol) -> dict:
+    """The client's options offering ``subprotocol`` (None: the client's default)."""
+    return {} if subprotocol is None else dict(subprotocol=subprotocol)
+
+
+@pytest.mark.parametrize('subprotocol', SUBPROTOCOLS)
+def test_foxglove_client_sees_the_channels_messages_time_and_services(served, subprotocol):
+    """Either subprotocol gets the whole protocol: channels, messages, time, services and
+    published messages (the default one names the classic protocol, HTTP 400 before)."""
     view, sent, calls = served
     command = serialize_message(Float64(data=42.0))
-    seen = foxglove_client(view.url, messages=3, publish=[
+    seen = foxglove_client(view.url, messages=3, **offer(subprotocol), publish=[
         dict(topic='spindle/speed_cmd', schemaName='std_msgs/msg/Float64', data=b64(command))],
         calls=[dict(service='/abb_simulator/pause',
                     data=b64(serialize_message(SetBool.Request(data=True))))])
+    assert seen['subprotocol'] == (subprotocol or 'foxglove.websocket.v1')
     assert seen['serverInfo']['name'] == 'abb_ros'
     assert set(seen['serverInfo']['capabilities']) == {'time', 'clientPublish', 'services'}
     assert seen['serverInfo']['supportedEncodings'] == ['cdr']
@@ -254,7 +269,8 @@ def test_sinks_write_a_samples_messages_to_every_sink_with_or_without_write_many
 # ---- the simulator node -------------------------------------------------------------------------
 
 @pytest.mark.ros
-def test_simulator_node_serves_its_topics_and_takes_the_viewers_commands():
+@pytest.mark.parametrize('subprotocol', SUBPROTOCOLS)
+def test_simulator_node_serves_its_topics_and_takes_the_viewers_commands(subprotocol):
     from test_simulator_node import Plant
 
     from abb_ros.io.ros_messages import TOPIC_TYPES
@@ -284,7 +300,7 @@ def test_simulator_node_serves_its_topics_and_takes_the_viewers_commands():
         expected['/stability/margin'] = 'std_msgs/msg/Float64'   # live_view.topics
         command = serialize_message(Float64(data=321.0))
         seen = foxglove_client(
-            sim.live.view.url, messages=3,
+            sim.live.view.url, messages=3, **offer(subprotocol),
             wait_for=['/joint_states', '/deck/imu', '/stability/margin'],
             publish=[dict(topic='spindle/speed_cmd', schemaName='std_msgs/msg/Float64',
                           data=b64(command))],

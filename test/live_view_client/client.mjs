@@ -14,10 +14,12 @@
 // A handshake the server refuses ends the client at once with "handshake": the HTTP status.
 import protocol from "@foxglove/ws-protocol";
 import WebSocket from "ws";
+import { readFileSync } from "node:fs";
 
 const { FoxgloveClient } = protocol;
 
-const [url, optionsText] = process.argv.slice(2);
+const [url, optionsArg] = process.argv.slice(2);
+const optionsText = optionsArg === "-" ? readFileSync(0, "utf8") : optionsArg;   // "-": from stdin
 const options = { messages: 3, timeout_s: 20, publish: [], calls: [], get_parameters: null,
   set_parameters: null, subprotocol: FoxgloveClient.SUPPORTED_SUBPROTOCOL, origin: null, statuses: 0,
   ...JSON.parse(optionsText || "{}") };
