@@ -36,16 +36,22 @@ CLIENT_DIR = ROOT / 'test' / 'live_view_client'
 DEADLINE_S = 30.0
 
 
-def foxglove_client(url: str, timeout: float = DEADLINE_S, **options) -> dict:
-    """Run Foxglove's client against ``url``; return what it saw (skip without node/npm)."""
+def client_command() -> list[str]:
+    """The command that runs Foxglove's client (skip, saying why, without node or npm)."""
     node = shutil.which('node')
     if node is None:
         pytest.skip('node is not installed: Foxglove\'s own client (npm) cannot run')
     if not (CLIENT_DIR / 'node_modules' / '@foxglove' / 'ws-protocol').is_dir():
         pytest.skip('the npm package @foxglove/ws-protocol is not installed: '
                     'npm ci --prefix test/live_view_client')
+    return [node, str(CLIENT_DIR / 'client.mjs')]
+
+
+def foxglove_client(url: str, timeout: float = DEADLINE_S, **options) -> dict:
+    """Run Foxglove's client against ``url``; return what it saw (skip without node/npm)."""
+    command = client_command()
     options.setdefault('timeout_s', timeout)
-    out = subprocess.run([node, str(CLIENT_DIR / 'client.mjs'), url, '-'],
+    out = subprocess.run([*command, url, '-'],
                          input=json.dumps(options), capture_output=True, text=True,
                          timeout=timeout + 15)   # options on stdin: large payloads
     assert out.returncode == 0, out.stderr + out.stdout

@@ -284,6 +284,11 @@ class LiveView:
             connection.send_text(message)
 
     # ---- any thread -----------------------------------------------------------------------
+    def subscriber_count(self, topic: str) -> int:
+        """Return how many subscriptions of viewers ``topic`` has (0: not served)."""
+        channel = self._channels.get(_absolute(topic))
+        return 0 if channel is None else len(channel.subscribers)
+
     def has_topic(self, topic: str) -> bool:
         """Whether ``topic`` is served."""
         return _absolute(topic) in self._channels

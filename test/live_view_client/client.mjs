@@ -55,6 +55,7 @@ function done() {
 }
 
 setTimeout(() => finish(0), options.timeout_s * 1000);
+process.on("SIGTERM", () => finish(0));   // ended from outside: print what was seen
 client.on("error", (error) => { seen.error = String(error); finish(1); });
 client.on("serverInfo", (info) => { seen.serverInfo = info; });
 client.on("time", (event) => { if (seen.time.length < 10) seen.time.push(String(event.timestamp)); });
