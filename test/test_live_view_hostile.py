@@ -87,6 +87,21 @@ def test_a_handshake_without_a_foxglove_subprotocol_gets_400_naming_both(view):
     assert handshake(view.url, subprotocols=('chat', 'foxglove.sdk.v1')) == 101
 
 
+def test_a_client_offering_both_names_gets_the_first_it_lists(view):
+    from tornado.ioloop import IOLoop
+    from tornado.websocket import websocket_connect
+
+    async def selected(offered):
+        ws = await websocket_connect(view.url, subprotocols=offered)
+        chosen = ws.selected_subprotocol
+        ws.close()
+        return chosen
+
+    for offered in (['foxglove.sdk.v1', 'foxglove.websocket.v1'],
+                    ['foxglove.websocket.v1', 'foxglove.sdk.v1']):
+        assert IOLoop().run_sync(lambda: selected(offered), timeout=DEADLINE_S) == offered[0]
+
+
 def test_a_foreign_browser_origin_gets_403_and_the_viewers_origins_connect(view):
     assert handshake(view.url, origin=FOREIGN) == 403
     assert handshake(view.url, origin='null') == 403   # a sandboxed page

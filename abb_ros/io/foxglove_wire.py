@@ -1,6 +1,6 @@
 """The Foxglove WebSocket protocol's messages, as bytes and JSON (no sockets here).
 
-The protocol (https://github.com/foxglove/ws-protocol, docs/spec.md) is served under two
+The protocol (the specification in the repository foxglove/ws-protocol) is served under two
 subprotocol names, :data:`SUBPROTOCOLS`: ``foxglove.websocket.v1`` (foxglove_bridge before
 3.x, Lichtblick, the default of the npm client ``@foxglove/ws-protocol``) and
 ``foxglove.sdk.v1`` (foxglove-sdk servers, foxglove_bridge 3.x, the current Foxglove app),
