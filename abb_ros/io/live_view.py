@@ -80,6 +80,9 @@ BACKLOG = 1024
 MAX_MESSAGE_BYTES = 16 * 1024 * 1024
 """The largest frame a client may send [bytes]."""
 START_TIMEOUT_S = 10.0
+FLUSH_PERIOD_S = 0.005
+"""How often the messages queued for the viewers are sent [s]: the writer never waits for
+the server's thread, and a viewer gets them in batches (up to 5 ms late)."""
 
 
 class LiveViewError(RuntimeError):
@@ -186,7 +189,7 @@ class LiveView:
             supportedEncodings=[ENCODING], metadata={}, sessionId=str(time.time_ns()))
         self.dropped = 0
         self.connections: set = set()
-        self._wake_pending = False
+        self._flushing = False   # whether _flush is scheduled (server thread only)
         try:
             sockets = netutil.bind_sockets(port, address=host)
         except (OSError, ValueError) as exc:
@@ -235,14 +238,19 @@ class LiveView:
                 pass
 
     def _flush(self) -> None:
-        self._wake_pending = False
+        """Send what was queued; again in FLUSH_PERIOD_S while a viewer is connected."""
         for connection in list(self.connections):
             connection.send_queued()
+        if self.connections:
+            self._loop.call_later(FLUSH_PERIOD_S, self._flush)
+        else:
+            self._flushing = False
 
-    def _wake(self) -> None:
-        if not self._wake_pending:
-            self._wake_pending = True
-            self._on_loop(self._flush)
+    def start_flushing(self) -> None:
+        """Send the queued messages every FLUSH_PERIOD_S (a viewer has connected)."""
+        if not self._flushing:
+            self._flushing = True
+            self._loop.call_later(FLUSH_PERIOD_S, self._flush)
 
     def run_in_worker(self, fn, *args):
         """Return an awaitable of ``fn(*args)`` run in a worker thread (calls that block)."""
@@ -325,12 +333,10 @@ class LiveView:
             for connection, subscription_id in subscribers:
                 self.dropped += connection.queue(
                     wire.message_data_prefix(subscription_id, stamp_ns) + data)
-            self._wake()
         if channel is self._clock and self.connections:
             frame = wire.time_frame(stamp_ns)
             for connection in list(self.connections):
                 connection.queue(frame)
-            self._wake()
 
     def close(self) -> None:
         """Stop the server (the viewers see the connection close); idempotent."""

@@ -55,6 +55,7 @@ class Connection(WebSocketHandler):
         """Send ``serverInfo``, the channels and the services."""
         self.set_nodelay(True)
         self.view.connections.add(self)
+        self.view.start_flushing()
         self.send_text(self.view.server_info)
         for text in self.view.advertisement():
             self.send_text(text)
