@@ -42,7 +42,7 @@ from std_msgs.msg import Float64
 
 from abb_ros.io import msgdefs, topics
 from abb_ros.io.live_view import DEFAULT_ALLOWED_ORIGINS, LiveView, LiveViewError
-from abb_ros.model.param_spec import ParamError
+from abb_ros.model.parameters.param_spec import ParamError
 from abb_ros.nodes.rclpy_access import RCLError
 from abb_ros.nodes.recording import DRAIN_PERIOD_S, GraphRecording
 
