@@ -46,7 +46,9 @@ def test_edge_jitter_spreads_the_readings_by_the_period_error():
     period = 2 * math.pi / (6 * omega)
     # the period is the difference of two jittered edges: std sqrt(2) jitter
     expected = omega * math.sqrt(2) * jitter / period
-    assert np.std(held) == pytest.approx(expected, rel=0.2)
+    # ~950 pulse periods, neighbours sharing an edge: their std scatters by about 3 % from
+    # seed to seed (seeds 3-12 measured: -4.2 % to +4.9 %); 10 % is twice the widest
+    assert np.std(held) == pytest.approx(expected, rel=0.1)
     assert np.mean(held) == pytest.approx(omega, rel=1e-3)
 
 
