@@ -243,7 +243,8 @@ def test_sweep_verdicts_of_two_three_and_ten_balls_agree_with_the_point_analysis
     verdict of point_stability (the issue's sweep called 8 of 10 three-ball drives unbalanced
     whose balls all balanced), and its neutral-mode count."""
     from abb_ros.sweep.compute import compute_partition, partition_params
-    from abb_ros.sweep.spec import draw_samples, parse_spec
+    from abb_ros.sweep.sampling import draw_samples
+    from abb_ros.sweep.spec import parse_spec
     doc = {'parameters': {'n': {'dist': 'grid', 'values': [2, 3, 10]}},
            'compute': {'stability': {'wbar': [1.5, 2.7]}}, 'operating_wbar': 2.7,
            'base': {'c': 0.66}}

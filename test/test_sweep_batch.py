@@ -11,7 +11,8 @@ from abb_ros.model.dynamics.spindle import ConstantSpeed, SpindleMotor
 from abb_ros.model.dynamics.state import wrap_degrees
 from abb_ros.model.parameters.params import DriveParams, apply_settings
 from abb_ros.sweep.compute import compute_partition
-from abb_ros.sweep.spec import draw_samples, parse_spec
+from abb_ros.sweep.sampling import draw_samples
+from abb_ros.sweep.spec import parse_spec
 
 P3, OMEGA = apply_settings(DriveParams(), {'mbar': 0.03, 'c': 0.66, 'wbar': 2.7})
 DT = 1e-4

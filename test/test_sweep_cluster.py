@@ -22,7 +22,8 @@ from abb_ros.cli import main
 from abb_ros.sweep import store
 from abb_ros.sweep.compute import compute_partition, warm_up
 from abb_ros.sweep.runner import local_cluster, run_sweep
-from abb_ros.sweep.spec import draw_samples, load_spec
+from abb_ros.sweep.sampling import draw_samples
+from abb_ros.sweep.spec import load_spec
 
 SPEC = """\
 name: cluster_test

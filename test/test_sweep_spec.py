@@ -7,7 +7,8 @@ import pytest
 
 from abb_ros.cli import main
 from abb_ros.model.parameters.params import ParamError
-from abb_ros.sweep.spec import MAX_SAMPLES, draw_samples, load_spec, parse_spec
+from abb_ros.sweep.sampling import draw_samples
+from abb_ros.sweep.spec import MAX_SAMPLES, load_spec, parse_spec
 
 GOOD = """\
 name: t

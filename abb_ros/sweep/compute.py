@@ -182,6 +182,6 @@ def warm_up(spec) -> None:
     This loads (or compiles) the kernels of this process, so that timings and deadlines see the
     steady state.
     """
-    from abb_ros.sweep.spec import draw_samples
+    from abb_ros.sweep.sampling import draw_samples
     one = dataclasses.replace(spec, partition_size=1)
     compute_partition(one, 0, {k: v[:1] for k, v in draw_samples(spec).items()})

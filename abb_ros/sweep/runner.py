@@ -18,7 +18,7 @@ from pathlib import Path
 
 from abb_ros.sweep import store
 from abb_ros.sweep.compute import compute_partition
-from abb_ros.sweep.spec import draw_samples
+from abb_ros.sweep.sampling import draw_samples
 
 __all__ = ['SweepResult', 'run_sweep', 'check_out_dir', 'SweepError', 'local_cluster', 'has_bokeh']
 

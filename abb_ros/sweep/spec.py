@@ -23,19 +23,18 @@ Speeds given as wbar are converted with the *nominal* drive's omega0 (scenario +
 every drive of the batch turns at the same physical speed, as the drives of a production lot
 do; a drive whose washers are stiffer runs at a lower wbar of its own.
 
-All samples are drawn up front from the seed (:func:`draw_samples`), before they are cut into
-partitions, so the samples and the results do not depend on how the work is partitioned or
-where it runs. Errors are :class:`~abb_ros.model.parameters.params.ParamError` naming the field
-(``parameters.k.low``, ``compute.run.duration``, ...) and what is valid.
+All samples are drawn up front from the seed (:func:`abb_ros.sweep.sampling.draw_samples`),
+before they are cut into partitions, so the samples and the results do not depend on how the
+work is partitioned or where it runs. Errors are
+:class:`~abb_ros.model.parameters.params.ParamError` naming the field (``parameters.k.low``,
+``compute.run.duration``, ...) and what is valid.
 """
 
 from __future__ import annotations
 
 import copy
-import itertools
 import math
 import os
-import warnings
 from dataclasses import dataclass
 
 import numpy as np
@@ -51,7 +50,7 @@ from abb_ros.model.parameters.params import (
 )
 
 __all__ = ['MAX_SAMPLES', 'MAX_SPEC_BYTES', 'MAX_SPEEDS', 'SweepSpec', 'load_spec', 'parse_spec',
-           'draw_samples', 'SAMPLEABLE', 'DISTRIBUTIONS', 'METHODS']
+           'SAMPLEABLE', 'DISTRIBUTIONS', 'METHODS']
 
 MAX_SAMPLES = 1_000_000
 """Largest number of drives in one sweep (grid points times samples)."""
@@ -394,54 +393,3 @@ def _check_normal(where, out, dist):
     if out['std'] < 1e-9 * max(abs(out['mean']), width):
         raise ParamError(f'{where}.std', dist['std'], f'at least {1e-9 * width:g}',
                          'a spread below the round-off of the mean draws one value')
-
-
-# ---- drawing -----------------------------------------------------------------------------
-
-def _unit_draws(method, seed, count, dims):
-    """(count, dims) points in [0, 1): pseudo-random, Latin hypercube or scrambled Sobol."""
-    if dims == 0:
-        return np.zeros((count, 0))
-    if method == 'random':
-        return np.random.default_rng(seed).random((count, dims))
-    from scipy.stats import qmc
-    if method == 'lhs':
-        return qmc.LatinHypercube(d=dims, rng=np.random.default_rng(seed)).random(count)
-    with warnings.catch_warnings():   # balance properties want 2^m points; any count is valid
-        warnings.simplefilter('ignore', UserWarning)
-        return qmc.Sobol(d=dims, scramble=True, rng=np.random.default_rng(seed)).random(count)
-
-
-def _transform(dist, u):
-    kind = dist['dist']
-    if kind == 'uniform':
-        return dist['low'] + (dist['high'] - dist['low']) * u
-    if kind == 'normal':
-        from scipy.stats import truncnorm
-        a = (dist['low'] - dist['mean']) / dist['std']
-        b = (dist['high'] - dist['mean']) / dist['std']
-        x = truncnorm.ppf(u, a, b, loc=dist['mean'], scale=dist['std'])
-        return np.clip(x, dist['low'], dist['high'])
-    values = np.asarray(dist['values'])
-    return values[np.minimum((u * len(values)).astype(np.int64), len(values) - 1)]
-
-
-def draw_samples(spec: SweepSpec) -> dict:
-    """Every sample of the sweep, drawn up front from the seed: {parameter: array (total,)}.
-
-    Sample i = g * samples + j is grid point g (grid parameters in spec order, the last
-    fastest) with draw j.
-    """
-    drawn = spec.drawn
-    u = _unit_draws(spec.method, spec.seed, spec.samples, len(drawn))
-    draws = {name: _transform(spec.parameters[name], u[:, i]) for i, name in enumerate(drawn)}
-    grid = spec.grid
-    combos = list(itertools.product(*grid.values())) if grid else [()]
-    out = {}
-    for name in spec.parameters:
-        if name in grid:
-            col = np.repeat(np.asarray([c[list(grid).index(name)] for c in combos]), spec.samples)
-        else:
-            col = np.tile(draws[name], len(combos))
-        out[name] = col.astype(np.int64) if name == 'n' else col.astype(float)
-    return out
