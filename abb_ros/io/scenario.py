@@ -30,13 +30,13 @@ Errors name the field and what is valid (:class:`~abb_ros.model.parameters.param
 
 from __future__ import annotations
 
-import math
 import os
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
 
+from abb_ros.io import fields
 from abb_ros.io.safe_yaml import YamlFileError, load_file
 from abb_ros.model.dynamics import kernels
 from abb_ros.model.dynamics.initial import INITIAL_DECK
@@ -116,54 +116,10 @@ def list_scenarios() -> list[str]:
     return sorted(p.stem for p in scenario_dir().glob('*.yaml'))
 
 
-def _short(value):
-    """``value`` for an error message: numbers as they are, other values' repr cut to a line."""
-    if isinstance(value, (int, float)) or value is None:
-        return value
-    text = repr(value)
-    return text if len(text) <= 60 else text[:57] + '...'
-
-
-def _number(where, value, low=-math.inf, low_open=False, high=math.inf, unit=''):
-    ok = isinstance(value, (int, float)) and not isinstance(value, bool) and math.isfinite(value)
-    if ok:
-        ok = (value > low if low_open else value >= low) and value <= high
-    if not ok:
-        lo = f'({low:g}' if low_open else f'[{low:g}'
-        hi = 'inf)' if math.isinf(high) else f'{high:g}]'
-        raise ParamError(where, _short(value), f'a finite number in {lo}, {hi} {unit}'.rstrip())
-    return float(value)
-
-
-finite_number = _number
-"""``finite_number(where, value, low, low_open, high, unit)``: ``value`` as a float when it is a
-finite number in the range, else a one-line ParamError naming ``where`` (also the sweep spec's)."""
-
-
-def _mapping(where, value, keys) -> dict:
-    """``value`` as a mapping whose keys are among ``keys`` (text), else a ParamError."""
-    valid = 'a mapping with keys ' + ', '.join(sorted(keys))
-    if not isinstance(value, dict):
-        raise ParamError(where, _short(value), valid)
-    for key in value:
-        if not isinstance(key, str):
-            raise ParamError(f'{where} key {key!r}', _short(value[key]), valid,
-                             'keys must be text')
-        if key not in keys:
-            raise ParamError(f'{where}.{key}', _short(value[key]), valid, 'unknown key')
-    return value
-
-
-def _text(where, value) -> str:
-    if not isinstance(value, str):
-        raise ParamError(where, _short(value), 'text')
-    return value
-
-
 def _numbers(where, value, count, what, **bounds) -> list:
     if not isinstance(value, list) or len(value) != count:
-        raise ParamError(where, _short(value), f'a list of {count} {what}')
-    return [_number(f'{where}[{i}]', v, **bounds) for i, v in enumerate(value)]
+        raise ParamError(where, fields.short(value), f'a list of {count} {what}')
+    return [fields.finite_number(f'{where}[{i}]', v, **bounds) for i, v in enumerate(value)]
 
 
 def _initial_deck(value) -> tuple:
@@ -177,7 +133,7 @@ def _initial_deck(value) -> tuple:
                     'gamma [rad]')
     for i, (name, v) in enumerate(zip(('X', 'Y', 'Z', 'alpha', 'beta', 'gamma'), deck)):
         limit, unit = ((kernels.MAX_TRANSLATION, 'm') if i < 3 else (kernels.MAX_ANGLE, 'rad'))
-        _number(f'scenario.initial.deck[{i}] ({name})', v, -limit, False, limit, unit)
+        fields.finite_number(f'scenario.initial.deck[{i}] ({name})', v, -limit, False, limit, unit)
     return tuple(deck)
 
 
@@ -201,34 +157,35 @@ def load_scenario(name_or_path: str, base: DriveParams | None = None) -> Scenari
     if not isinstance(doc, dict):
         raise ParamError('scenario', str(path), 'a mapping with keys ' + ', '.join(
             sorted(_TOP_KEYS)), f'the document is {type(doc).__name__}')
-    doc = _mapping('scenario', doc, _TOP_KEYS)
+    doc = fields.mapping('scenario', doc, _TOP_KEYS)
     params = base or DriveParams()
     if doc.get('drive') is not None:
-        drive = _mapping('scenario.drive', doc['drive'], set(PARAM_SPECS))
+        drive = fields.mapping('scenario.drive', doc['drive'], set(PARAM_SPECS))
         params = params.replace(**drive)
     settings = doc.get('set') or {}
     if not isinstance(settings, dict) or not all(isinstance(k, str) for k in settings):
-        raise ParamError('scenario.set', _short(settings), 'a mapping name: value')
+        raise ParamError('scenario.set', fields.short(settings), 'a mapping name: value')
     params, omega = apply_settings(params, settings, None)
     if omega is None:
         omega = 2.7 * params.omega0    # P3's speed, the simulator's default
-    duration = _number('scenario.duration', doc.get('duration', 10.0), 0.0, True, unit='s')
-    initial = _mapping('scenario.initial', doc.get('initial') or {}, {'deck', 'phi_deg'})
+    duration = fields.finite_number('scenario.duration', doc.get('duration', 10.0), 0.0, True,
+                                    unit='s')
+    initial = fields.mapping('scenario.initial', doc.get('initial') or {}, {'deck', 'phi_deg'})
     deck0 = _initial_deck(initial['deck']) if 'deck' in initial else INITIAL_DECK
     phi0 = None
     if 'phi_deg' in initial:
         phi0 = np.radians(_numbers('scenario.initial.phi_deg', initial['phi_deg'], params.n,
                                    f'ball angles in degrees (n = {params.n})'))
     spindle, commands = _spindle(doc.get('spindle') or {}, params)
-    return Scenario(_text('scenario.name', doc.get('name', path.stem)),
-                    _text('scenario.description', doc.get('description', '')), params,
+    return Scenario(fields.text('scenario.name', doc.get('name', path.stem)),
+                    fields.text('scenario.description', doc.get('description', '')), params,
                     float(omega), duration, deck0, phi0, spindle, commands)
 
 
 def _spindle(spec, params):
     if isinstance(spec, dict) and spec.get('model') == 'torque':
         return _torque_spindle(spec)
-    spec = _mapping('scenario.spindle', spec, {'model', 'max_accel', 'tau', 'commands'})
+    spec = fields.mapping('scenario.spindle', spec, {'model', 'max_accel', 'tau', 'commands'})
     model = spec.get('model', 'constant')
     if model == 'constant':
         extra = sorted(set(spec) - {'model'})
@@ -237,27 +194,28 @@ def _spindle(spec, params):
                              '(use model: motor)')
         return ConstantSpeed(), []
     if model != 'motor':
-        raise ParamError('scenario.spindle.model', _short(model), 'constant, motor or torque')
+        raise ParamError('scenario.spindle.model', fields.short(model),
+                         'constant, motor or torque')
     motor = SpindleMotor(
-        max_accel=_number('scenario.spindle.max_accel', spec.get('max_accel', 1000.0), 0, True,
-                          unit='rad/s^2'),
-        tau=_number('scenario.spindle.tau', spec.get('tau', 0.05), 0, True, unit='s'))
+        max_accel=fields.finite_number('scenario.spindle.max_accel',
+                                       spec.get('max_accel', 1000.0), 0, True, unit='rad/s^2'),
+        tau=fields.finite_number('scenario.spindle.tau', spec.get('tau', 0.05), 0, True, unit='s'))
     listed = spec.get('commands') or []
     if not isinstance(listed, list):
-        raise ParamError('scenario.spindle.commands', _short(listed),
+        raise ParamError('scenario.spindle.commands', fields.short(listed),
                          'a list of {t: seconds, wbar: value} or {t, omega}')
     commands = []
     for i, cmd in enumerate(listed):
         where = f'scenario.spindle.commands[{i}]'
-        cmd = _mapping(where, cmd, {'t', 'wbar', 'omega'})
+        cmd = fields.mapping(where, cmd, {'t', 'wbar', 'omega'})
         if 't' not in cmd or len({'wbar', 'omega'} & set(cmd)) != 1:
-            raise ParamError(where, _short(cmd), 'a mapping {t: seconds, wbar: value} or '
+            raise ParamError(where, fields.short(cmd), 'a mapping {t: seconds, wbar: value} or '
                              '{t, omega}')
-        t = _number(where + '.t', cmd['t'], 0.0, unit='s')
+        t = fields.finite_number(where + '.t', cmd['t'], 0.0, unit='s')
         if 'wbar' in cmd:
-            omega = _number(where + '.wbar', cmd['wbar'], 0.0) * params.omega0
+            omega = fields.finite_number(where + '.wbar', cmd['wbar'], 0.0) * params.omega0
         else:
-            omega = _number(where + '.omega', cmd['omega'], 0.0, unit='rad/s')
+            omega = fields.finite_number(where + '.omega', cmd['omega'], 0.0, unit='rad/s')
         commands.append(SpeedCommand(t, omega))
     commands.sort(key=lambda c: c.t)
     return motor, commands
@@ -266,25 +224,26 @@ def _spindle(spec, params):
 def _torque_spindle(spec):
     """model: torque: a TorqueMotor (motor.* names, MOTOR_DEFAULTS) and timed currents [A]."""
     from abb_ros.model.parameters.plant_spec import MOTOR_DEFAULTS
-    spec = _mapping('scenario.spindle', spec, {'model', 'motor', 'commands'})
-    given = _mapping('scenario.spindle.motor', spec.get('motor') or {}, set(MOTOR_DEFAULTS))
+    spec = fields.mapping('scenario.spindle', spec, {'model', 'motor', 'commands'})
+    given = fields.mapping('scenario.spindle.motor', spec.get('motor') or {}, set(MOTOR_DEFAULTS))
     values = {}
     for name, value in given.items():
         low_open = name not in ('viscous_friction', 'coulomb_friction')
-        values['motor.' + name] = _number(f'scenario.spindle.motor.{name}', value, 0.0,
-                                          low_open)
+        values['motor.' + name] = fields.finite_number(f'scenario.spindle.motor.{name}', value,
+                                                       0.0, low_open)
     motor = TorqueMotor.from_values(values)
     listed = spec.get('commands') or []
     if not isinstance(listed, list):
-        raise ParamError('scenario.spindle.commands', _short(listed),
+        raise ParamError('scenario.spindle.commands', fields.short(listed),
                          'a list of {t: seconds, current: amperes}')
     commands = []
     for i, cmd in enumerate(listed):
         where = f'scenario.spindle.commands[{i}]'
-        cmd = _mapping(where, cmd, {'t', 'current'})
+        cmd = fields.mapping(where, cmd, {'t', 'current'})
         if set(cmd) != {'t', 'current'}:
-            raise ParamError(where, _short(cmd), 'a mapping {t: seconds, current: amperes}')
-        commands.append(CurrentCommand(_number(where + '.t', cmd['t'], 0.0, unit='s'),
-                                       _number(where + '.current', cmd['current'], unit='A')))
+            raise ParamError(where, fields.short(cmd), 'a mapping {t: seconds, current: amperes}')
+        t = fields.finite_number(where + '.t', cmd['t'], 0.0, unit='s')
+        current = fields.finite_number(where + '.current', cmd['current'], unit='A')
+        commands.append(CurrentCommand(t, current))
     commands.sort(key=lambda c: c.t)
     return motor, commands

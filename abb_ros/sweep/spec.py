@@ -39,8 +39,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from abb_ros.io import fields
 from abb_ros.io.safe_yaml import YamlFileError, load_file
-from abb_ros.io.scenario import finite_number as _num
 from abb_ros.model.parameters.drive_spec import MAX_OMEGA
 from abb_ros.model.parameters.params import (
     DIMENSIONLESS_NAMES,
@@ -111,19 +111,6 @@ def load_yaml(path) -> object:
 
 # ---- checks ------------------------------------------------------------------------------
 
-def _mapping(where, value, keys, required=()):
-    if not isinstance(value, dict):
-        raise ParamError(where, value, 'a mapping with keys ' + ', '.join(sorted(keys)))
-    for key in value:
-        if key not in keys:
-            raise ParamError(f'{where}.{key}' if where else str(key), value[key],
-                             'known keys: ' + ', '.join(sorted(keys)), 'unknown key')
-    for key in required:
-        if key not in value:
-            raise ParamError(f'{where}.{key}', None, 'required', 'missing')
-    return value
-
-
 def _int(where, value, low, high):
     if isinstance(value, bool) or not isinstance(value, int) or not low <= value <= high:
         raise ParamError(where, value, f'an integer in [{low}, {high}]')
@@ -190,7 +177,7 @@ def load_spec(path) -> SweepSpec:
 def parse_spec(doc, base_dir=None) -> SweepSpec:
     """Validate a spec mapping (as loaded from YAML) and normalise it."""
     from abb_ros.io.scenario import load_scenario
-    _mapping('', doc, _TOP_KEYS, required=('parameters', 'compute'))
+    fields.mapping('', doc, _TOP_KEYS, required=('parameters', 'compute'))
     doc = copy.deepcopy(doc)
     name = _str('name', doc.get('name', 'sweep'))
     description = _str('description', doc.get('description', ''))
@@ -227,7 +214,7 @@ def parse_spec(doc, base_dir=None) -> SweepSpec:
                              'both', f'both set {_SAME_FIELD.get(pname, pname)}')
         parameters[pname] = _distribution(f'parameters.{pname}', pname, dist, nominal)
 
-    sampling = _mapping('sampling', doc.get('sampling') or {}, _SAMPLING_KEYS)
+    sampling = fields.mapping('sampling', doc.get('sampling') or {}, _SAMPLING_KEYS)
     method = sampling.get('method', 'random')
     if method not in METHODS:
         raise ParamError('sampling.method', method, 'one of ' + ', '.join(METHODS))
@@ -261,7 +248,7 @@ def parse_spec(doc, base_dir=None) -> SweepSpec:
         if operating <= 0:
             raise ParamError('operating_wbar', None, '(0, inf): the scenario stops the spindle')
 
-    compute = _mapping('compute', doc['compute'], _COMPUTE_KEYS)
+    compute = fields.mapping('compute', doc['compute'], _COMPUTE_KEYS)
     if not compute:
         raise ParamError('compute', compute, 'at least one of stability, run')
     speeds = None
@@ -269,12 +256,13 @@ def parse_spec(doc, base_dir=None) -> SweepSpec:
         speeds = _speeds(compute['stability'] or {}, nominal.omega0, operating)
     run = None
     if 'run' in compute:
-        r = _mapping('compute.run', compute['run'] or {}, _RUN_KEYS)
-        run = {'duration': _num('compute.run.duration', r.get('duration', scenario.duration),
-                                0.0, True, MAX_DURATION),
-               'rbar_limit': _num('compute.run.rbar_limit', r.get('rbar_limit',
-                                                                  DEFAULT_RBAR_LIMIT), 0.0, True),
-               'dt': _num('compute.run.dt', r.get('dt', 1e-4), 0.0, True, 1e-2)}
+        r = fields.mapping('compute.run', compute['run'] or {}, _RUN_KEYS)
+        number = fields.finite_number
+        run = {'duration': number('compute.run.duration', r.get('duration', scenario.duration),
+                                  0.0, True, MAX_DURATION),
+               'rbar_limit': number('compute.run.rbar_limit',
+                                    r.get('rbar_limit', DEFAULT_RBAR_LIMIT), 0.0, True),
+               'dt': number('compute.run.dt', r.get('dt', 1e-4), 0.0, True, 1e-2)}
     doc.update(name=name, description=description, scenario=scen_name, base=base,
                parameters=parameters, samples=samples,
                sampling={'method': method, 'seed': seed}, partition_size=partition_size)
@@ -284,7 +272,7 @@ def parse_spec(doc, base_dir=None) -> SweepSpec:
 
 def _speeds(st, omega0, operating):
     """Stability speeds [rad/s], sorted, the operating speed included."""
-    st = _mapping('compute.stability', st, _STABILITY_KEYS)
+    st = fields.mapping('compute.stability', st, _STABILITY_KEYS)
     given = [k for k in _STABILITY_KEYS if k in st]
     if len(given) > 1:
         raise ParamError(f'compute.stability.{sorted(given)[1]}', st[sorted(given)[1]],
@@ -299,7 +287,8 @@ def _speeds(st, omega0, operating):
         scale = omega0 if key == 'wbar' else 1.0
         values = [_speed(f'compute.stability.{key}', v, scale) for v in lst]
     elif 'range' in st:
-        rng = _mapping('compute.stability.range', st['range'], _RANGE_KEYS, required=('points',))
+        rng = fields.mapping('compute.stability.range', st['range'], _RANGE_KEYS,
+                             required=('points',))
         keys = [k for k in ('wbar', 'omega') if k in rng]
         if len(keys) != 1:
             raise ParamError('compute.stability.range', rng, 'exactly one of wbar: [lo, hi] or '
@@ -325,7 +314,7 @@ def _speeds(st, omega0, operating):
 def _speed(where, value, scale):
     """Return the speed [rad/s] of ``value`` (wbar: ``scale`` omega0, omega: 1), checked."""
     unit = 'rad/s' if scale == 1.0 else f'(omega0 = {scale:.6g} rad/s)'
-    return _num(where, value, 0.0, True, MAX_OMEGA / scale, unit) * scale
+    return fields.finite_number(where, value, 0.0, True, MAX_OMEGA / scale, unit) * scale
 
 
 def _check_value(where, name, value, nominal):
@@ -346,7 +335,7 @@ def _distribution(where, name, dist, nominal):
     if kind not in DISTRIBUTIONS:
         raise ParamError(f'{where}.dist', kind, 'one of ' + ', '.join(DISTRIBUTIONS))
     required, optional = DISTRIBUTIONS[kind]
-    _mapping(where, dist, required | optional | {'dist'}, required=sorted(required))
+    fields.mapping(where, dist, required | optional | {'dist'}, required=sorted(required))
     if name == 'n' and kind not in ('list', 'grid'):
         raise ParamError(f'{where}.dist', kind, 'list or grid (n is a whole number)')
     out = {'dist': kind}
@@ -386,7 +375,7 @@ def _check_normal(where, out, dist):
     if not out['low'] <= out['mean'] <= out['high']:
         raise ParamError(f'{where}.mean', dist['mean'],
                          f'[{out["low"]:g}, {out["high"]:g}] (between low and high)')
-    out['std'] = _num(f'{where}.std', dist['std'], 0.0, True)
+    out['std'] = fields.finite_number(f'{where}.std', dist['std'], 0.0, True)
     if out['std'] > width:
         raise ParamError(f'{where}.std', dist['std'], f'(0, {width:g}] (at most high - low)',
                          'the bounds would cut the normal to almost uniform: use dist: uniform')
