@@ -7,18 +7,12 @@ keeps the bag written so far, marked incomplete in its metadata.yaml (exit code 
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import errno
 import os
 import shutil
 import sys
 
 import numpy as np
-
-from abb_ros.model.parameters.params import DIMENSIONLESS_NAMES, PARAM_SPECS
-
-DRIVE_SETTINGS = ('omega',) + DIMENSIONLESS_NAMES + tuple(PARAM_SPECS)
-"""--set names that go to the scenario's drive (the others are node parameters)."""
 
 DEFAULT_SCENARIO = 'p3'
 
@@ -48,43 +42,6 @@ def add_arguments(parser):
     parser.add_argument('--real-time', action=argparse.BooleanOptionalAction,
                         help='pace the run at the wall clock, 1 simulated second per second '
                         '(default: with --live-view; else as fast as possible)')
-
-
-def _run_options(node: dict) -> dict:
-    """run_scenario's keyword arguments for the node parameters given with --set."""
-    from abb_ros.model.parameters.plant_spec import check_rates, imu_config, step_of
-    check_rates(node)
-    options = {}
-    if 'integration_rate_hz' in node:
-        options['dt'] = step_of(node['integration_rate_hz'])[1]
-    if 'publish_rate_hz' in node:
-        options['publish_dt'] = 1.0 / node['publish_rate_hz']
-    if any(k.startswith('imu.') for k in node):
-        options['imu_config'] = imu_config(node)
-    if 'seed' in node:
-        options['seed'] = node['seed']
-    return options
-
-
-def _spindle(spindle, node: dict):
-    """Apply spindle.max_accel / spindle.tau to the scenario's spindle.
-
-    A constant-speed spindle becomes the motor of the simulator node, with its defaults for
-    the other.
-    """
-    from abb_ros.model.dynamics.spindle import SpindleMotor, TorqueMotor
-    from abb_ros.model.parameters.params import ParamError
-    from abb_ros.model.parameters.plant_spec import PLANT
-    changes = {k[len('spindle.'):]: v for k, v in node.items() if k.startswith('spindle.')}
-    if not changes:
-        return spindle
-    if isinstance(spindle, TorqueMotor):
-        name = sorted(changes)[0]
-        raise ParamError(f'spindle.{name}', changes[name], 'none: the scenario drives the '
-                         'spindle by torque (spindle: model: torque)')
-    if not isinstance(spindle, SpindleMotor):
-        spindle = SpindleMotor(PLANT['spindle.max_accel'].default, PLANT['spindle.tau'].default)
-    return dataclasses.replace(spindle, **changes)
 
 
 def _why(exc: OSError) -> str:
@@ -125,26 +82,17 @@ def _finish(bag, path, staged) -> None:
         commit_directory(path, staged)
 
 
-def run(args) -> dict:
-    """Run the scenario headless (a bag with ``--out``) and return the summary."""
-    from abb_ros.app.headless import check_duration, run_scenario
-    from abb_ros.app.run_sinks import Sinks
-    from abb_ros.commands.api import (
-        CommandFailed,
-        UsageError,
-        commit_directory,
-        drive_params,
-        parse_settings,
-        signals_deferred,
-        stage_directory,
-        stop_point,
-    )
-    from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
-    from abb_ros.io.scenario import load_scenario
-    from abb_ros.model.dynamics.integrate import StateError
-    from abb_ros.model.dynamics.state import StateLayout, wrap_degrees
-    from abb_ros.model.parameters.params import ParamError
+def _scenario(args):
+    """Return the scenario of the options and run_scenario's keyword arguments.
 
+    ``--config``, ``--set``, ``--no-abb`` and ``--duration`` applied to ``--scenario``, all
+    checked before a file is made.
+    """
+    from abb_ros.app.headless import check_duration
+    from abb_ros.app.run_settings import apply_settings
+    from abb_ros.commands.api import UsageError, drive_params, parse_settings
+    from abb_ros.io.scenario import load_scenario
+    from abb_ros.model.parameters.params import ParamError
     base = drive_params(args.config) if args.config else None
     try:
         scenario = load_scenario(args.scenario, base=base)
@@ -155,13 +103,7 @@ def run(args) -> dict:
     settings = parse_settings(args.set, 'run')
     if args.no_abb:
         settings['n'] = 0
-    node = {k: settings.pop(k) for k in list(settings) if k not in DRIVE_SETTINGS}
-    if 'spindle.initial_speed' in node:
-        settings['omega'] = node.pop('spindle.initial_speed')
-    if settings:
-        scenario = scenario.with_settings(settings)
-    scenario.spindle = _spindle(scenario.spindle, node)
-    options = _run_options(node)   # checked before any file is made
+    scenario, options = apply_settings(scenario, settings)
     if args.duration is not None:
         if not (np.isfinite(args.duration) and args.duration > 0):
             raise ParamError('duration', args.duration, '(0, inf) s')
@@ -172,45 +114,64 @@ def run(args) -> dict:
         if args.duration is not None:
             raise
         raise UsageError(f'--scenario {args.scenario}: {exc}') from None
-    bag = out = None
-    if args.out:
-        out = stage_directory('--out', args.out, args.overwrite)
-    live = _live_view(args.live_view)
-    if args.out:
-        try:
-            with signals_deferred():
-                bag = BagWriter(out)
-                bag.set_drive_params(scenario.params)
-        except (BagError, OSError) as exc:
-            if live is not None:
-                live.close()
-            shutil.rmtree(out, ignore_errors=True)
-            commit_directory(args.out, out)
-            if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
-                raise CommandFailed(f'--out {args.out}: {_why(exc)}; nothing was written'
-                                    ) from None
-            why = _why(exc) if isinstance(exc, OSError) else str(exc)
-            raise UsageError(f'--out {args.out}: {why}'.replace('pass overwrite=True',
-                                                                 'pass --overwrite')) from None
+    return scenario, options
+
+
+def _open_bag(args, staged, params, live):
+    """Open the bag of ``--out`` in ``staged``; a failure closes ``live`` and removes it."""
+    from abb_ros.commands.api import CommandFailed, UsageError, commit_directory, signals_deferred
+    from abb_ros.io.bag_writer import BagError, BagExistsError, BagWriter
+    try:
+        with signals_deferred():
+            bag = BagWriter(staged)
+            bag.set_drive_params(params)
+        return bag
+    except (BagError, OSError) as exc:
+        if live is not None:
+            live.close()
+        shutil.rmtree(staged, ignore_errors=True)
+        commit_directory(args.out, staged)
+        if isinstance(exc, OSError) and exc.errno in (errno.ENOSPC, errno.EDQUOT):
+            raise CommandFailed(f'--out {args.out}: {_why(exc)}; nothing was written'
+                                ) from None
+        if isinstance(exc, BagExistsError):
+            raise UsageError(f'--out {args.out}: it exists; pass --overwrite to replace it'
+                             ) from None
+        why = _why(exc) if isinstance(exc, OSError) else str(exc)
+        raise UsageError(f'--out {args.out}: {why}') from None
+
+
+def _progress_bar(args, scenario):
+    """Return the tqdm bar of the run (None with ``--no-progress``)."""
+    if args.no_progress:
+        return None
+    from tqdm import tqdm
+    return tqdm(total=round(scenario.duration, 6), unit='sim s', file=sys.stderr,
+                desc=f'abb-sim run {scenario.name}', leave=False,
+                bar_format='{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]')
+
+
+def _integrate(args, scenario, options, bag, live, staged):
+    """Run the scenario into the bag and the live view; close both, whatever happens."""
+    from abb_ros.app.headless import run_scenario
+    from abb_ros.app.run_sinks import Sinks
+    from abb_ros.commands.api import CommandFailed, signals_deferred, stop_point
+    from abb_ros.io.bag_writer import BagWriteError
+    from abb_ros.model.dynamics.integrate import StateError
     sinks = [sink for sink in (bag, live) if sink is not None]
     real_time = live is not None if args.real_time is None else args.real_time
     sink = Sinks(sinks, real_time) if sinks else None
-    bar = None
-    if not args.no_progress:
-        from tqdm import tqdm
-        bar = tqdm(total=round(scenario.duration, 6), unit='sim s', file=sys.stderr,
-                   desc=f'abb-sim run {scenario.name}', leave=False,
-                   bar_format='{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]')
+    bar = _progress_bar(args, scenario)
     try:
         with signals_deferred():    # a signal stops the run between chunks (stop_point)
-            result = run_scenario(scenario, bag=sink, progress=stop_point(bar.update if bar
-                                                                          else None), **options)
+            return run_scenario(scenario, bag=sink, progress=stop_point(
+                bar.update if bar else None), **options)
     except StateError as exc:
         if bag is not None:
             bag.mark_incomplete(str(exc))
         raise
     except BagWriteError as exc:
-        shutil.rmtree(out, ignore_errors=True)
+        shutil.rmtree(staged, ignore_errors=True)
         raise CommandFailed(f'--out {args.out}: writing the bag failed ({_why(exc)}); '
                             'the partial bag was removed') from None
     except BaseException:
@@ -224,35 +185,22 @@ def run(args) -> dict:
         if live is not None:
             live.close()
         if bag is not None:
-            _finish(bag, args.out, out)
-    p = scenario.params
-    y = result.y[-1]
-    layout = StateLayout(p.n)
-    omega = float(layout.omega(y))
-    summary = {
-        'scenario': scenario.name,
-        'n': p.n,
-        'wbar': omega / p.omega0,
-        'omega_rad_s': omega,
-        'duration_s': float(result.t[-1] - result.t[0]),
-        'final_rbar': float(layout.rbar(y, p.R)),
-        'ball_angles_deg': [round(float(a), 3) for a in wrap_degrees(layout.phi(y))],
-        'wall_time_s': round(result.wall_time, 4),
-        'real_time_factor': round(result.real_time_factor, 2),
-        'compile_time_s': round(result.compile_time, 3),
-    }
-    if p.beyond_paper:
-        summary['beyond_paper'] = list(p.beyond_paper)
-    if result.contact_step_note:
-        summary['contact_step_note'] = result.contact_step_note
-    if result.refined_steps:
-        summary['contact_refined_steps'] = result.refined_steps
-        summary['contact_max_substeps'] = result.max_substeps
-    if result.rolling_switches:
-        summary['rolling_switches'] = result.rolling_switches
+            _finish(bag, args.out, staged)
+
+
+def run(args) -> dict:
+    """Run the scenario headless (a bag with ``--out``) and return the summary."""
+    from abb_ros.app.run_settings import summary
+    from abb_ros.commands.api import stage_directory
+    scenario, options = _scenario(args)
+    staged = stage_directory('--out', args.out, args.overwrite) if args.out else None
+    live = _live_view(args.live_view)
+    bag = _open_bag(args, staged, scenario.params, live) if args.out else None
+    result = _integrate(args, scenario, options, bag, live, staged)
+    out = summary(scenario, result)
     if live is not None:
-        summary['live_view'] = live.url
+        out['live_view'] = live.url
     if args.out:
-        summary['bag'] = str(args.out)
-        summary['messages'] = result.messages
-    return summary
+        out['bag'] = str(args.out)
+        out['messages'] = result.messages
+    return out

@@ -57,6 +57,10 @@ class BagError(Exception):
     """Bad use of a bag: the path exists, an unknown topic, not a bag, a closed writer."""
 
 
+class BagExistsError(BagError):
+    """The bag's directory exists and ``overwrite`` was not given."""
+
+
 class BagWriteError(OSError):
     """The disk refused a write (e.g. ENOSPC). The bag is closed and readable up to there."""
 
@@ -179,7 +183,7 @@ class _Topic:
 def _prepare_directory(path: Path, overwrite: bool) -> None:
     if path.exists() or path.is_symlink():
         if not overwrite:
-            raise BagError(f'{path} exists; choose another output or pass overwrite=True')
+            raise BagExistsError(f'{path} exists; choose another output or pass overwrite=True')
         if not path.is_dir():
             raise BagError(f'{path} exists and is not a bag directory; not overwriting it')
         strangers = [p.name for p in path.iterdir()
