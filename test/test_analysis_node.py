@@ -185,8 +185,9 @@ def _wrapped_deg(phi):
 
 def test_p3_metal_washers_is_balanced_and_phi_star_matches_the_settled_balls(graph):
     """Fig. 11 / Eq. (26): at P3 the analysis says OK and its phi* (+-106.13 deg) is where the
-    simulated balls settle. 2 deg is the issue's tolerance; the simulated balls settle within
-    0.01 deg of Eq. (26) (test_paper_time_responses), so it only has to absorb the wrap."""
+    simulated balls settle. 2 deg is the tolerance asked of the analysis; the simulated balls
+    settle within 0.01 deg of Eq. (26) (test_paper_time_responses), so it only has to absorb the
+    wrap."""
     status = graph.command(2.7)
     since = status[0]
     # settled: ball rates small over 200 consecutive samples (1 s of simulated time at 200 Hz)

@@ -34,7 +34,7 @@ def _at(params, fraction):
     return params.replace(eps=fraction * ball_capacity(params) * params.m * params.R / params.M)
 
 
-def test_ten_steel_balls_of_the_issue_cancel_eight_point_oh_five():
+def test_ten_steel_balls_of_0_156_g_cancel_eight_point_oh_five():
     """0.156 g steel balls (r 1.68 mm) on R = 15 mm: packed 12.86 deg apart, C = 8.05."""
     p = with_steel_balls(DriveParams(n=10, m=0.156e-3))
     assert math.degrees(p.contact_separation) == pytest.approx(12.86, abs=0.01)

@@ -42,9 +42,7 @@ def p3_state(params, kick=30.0):
 
 @pytest.mark.parametrize('rotation', [False, True])
 def test_velocity_coupling_is_the_derivative_of_the_accelerations_in_the_ball_rates(rotation):
-    """Check that velocity coupling is the derivative of the accelerations in the ball rates.
-
-    Jv (kernels.multirate.velocity_coupling, the linear part of the rate-dependent terms that
+    """Jv (kernels.multirate.velocity_coupling, the linear part of the rate-dependent terms that
     the multirate step moves into its fast part) equals d q'' / d phi_b' of the full model
     (central differences: q'' is quadratic in the rates, so they are exact up to round-off).
     """
@@ -73,9 +71,7 @@ def test_velocity_coupling_is_the_derivative_of_the_accelerations_in_the_ball_ra
 
 
 def test_multirate_step_of_an_impact_agrees_with_fine_rk4_sub_steps():
-    """Check that multirate step of an impact agrees with fine rk4 sub steps.
-
-    The step in which ball 1 (30 rad/s) hits ball 2, P3: the multirate step and RK4 sub-steps of
+    """The step in which ball 1 (30 rad/s) hits ball 2, P3: the multirate step and RK4 sub-steps of
     the whole system, both at the multirate step's sub-steps, differ from RK4 at 16 times as many
     by the same order (the impact's resolution; measured: ball rates 1.2e-4 and 1.6e-4 rad/s), the
     multirate step's deck rates by 2.5e-6 (its deck inverse is the step's start's).
@@ -115,10 +111,8 @@ def test_multirate_step_of_an_impact_agrees_with_fine_rk4_sub_steps():
 
 
 def test_multirate_steps_of_the_python_twin_agree_with_the_compiled_kernels():
-    """Check that multirate steps of the python twin agree with the compiled kernels.
-
-    The first 8 steps of the P3 collision (two of them multirate steps of 120 fast sub-steps, the
-    impact among them) by kernels.PY and kernels.JIT: the same statements, the same state
+    """The first 8 steps of the P3 collision (two of them multirate steps of 120 fast sub-steps,
+    the impact among them) by kernels.PY and kernels.JIT: the same statements, the same state
     (measured: identical, bit for bit).
     """
     params = with_steel_balls(load_scenario('p3').params, rotation=True)
@@ -147,9 +141,7 @@ def head_on(speed, onset, dt=1e-4):
 
 @pytest.mark.parametrize('speed', [0.01, 0.02, 0.05, 0.5])
 def test_impacts_rebound_to_an_absolute_or_relative_tolerance_whichever_is_looser(speed):
-    """Check that impacts rebound to an absolute or relative tolerance whichever is looser.
-
-    A slow impact's sub-steps are longer (kernels.contact_steps.impact_relaxation) and its
+    """A slow impact's sub-steps are longer (kernels.contact_steps.impact_relaxation) and its
     rebound speeds stay right to 1e-5 m/s (CONTACT_IMPACT_SPEED times the relative error 7.8e-5
     of a fast impact); a fast impact's (0.5 m/s) stay right to 7.8e-5 of the speed. The head-on
     collision on the clamped race, its contact starting at 16 instants within the first step,
@@ -173,11 +165,9 @@ def test_impacts_rebound_to_an_absolute_or_relative_tolerance_whichever_is_loose
 
 
 def test_slow_impacts_take_fewer_sub_steps_than_fast_ones_would_at_their_speed(monkeypatch):
-    """Check that slow impacts take fewer sub steps than fast ones would at their speed.
-
-    The multirate step's sub-steps for the head-on collision at 0.01 m/s, just before the contact:
-    with impact_relaxation (compiled) about half those of the relative rule (the Python twin with
-    CONTACT_RELAX_MAX = 1, i.e. no relaxation); at 0.5 m/s the same.
+    """The multirate step's sub-steps for the head-on collision at 0.01 m/s, just before the
+    contact: with impact_relaxation (compiled) about half those of the relative rule (the Python
+    twin with CONTACT_RELAX_MAX = 1, i.e. no relaxation); at 0.5 m/s the same.
     """
     counts = {}
     for speed in (0.01, 0.5):
@@ -194,9 +184,7 @@ def test_slow_impacts_take_fewer_sub_steps_than_fast_ones_would_at_their_speed(m
 
 @pytest.mark.parametrize('speed', [1e-4, 2e-3, 0.05, 0.128, 1.0])
 def test_impact_relaxation_follows_the_measured_error_law(speed):
-    """Check that impact relaxation follows the measured error law.
-
-    (CONTACT_IMPACT_SPEED / v)^(1 / 2.7), between 1 and CONTACT_RELAX_MAX, v the impact speed of
+    """(CONTACT_IMPACT_SPEED / v)^(1 / 2.7), between 1 and CONTACT_RELAX_MAX, v the impact speed of
     the peak overlap's 'energy' delta^2.5 = 5/8 m_b v^2 / K (kernels.contact_steps.contact_regime).
     """
     stiffness, mb = 4.25e9, 1.56e-4
@@ -209,9 +197,7 @@ def test_impact_relaxation_follows_the_measured_error_law(speed):
 
 
 def test_an_impact_caught_near_its_peak_is_not_taken_for_a_resting_contact():
-    """Check that an impact caught near its peak is not taken for a resting contact.
-
-    The head-on collision at 0.05 m/s whose contact begins late in the first step: the next step
+    """The head-on collision at 0.05 m/s whose contact begins late in the first step: the next step
     starts near the impact's peak, where the overlap's energy exceeds the rate's, so contact_regime
     takes it for a resting contact (few sub-steps); resting_misjudged sees the rebound at the
     step's end and contact_step takes the step again with the contact resolved as an impact (the
@@ -241,9 +227,7 @@ def test_an_impact_caught_near_its_peak_is_not_taken_for_a_resting_contact():
 
 @pytest.mark.parametrize('onset', [2.5 / 16, 13.5 / 16])
 def test_in_torque_mode_an_impact_near_its_peak_is_taken_again_too(onset):
-    """Check that in torque mode an impact near its peak is taken again too.
-
-    The same head-on collision (0.05 m/s) with the spindle in torque mode (no current, the rotor
+    """The same head-on collision (0.05 m/s) with the spindle in torque mode (no current, the rotor
     free; whole-system RK4 sub-steps instead of the multirate step): its rebound speeds against the
     same run at dt / 200, the contact starting early in the first step, and late (its peak near the
     next step's start: that step is taken again). In an impact these sub-steps are
@@ -278,11 +262,9 @@ def gathered_chain():
 
 @pytest.mark.parametrize('dt', [1e-5, 3e-5, 1e-4, 2e-4])
 def test_a_resting_chain_is_never_taken_again(dt):
-    """Check that a resting chain is never taken again.
-
-    The gathered chain, continued at steps of dt: over the next 1000 steps every step has contacts
-    resolved as resting (in sub-steps, or in one RK4 step at 1e-5 s: omega_c dt ~ 0.5) and none is
-    taken again: its first multirate step at mis_substeps, or its one RK4 step, leaves
+    """The gathered chain, continued at steps of dt: over the next 1000 steps every step has
+    contacts resolved as resting (in sub-steps, or in one RK4 step at 1e-5 s: omega_c dt ~ 0.5) and
+    none is taken again: its first multirate step at mis_substeps, or its one RK4 step, leaves
     retake_substeps at 0 (as kernels.stepper.step decides).
     """
     params, t0, y0 = gathered_chain()

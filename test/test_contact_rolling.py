@@ -39,10 +39,8 @@ def momentum(params, y):
 
 @pytest.mark.parametrize('rotation', [0, 1])
 def test_head_on_collision_conserves_momentum_along_the_race(rotation):
-    """Check that head on collision conserves momentum along the race.
-
-    Elastic Hertz impact (contact_damping = 0) at 0.05 m/s at the default 10 kHz step: the step is
-    refined automatically (sub-steps), the momentum along the race is conserved to 1e-9 relative
+    """Elastic Hertz impact (contact_damping = 0) at 0.05 m/s at the default 10 kHz step: the step
+    is refined automatically (sub-steps), the momentum along the race is conserved to 1e-9 relative
     and the equal balls exchange their velocities (to 1e-3).
     """
     params = clamped(ball_rotation=rotation)
@@ -86,9 +84,7 @@ def _ramp_run(fraction):
 
 
 def test_ball_at_rest_sticks_while_the_drive_is_below_the_rolling_threshold():
-    """Check that ball at rest sticks while the drive is below the rolling threshold.
-
-    Karnopp stick: a spindle acceleration of 0.8 of the threshold moves the ball not at all
+    """Karnopp stick: a spindle acceleration of 0.8 of the threshold moves the ball not at all
     relative to the race (a tanh law would creep at a rate set by its regularisation).
     """
     sim, _ = _ramp_run(0.8)
@@ -97,9 +93,7 @@ def test_ball_at_rest_sticks_while_the_drive_is_below_the_rolling_threshold():
 
 
 def test_ball_slips_above_the_rolling_threshold_with_the_coulomb_deceleration():
-    """Check that ball slips above the rolling threshold with the coulomb deceleration.
-
-    At 1.25 of the threshold (at the start speed) the race runs away from the ball: phi'' =
+    """At 1.25 of the threshold (at the start speed) the race runs away from the ball: phi'' =
     -(theta'' - mu omega^2 / r) relative to the race, to the 3 % by which the threshold grows with
     omega over the ramp.
     """
@@ -110,7 +104,8 @@ def test_ball_slips_above_the_rolling_threshold_with_the_coulomb_deceleration():
 
 
 def test_contact_and_rolling_need_a_ball_radius_and_balls_must_fit():
-    """Check that contact and rolling need a ball radius and balls must fit."""
+    """Contact or rolling resistance without a ball radius, balls too big for the race, or a
+    ball_rotation other than 0 or 1 is a ParamError naming the parameter."""
     with pytest.raises(ParamError, match="'r_ball'.*contact_E"):
         DriveParams(contact_E=2e11)
     with pytest.raises(ParamError, match="'r_ball'.*rolling_mu"):
@@ -123,9 +118,7 @@ def test_contact_and_rolling_need_a_ball_radius_and_balls_must_fit():
 
 @pytest.mark.slow
 def test_energy_of_a_collision_with_contact_damping_and_rolling_resistance_closes():
-    """Check that energy of a collision with contact damping and rolling resistance closes.
-
-    Clamped race at P3's speed (811 rad/s): ball 1 hits ball 2 at 0.05 m/s with Hunt-Crossley
+    """Clamped race at P3's speed (811 rad/s): ball 1 hits ball 2 at 0.05 m/s with Hunt-Crossley
     damping (chi = 0.5 s/m), ball drag D and rolling resistance (mu = 1e-5 m, both balls end caught
     in the stick band). Input work of the spindle = change of kinetic + contact potential energy +
     energy dissipated (drag, contact damping, rolling), closed to 1e-6 of the input work.
@@ -154,12 +147,10 @@ def test_energy_of_a_collision_with_contact_damping_and_rolling_resistance_close
 
 @pytest.mark.slow
 def test_slip_to_stick_switch_is_located_at_the_instant_the_ball_enters_the_stick_band():
-    """Check that slip to stick switch is located at the instant the ball enters the stick band.
-
-    Event-located Coulomb switching. One ball on the clamped race at 811 rad/s, slipping forwards
-    at 2 rad/s, no drag: psi'' = -c psi'^2 (c = mu / r), so 1/psi' = 1/psi'_0 + c t, until phi' =
-    psi' - omega meets the band c psi'^2 STICK_TIME (~7.7 ms, inside a step of 0.1 ms); then it
-    sticks and phi' = phi'(t*) exp(-(t - t*) / STICK_TIME). The integrator locates the switch at
+    """Event-located Coulomb switching. One ball on the clamped race at 811 rad/s, slipping
+    forwards at 2 rad/s, no drag: psi'' = -c psi'^2 (c = mu / r), so 1/psi' = 1/psi'_0 + c t, until
+    phi' = psi' - omega meets the band c psi'^2 STICK_TIME (~7.7 ms, inside a step of 0.1 ms); then
+    it sticks and phi' = phi'(t*) exp(-(t - t*) / STICK_TIME). The integrator locates the switch at
     the analytic instant (to 1e-12 s) and the stuck decay runs from it (RK4's decay of the stuck
     law from the located instant, to 1e-9). Without another force the stuck ball's force at the
     band's floor is exactly Qmax: the state just inside counts as broken free, which holds for

@@ -177,11 +177,9 @@ def _show(name, row):
 
 @pytest.mark.slow
 def test_p3_energy_bookkeeping_of_the_paper_model_closes_once_the_truncation_is_counted():
-    """Check that P3's energy closes for the paper model once the truncation is counted.
-
-    All new terms off (r_ball = 1 mm alone changes nothing; the sympy spin energy needs it finite).
-    Measured: the balance leaves 1.2e-4 of the input work over 0.5 s whatever the step (1e-4,
-    2.5e-5, 1e-5 s: docs/ball_size_contact_rolling.md), the work of the terms the paper's
+    """All new terms off (r_ball = 1 mm alone changes nothing; the sympy spin energy needs it
+    finite). Measured: the balance leaves 1.2e-4 of the input work over 0.5 s whatever the step
+    (1e-4, 2.5e-5, 1e-5 s: docs/ball_size_contact_rolling.md), the work of the terms the paper's
     first-order equations drop; adding that work (from the exact Lagrange rows) closes it to 1e-6.
     """
     params = load_scenario('p3').params.replace(r_ball=1e-3)
@@ -194,9 +192,7 @@ def test_p3_energy_bookkeeping_of_the_paper_model_closes_once_the_truncation_is_
 
 @pytest.mark.slow
 def test_p3_energy_bookkeeping_with_contact_closes_through_the_multirate_contact_steps():
-    """Check that p3 energy bookkeeping with contact closes through the multirate contact steps.
-
-    Steel balls with contact and rolling balls, no rolling resistance: the collision's steps
+    """Steel balls with contact and rolling balls, no rolling resistance: the collision's steps
     are multirate (kernels.multirate.mis_contact_step: the contact forces sub-stepped, the rest
     of the system at three stages per step), replayed sub-step by sub-step from its trace. It
     closes like the paper model once the truncation work is counted (measured:
@@ -211,9 +207,7 @@ def test_p3_energy_bookkeeping_with_contact_closes_through_the_multirate_contact
 
 @pytest.mark.slow
 def test_p3_energy_bookkeeping_with_contact_and_rolling_closes_with_the_switches_located():
-    """Check that P3's energy closes with contact, rolling and the switches located.
-
-    Steel balls with contact, rolling resistance 1e-6 m and rolling balls: the collision, the
+    """Steel balls with contact, rolling resistance 1e-6 m and rolling balls: the collision, the
     rolling dissipation and stick/slip switches are in the run. The integrator locates every switch
     (the regimes are kept, smooth, between them) and the ledger integrates between them, so that
     the run closes like the paper model's once the truncation work is counted. Measured at the

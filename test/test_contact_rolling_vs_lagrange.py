@@ -45,10 +45,8 @@ def beyond_states(n, contact, seed):
 
 @pytest.mark.parametrize('n, contact', [(1, False), (2, True)])
 def test_beyond_paper_kernels_are_the_first_order_expansion_of_the_extended_energies(n, contact):
-    """Check that beyond paper kernels are the first order expansion of the extended energies.
-
-    lagrange_residual (the kernels' assemble with ball rotation and contact, 7/5 ball mass) equals
-    the first-order Lagrange equations of the extended T, V, F to round-off.
+    """lagrange_residual (the kernels' assemble with ball rotation and contact, 7/5 ball mass)
+    equals the first-order Lagrange equations of the extended T, V, F to round-off.
     """
     for params, y, qdd, deck in beyond_states(n, contact, seed=12 + n):
         y, qdd = at_scale(y, qdd, deck, 0.05)
@@ -58,10 +56,8 @@ def test_beyond_paper_kernels_are_the_first_order_expansion_of_the_extended_ener
 
 
 def test_contact_state_really_overlaps_and_pushes_the_balls_apart():
-    """Check that contact state really overlaps and pushes the balls apart.
-
-    The contact states of the test above exercise the contact force: Q_2 = -Q_1 > 0 and of the size
-    K delta^1.5 R (not a vacuous comparison).
+    """The contact states of the test above exercise the contact force: Q_2 = -Q_1 > 0 and of the
+    size K delta^1.5 R (not a vacuous comparison).
     """
     from abb_ros.model.dynamics import kernels
     params, y, _, _ = next(beyond_states(2, True, seed=1))

@@ -55,9 +55,7 @@ def speeds_after(params, y0, dt, spindle):
 @pytest.mark.parametrize('speed', SPEEDS)
 @pytest.mark.slow
 def test_an_elastic_impact_rebounds_and_keeps_its_energy_at_every_step_and_speed(speed, dt):
-    """Check that an elastic impact rebounds and keeps its energy at every step and speed.
-
-    Rebound speeds against the fine run and the energy's error (as a speed, sqrt of twice the
+    """Rebound speeds against the fine run and the energy's error (as a speed, sqrt of twice the
     kinetic energy over the mass, minus the approach speed) within the documented accuracy, at
     ONSETS onsets, in speed and torque mode. Measured worst cells (rebound, of the tolerance): 0.5
     m/s at 3e-5 s 1.98e-5 of 3.9e-5 m/s (speed mode), 1.76e-5 at 1e-5 s (torque mode); before the
@@ -82,9 +80,7 @@ def test_an_elastic_impact_rebounds_and_keeps_its_energy_at_every_step_and_speed
 
 @pytest.mark.parametrize('torque', [False, True])
 def test_the_step_across_an_impacts_peak_is_taken_again(torque):
-    """Check that the step across an impacts peak is taken again.
-
-    0.05 m/s at 1e-5 s, the contact beginning at 15/16 of the first step: the third step starts
+    """0.05 m/s at 1e-5 s, the contact beginning at 15/16 of the first step: the third step starts
     before the peak and ends after it. Its overlap and energies look resting at both ends (the
     overlap 4.6e-7 -> 4.9e-7 m, more static than kinetic 'energy'), with omega_c dt ~ 1.8, taken
     whole (one RK4 step); but the rate turns round: it changes by about what the contact force
@@ -124,10 +120,8 @@ def test_the_step_across_an_impacts_peak_is_taken_again(torque):
 
 @pytest.mark.parametrize('torque', [False, True])
 def test_the_python_twin_takes_the_same_steps_at_a_fine_step(torque):
-    """Check that the python twin takes the same steps at a fine step.
-
-    The collision of the test above, its first 6 steps (the peak's taken again) by kernels.PY and
-    kernels.JIT: the same state, bit for bit.
+    """The collision of the test above, its first 6 steps (the peak's taken again) by kernels.PY
+    and kernels.JIT: the same state, bit for bit.
     """
     dt = 1e-5
     params, y0 = head_on(0.05, 15 / 16, dt)
@@ -145,9 +139,7 @@ def test_the_python_twin_takes_the_same_steps_at_a_fine_step(torque):
 
 
 def test_a_step_outside_the_verified_range_is_said_not_refused():
-    """Check that a step outside the verified range is said not refused.
-
-    With contact on, a step outside 1e-5..2e-4 s runs and says so (summary and node /diagnostics
+    """With contact on, a step outside 1e-5..2e-4 s runs and says so (summary and node /diagnostics
     use contact_step_note); without contact, or inside the range, nothing.
     """
     from abb_ros.model.dynamics.integrate import contact_step_note

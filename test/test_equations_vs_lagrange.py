@@ -206,9 +206,7 @@ def _parts(params, y, qdd, deck, s, sc):
 
 @pytest.mark.parametrize('n', [1, 2, 3])
 def test_lagrange_residual_differs_from_the_energies_only_at_second_order(n):
-    """Check that lagrange residual differs from the energies only at second order.
-
-    equations.lagrange_residual = Lagrange's equations of Eqs. (11), (13), (16) + O(s^2), with
+    """equations.lagrange_residual = Lagrange's equations of Eqs. (11), (13), (16) + O(s^2), with
     theta'' non-zero (the generalisation to a varying spindle speed).
     """
     for params, (y, qdd, deck) in states(n):
@@ -224,9 +222,7 @@ def test_lagrange_residual_differs_from_the_energies_only_at_second_order(n):
 
 @pytest.mark.parametrize('n', [1, 2, 3])
 def test_lagrange_residual_has_exactly_the_first_order_theta_dd_terms(n):
-    """Check that lagrange residual has exactly the first order theta dd terms.
-
-    With theta'' != 0, lagrange_residual equals the first-order expansion of the energies to
+    """With theta'' != 0, lagrange_residual equals the first-order expansion of the energies to
     round-off (so its theta'' terms are exactly those of Lagrange's equations at first order).
     """
     for params, (y, qdd, deck) in states(n, seed=100):
@@ -246,10 +242,8 @@ def test_at_constant_speed_lagrange_residual_is_printed_eqs18_24(n):
 
 @pytest.mark.parametrize('n', [1, 2, 3])
 def test_theta_dd_terms_match_the_generalisation_in_the_dynamics_docstring(n):
-    """Check that theta dd terms match the generalisation in the dynamics docstring.
-
-    d residual / d theta'' of the first-order energies: the rotor G enters like a ball of mass M at
-    radius eps and angle theta, J_z adds to gamma and J_z beta to alpha; nothing in beta.
+    """d residual / d theta'' of the first-order energies: the rotor G enters like a ball of mass M
+    at radius eps and angle theta, J_z adds to gamma and J_z beta to alpha; nothing in beta.
 
     The first-order residual is affine in theta'', so the difference of two evaluations is the
     coefficient exactly up to round-off (ROUND_OFF, normalised per unit theta'' of omega^2).
@@ -276,12 +270,10 @@ def test_theta_dd_terms_match_the_generalisation_in_the_dynamics_docstring(n):
 
 
 def test_asymmetric_rotor_inertia_is_refused():
-    """Check that asymmetric rotor inertia is refused.
-
-    docs/equations.md, finding F1: Eqs. (21)-(22) take J_x, J_y about the deck axes, which is exact
-    only for an axisymmetric rotor (J_x = J_y, as in Table 1). A rotor with J_x != J_y spinning at
-    theta has theta-periodic inertia about them and first-order terms the paper omits, so the
-    parameter set refuses it rather than simulate it wrongly.
+    """docs/equations.md, finding F1: Eqs. (21)-(22) take J_x, J_y about the deck axes, which is
+    exact only for an axisymmetric rotor (J_x = J_y, as in Table 1). A rotor with J_x != J_y
+    spinning at theta has theta-periodic inertia about them and first-order terms the paper omits,
+    so the parameter set refuses it rather than simulate it wrongly.
     """
     with pytest.raises(ParamError, match="'J_y'.*J_x"):
         DriveParams(J_x=1.0e-6, J_y=2.0e-6)

@@ -57,7 +57,7 @@ def test_launch_file_imports_only_launch_and_launch_ros():
     assert functions == ['generate_launch_description']
 
 
-def test_launch_file_declares_every_argument_of_the_issue_and_documents_it():
+def test_launch_file_declares_its_arguments_and_documents_each():
     module = tree()
     (table,) = [n.value for n in module.body if isinstance(n, ast.Assign)
                 and n.targets[0].id == 'ARGUMENTS']
@@ -207,8 +207,8 @@ class _Observer:
 
 @pytest.mark.slow
 @pytest.mark.ros
-def test_the_launched_bench_runs_its_four_nodes_and_shuts_them_down_cleanly(ament_prefix,
-                                                                             tmp_path):
+@pytest.mark.usefixtures('ament_prefix')
+def test_the_launched_bench_runs_its_four_nodes_and_shuts_them_down_cleanly(tmp_path):
     """ros2 launch abb_ros bench.launch.py namespace:=launch_test controller:=true record:=true,
     done with LaunchService: the simulator's joint_states, the analysis' stability/margin and
     the controller's speed commands arrive in the namespace over DDS, the four nodes are in

@@ -37,9 +37,7 @@ def _tail(x, t, seconds=1.0):
 
 @pytest.mark.slow
 def test_p1_balls_sit_touching_at_the_contact_separation_and_never_overlap():
-    """Check that p1 balls sit touching at the contact separation and never overlap.
-
-    Fig. 9 with steel balls: instead of merging into one, the balls gather side by side, 2
+    """Fig. 9 with steel balls: instead of merging into one, the balls gather side by side, 2
     asin(r/R) = 22.087 deg apart (less the Hertz compression under the gathering force, a few nm),
     and the compression over the whole run stays far below the ball size (< 1e-4 r).
     """
@@ -60,11 +58,9 @@ def test_p1_balls_sit_touching_at_the_contact_separation_and_never_overlap():
 
 @pytest.mark.slow
 def test_p3_rolling_resistance_leaves_a_residual_that_grows_with_the_coefficient():
-    """Check that p3 rolling resistance leaves a residual that grows with the coefficient.
-
-    P3 with rolling resistance: the balls stop short of +-phi* (the band of rest positions widens
-    with rolling_mu) and rbar keeps a residual that grows with it; at rolling_mu = 1e-9 m the
-    balanced state is still reached to 1e-6 of R.
+    """P3 with rolling resistance: the balls stop short of +-phi* (the band of rest positions
+    widens with rolling_mu) and rbar keeps a residual that grows with it; at rolling_mu = 1e-9 m
+    the balanced state is still reached to 1e-6 of R.
     """
     ratio = None
     rows = []
@@ -85,12 +81,10 @@ def test_p3_rolling_resistance_leaves_a_residual_that_grows_with_the_coefficient
 @pytest.mark.slow
 @pytest.mark.parametrize('max_accel, trapped', [(1000.0, True), (2000.0, False)])
 def test_spin_up_trap_persists_with_contact(max_accel, trapped):
-    """Check that spin up trap persists with contact.
-
-    The P1 -> P3 run-up (config/scenarios/spinup_p1_p3.yaml) with steel balls in contact: at 1000
-    rad/s^2 the touching pair is still captured into orbiting with the resonant whirl (rbar ~0.19,
-    balls moving at ~525 rad/s relative to the rotor), at 2000 rad/s^2 it balances, as the paper's
-    model does (docs/ball_size_contact_rolling.md, spin-up table).
+    """The P1 -> P3 run-up (config/scenarios/spinup_p1_p3.yaml) with steel balls in contact: at
+    1000 rad/s^2 the touching pair is still captured into orbiting with the resonant whirl (rbar
+    ~0.19, balls moving at ~525 rad/s relative to the rotor), at 2000 rad/s^2 it balances, as the
+    paper's model does (docs/ball_size_contact_rolling.md, spin-up table).
     """
     scenario = load_scenario('spinup_p1_p3')
     scenario = dataclasses.replace(

@@ -38,9 +38,7 @@ def theta_scale(params, omega):
 
 @pytest.mark.parametrize('n', [1, 2, 3])
 def test_theta_row_is_the_first_order_lagrange_equation_for_theta(n):
-    """Check that theta row is the first order lagrange equation for theta.
-
-    At random states (theta'' up to 2000 rad/s^2, deck scale 0.05: both sides are first-order
+    """At random states (theta'' up to 2000 rad/s^2, deck scale 0.05: both sides are first-order
     forms, equal for any s) the kernel's theta row equals the first-order expansion of Lagrange's
     theta equation to round-off.
     """
@@ -53,9 +51,7 @@ def test_theta_row_is_the_first_order_lagrange_equation_for_theta(n):
 
 @pytest.mark.parametrize('n', [1, 2])
 def test_theta_row_differs_from_the_exact_equation_only_at_second_order(n):
-    """Check that theta row differs from the exact equation only at second order.
-
-    kernel - exact is even-dominated at S0: halving the deck scale divides it by ~4 (a missing
+    """kernel - exact is even-dominated at S0: halving the deck scale divides it by ~4 (a missing
     first-order term would divide it by 2).
     """
     for params, (y, qdd, deck) in states(n, seed=500):
@@ -72,9 +68,7 @@ def test_theta_row_differs_from_the_exact_equation_only_at_second_order(n):
 
 @pytest.mark.parametrize('n', [0, 1, 2, 3])
 def test_torque_mode_accelerations_solve_every_first_order_equation(n):
-    """Check that torque mode accelerations solve every first order equation.
-
-    kernels.rhs.accel in torque mode: q'' makes the first-order Lagrange residual of X..phi_n
+    """kernels.rhs.accel in torque mode: q'' makes the first-order Lagrange residual of X..phi_n
     vanish and that of theta equal Q_theta (motor torque less friction), to round-off.
     """
     motor = TorqueMotor(K_t=0.02, I_max=2.0, T_c=2e-4)

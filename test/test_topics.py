@@ -4,7 +4,8 @@ from abb_ros.io import topics
 
 
 def test_every_topic_has_one_entry_and_the_derived_lists_keep_its_order():
-    """Check that every topic has one entry and the derived lists keep its order."""
+    """No topic is listed twice, and the simulator's, the headless bag's and the recorder's lists
+    keep the order of TOPICS (the recorder without /clock)."""
     names = [t.name for t in topics.TOPICS]
     assert len(set(names)) == len(names)
     assert [t.name for t in topics.published_by('simulator')] == [

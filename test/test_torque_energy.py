@@ -83,13 +83,11 @@ def bookkeeping(params, motor, current, y0, duration):
 
 @pytest.mark.slow
 def test_motor_work_balances_energy_and_dissipation():
-    """Check that motor work balances energy and dissipation.
-
-    A run-up through 200 -> ~300 rad/s (0.05 s, the deck moving most near resonance) with the deck
-    started at 0.3 mm. Printed: the raw closure (W_m - W_f - W_c - dT - dV) / W_m, which measures
-    the first-order truncation, and the closure with the truncation work, which must vanish to the
-    integration and quadrature error. Measured: raw closure -1.260e-06 (the truncation), closure
-    with the truncation work 7e-16.
+    """A run-up through 200 -> ~300 rad/s (0.05 s, the deck moving most near resonance) with the
+    deck started at 0.3 mm. Printed: the raw closure (W_m - W_f - W_c - dT - dV) / W_m, which
+    measures the first-order truncation, and the closure with the truncation work, which must
+    vanish to the integration and quadrature error. Measured: raw closure -1.260e-06 (the
+    truncation), closure with the truncation work 7e-16.
     """
     params = DriveParams()
     motor = TorqueMotor(I_max=0.5)

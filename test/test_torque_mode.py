@@ -25,7 +25,8 @@ DT = 1e-4
 # ---- the motor model ------------------------------------------------------------------------
 
 def test_current_saturates_at_the_limit_and_at_the_supply_voltage():
-    """Check that current saturates at the limit and at the supply voltage."""
+    """The winding current follows the command up to I_max, and near the back-EMF the supply
+    voltage limits it to (V_s - K_t omega) / R_w, braking beyond."""
     motor = TorqueMotor(K_t=0.01, R_w=2.0, I_max=1.0, V_s=12.0)
     assert motor.current(0.0, 0.3) == 0.3
     assert motor.current(0.0, 5.0) == 1.0 and motor.current(0.0, -5.0) == -1.0
@@ -36,7 +37,7 @@ def test_current_saturates_at_the_limit_and_at_the_supply_voltage():
 
 
 def test_bad_motor_parameters_are_refused_by_their_parameter_name():
-    """Check that bad motor parameters are refused by their parameter name."""
+    """A zero, negative or NaN motor parameter is a ParamError naming motor.<name>."""
     with pytest.raises(ParamError, match="'motor.torque_constant'"):
         TorqueMotor(K_t=0.0)
     with pytest.raises(ParamError, match="'motor.coulomb_friction'"):
@@ -46,9 +47,7 @@ def test_bad_motor_parameters_are_refused_by_their_parameter_name():
 
 
 def test_without_imbalance_the_motor_torque_spins_the_rotor_and_yaws_the_deck():
-    """Check that without imbalance the motor torque spins the rotor and yaws the deck.
-
-    n = 0, eps = 0, friction off: the rotor's absolute acceleration is K_t i / J_z (theta'' +
+    """n = 0, eps = 0, friction off: the rotor's absolute acceleration is K_t i / J_z (theta'' +
     gamma'', theta being relative to the deck), and the reaction on the stator yaws the deck
     (gamma'' < 0, with X through the offset d); Y, Z, alpha, beta stay at rest.
     """
@@ -65,7 +64,8 @@ def test_without_imbalance_the_motor_torque_spins_the_rotor_and_yaws_the_deck():
 
 
 def test_a_torque_motor_starts_at_zero_current_and_switching_modes_resets_the_command():
-    """Check that a torque motor starts at zero current and switching modes resets the command."""
+    """Torque mode starts at 0 A; leaving it holds the present speed, and entering it again starts
+    at 0 A until commanded."""
     params = DriveParams()
     sim = Simulation(params, 300.0, DT, spindle=TorqueMotor())
     assert sim.motor_current == 0.0 and sim.omega == 300.0
@@ -77,7 +77,8 @@ def test_a_torque_motor_starts_at_zero_current_and_switching_modes_resets_the_co
 
 
 def test_speed_modes_report_no_motor_current():
-    """Check that speed modes report no motor current."""
+    """With a prescribed speed there is no motor: its current and torque read NaN, not a number
+    that looks measured."""
     sim = Simulation(DriveParams(), 300.0, DT, spindle=ConstantSpeed())
     assert math.isnan(sim.motor_current) and math.isnan(sim.motor_torque)
 
@@ -139,9 +140,7 @@ def ideal_drive_errors(dt, duration=0.3):
 
 
 def test_torque_mode_with_an_ideal_drive_reproduces_constant_speed():
-    """Check that torque mode with an ideal drive reproduces constant speed.
-
-    P3 (metal washers), 0.3 s: torque mode with an ideal drive (ideal_drive_errors) reproduces
+    """P3 (metal washers), 0.3 s: torque mode with an ideal drive (ideal_drive_errors) reproduces
     speed mode's constant-speed run. What remains is the discretisation of the drive: the current
     is held over each step while the torque that holds the speed varies with theta within it. It
     vanishes with the step: measured at dt = 1e-4 s |omega error| <= 1.410e-02 rad/s (1.7e-5
@@ -183,9 +182,7 @@ def run_up(current_limit, duration, params=None, every=100):
 
 @pytest.mark.slow
 def test_a_weak_motor_is_captured_at_the_deck_resonance_and_a_strong_one_is_not():
-    """Check that a weak motor is captured at the deck resonance and a strong one is not.
-
-    Sommerfeld effect. The weak motor (0.05 A, 5e-4 N m) stays within 10 % of the translational
+    """Sommerfeld effect. The weak motor (0.05 A, 5e-4 N m) stays within 10 % of the translational
     natural frequency from 3 s to 5 s, although without any imbalance (eps = 0 and no balls: the
     balls at +-60 deg are an imbalance of the same size m R) the same motor passes 1.5 times that
     speed within 5 s; the strong one (0.2 A) is past twice the resonance within 2 s.
@@ -208,7 +205,8 @@ def test_a_weak_motor_is_captured_at_the_deck_resonance_and_a_strong_one_is_not(
 # ---- scenarios ------------------------------------------------------------------------------
 
 def test_the_shipped_torque_scenario_loads_a_weak_motor_and_current_commands():
-    """Check that the shipped torque scenario loads a weak motor and current commands."""
+    """runup_torque_weak loads a TorqueMotor limited to WEAK_A and one current command of WEAK_A at
+    t = 0."""
     s = load_scenario('runup_torque_weak')
     assert isinstance(s.spindle, TorqueMotor) and s.spindle.I_max == WEAK_A
     assert s.commands == [CurrentCommand(0.0, WEAK_A)]
@@ -224,7 +222,8 @@ def test_the_shipped_torque_scenario_loads_a_weak_motor_and_current_commands():
      'scenario.spindle.commands[0].current'),
 ])
 def test_torque_scenario_schema_is_strict(tmp_path, spindle, field):
-    """Check that torque scenario schema is strict."""
+    """A speed-loop key, an unknown motor key, a zero resistance, a speed command or a NaN current
+    in a torque scenario's spindle is a ParamError naming that field."""
     import yaml
     path = tmp_path / 'bad.yaml'
     path.write_text(yaml.safe_dump({'duration': 1.0, 'spindle': spindle}))
@@ -233,7 +232,8 @@ def test_torque_scenario_schema_is_strict(tmp_path, spindle, field):
 
 
 def test_kernel_mode_constant_is_distinct_from_the_speed_profiles():
-    """Check that kernel mode constant is distinct from the speed profiles."""
+    """The kernels tell torque mode from every speed profile by its mode constant, and its packed
+    profile has N_SPINDLE_TORQUE entries."""
     assert kernels.SPINDLE_TORQUE not in (kernels.SPINDLE_CONSTANT, kernels.SPINDLE_MOTOR,
                                           kernels.SPINDLE_RAMP)
     assert TorqueMotor().pack(0.0).shape == (kernels.N_SPINDLE_TORQUE,)
@@ -241,12 +241,10 @@ def test_kernel_mode_constant_is_distinct_from_the_speed_profiles():
 
 # ---- headless -------------------------------------------------------------------------------
 
-def test_headless_torque_run_records_the_motor_torque_as_joint_effort(tmp_path, capsys):
-    """Check that headless torque run records the motor torque as joint effort.
-
-    abb-sim run of the shipped torque scenario: joint_states.effort = [K_t i, 0, 0], i = 0 at step
-    0 (the command of t = 0 applies from there on, as in speed mode), then the full 0.05 A (far
-    below the voltage limit); the spindle accelerates.
+def test_headless_torque_run_records_the_motor_torque_as_joint_effort(tmp_path):
+    """abb-sim run of the shipped torque scenario: joint_states.effort = [K_t i, 0, 0], i = 0 at
+    step 0 (the command of t = 0 applies from there on, as in speed mode), then the full 0.05 A
+    (far below the voltage limit); the spindle accelerates.
     """
     from abb_ros.cli import main
     from abb_ros.io.bag_reader import read_bag
@@ -262,7 +260,8 @@ def test_headless_torque_run_records_the_motor_torque_as_joint_effort(tmp_path, 
 
 
 def test_speed_loop_settings_on_a_torque_scenario_are_one_line_naming_them(tmp_path, capsys):
-    """Check that speed loop settings on a torque scenario are one line naming them."""
+    """--set spindle.tau on a torque scenario ends abb-sim run with exit code 2 and one line naming
+    spindle.tau and torque mode, and no bag is left."""
     from abb_ros.cli import main
     code = main(['run', '--scenario', 'runup_torque_weak', '--set', 'spindle.tau=0.1',
                  '--out', str(tmp_path / 'bag'), '--no-progress'])

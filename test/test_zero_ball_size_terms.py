@@ -34,14 +34,16 @@ def _states(name, duration=None, **settings):
 
 
 def test_default_parameters_have_no_beyond_paper_terms():
-    """Check that default parameters have no beyond paper terms."""
+    """P3's drive, and P3 with every ball-size, contact and rolling parameter at zero, has no term
+    beyond the paper."""
     scenario = load_scenario('p3')
     assert scenario.params.beyond_paper == ()
     assert scenario.with_settings(ZEROS).params.beyond_paper == ()
 
 
 def test_zero_parameters_reproduce_the_first_second_of_p3_bit_for_bit(reference):
-    """Check that zero parameters reproduce the first second of p3 bit for bit."""
+    """With the ball-size, contact and rolling parameters at zero, the first second of P3 equals
+    the paper model's bit for bit."""
     y = _states('p3', duration=1.0, **ZEROS)
     np.testing.assert_array_equal(y, reference['p3'][:len(y)])
 
