@@ -50,22 +50,22 @@ def in_process():
     for i in range(2):
         warm.update(i * 1e-3, omega * i * 1e-3, omega)
     sensor = SpeedSensor(seed=1)
-    us = per_call_us(lambda i: sensor.update(i * 1e-3, omega * i * 1e-3, omega), 20000)
+    us = per_call_us(lambda _i: sensor.update(i * 1e-3, omega * i * 1e-3, omega), 20000)
     print(f'  SpeedSensor.update (1 kHz, omega {omega:.0f} rad/s, '
           f'{sensor.edges / 20:.0f} edges/s)   {us:6.2f} us/sample')
     faults = SpeedFaults(seed=1)
     print(f'  SpeedFaults.apply, none active              '
-          f'{per_call_us(lambda i: faults.apply(100.0), 20000):6.2f} us')
+          f'{per_call_us(lambda _i: faults.apply(100.0), 20000):6.2f} us')
     faults.noise = 1.0
     print(f'  SpeedFaults.apply, noise                    '
-          f'{per_call_us(lambda i: faults.apply(100.0), 20000):6.2f} us')
+          f'{per_call_us(lambda _i: faults.apply(100.0), 20000):6.2f} us')
     reading = ImuReading(np.ones(3), np.ones(3))
     imu = ImuFaults()
     print(f'  ImuFaults.apply, none active                '
-          f'{per_call_us(lambda i: imu.apply(reading), 20000):6.2f} us')
+          f'{per_call_us(lambda _i: imu.apply(reading), 20000):6.2f} us')
     imu.accel_bias_step = (0.1, 0.0, 0.0)
     print(f'  ImuFaults.apply, bias step                  '
-          f'{per_call_us(lambda i: imu.apply(reading), 20000):6.2f} us')
+          f'{per_call_us(lambda _i: imu.apply(reading), 20000):6.2f} us')
     for n in (2, 10):
         p = DriveParams(n=n)
         y = initial_state(p, omega)
@@ -73,7 +73,7 @@ def in_process():
         if n == 2:
             two = encoded
         print(f'  marker_array (CDR bytes), n = {n:2d}            '
-              f'{per_call_us(lambda i: marker_array(i, y, p, 100.0), 2000):6.1f} us')
+              f'{per_call_us(lambda _i: marker_array(i, y, p, 100.0), 2000):6.1f} us')
     return two
 
 
@@ -89,10 +89,10 @@ def publish_costs(markers):
         speed = node.create_publisher(Float64, 'bench_io/speed', 10)
         msg = Float64(data=1.0)
         print(f'  publish Float64 (spindle/speed)             '
-              f'{per_call_us(lambda i: speed.publish(msg), 20000):6.2f} us')
+              f'{per_call_us(lambda _i: speed.publish(msg), 20000):6.2f} us')
         pub = node.create_publisher(MarkerArray, 'bench_io/markers', 10)
         print(f'  publish MarkerArray (CDR bytes), n = 2      '
-              f'{per_call_us(lambda i: pub.publish(markers), 2000):6.1f} us')
+              f'{per_call_us(lambda _i: pub.publish(markers), 2000):6.1f} us')
     finally:
         node.destroy_node()
         rclpy.shutdown(context=ctx)

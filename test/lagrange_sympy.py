@@ -78,7 +78,8 @@ def euler_matrix(alpha, beta, gamma, lib=sp):
     return T_beta * T_alpha * T_gamma
 
 
-def deck_angular_velocity(alpha, beta, gamma, alpha_d, beta_d, gamma_d):
+def deck_angular_velocity(alpha, beta, gamma,  # noqa: ARG001 (the Euler triple, Eqs. 1-2)
+                          alpha_d, beta_d, gamma_d):
     """omega_P in deck components, Eq. (10)."""
     return sp.Matrix([alpha_d * sp.cos(beta) - gamma_d * sp.cos(alpha) * sp.sin(beta),
                       beta_d + gamma_d * sp.sin(alpha),

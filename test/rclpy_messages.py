@@ -57,12 +57,12 @@ def _imu(msg, stamp, content):
     return msg
 
 
-def _clock(msg, stamp, content):
+def _clock(msg, stamp, _content):
     msg.clock = stamp
     return msg
 
 
-def _float64(msg, stamp, content):
+def _float64(msg, _stamp, content):
     msg.data = content
     return msg
 

@@ -172,6 +172,20 @@ def file_records(path):
     return found
 
 
+def _feed(writer, record):
+    """Give ``record`` (a schema, channel or message) to mcap's Writer as its call."""
+    from mcap.records import Channel, Message, Schema
+    if isinstance(record, Schema):
+        writer.register_schema(record.name, record.encoding, record.data)
+    elif isinstance(record, Channel):
+        writer.register_channel(record.topic, record.message_encoding, record.schema_id,
+                                record.metadata)
+    elif isinstance(record, Message):
+        writer.add_message(record.channel_id, record.log_time, record.data,
+                           record.publish_time, record.sequence)
+
+
+
 def replay_with_mcap_writer(source, target, chunk_size):
     """Write the records of the MCAP file ``source`` again with mcap's own Writer.
 
@@ -179,19 +193,9 @@ def replay_with_mcap_writer(source, target, chunk_size):
     (``flush``), so the Writer's chunks end where the source's do unless its own size rule
     ends one elsewhere; metadata records are added where they stand.
     """
-    from mcap.records import Channel, Chunk, Header, Message, Metadata, Schema
+    from mcap.records import Channel, Chunk, Header, Metadata, Schema
     from mcap.stream_reader import StreamReader, breakup_chunk
     from mcap.writer import CompressionType, Writer
-
-    def feed(writer, record):
-        if isinstance(record, Schema):
-            writer.register_schema(record.name, record.encoding, record.data)
-        elif isinstance(record, Channel):
-            writer.register_channel(record.topic, record.message_encoding, record.schema_id,
-                                    record.metadata)
-        elif isinstance(record, Message):
-            writer.add_message(record.channel_id, record.log_time, record.data,
-                               record.publish_time, record.sequence)
 
     with open(source, 'rb') as f, open(target, 'wb') as out:
         writer = Writer(out, chunk_size=chunk_size, compression=CompressionType.ZSTD)
@@ -200,7 +204,7 @@ def replay_with_mcap_writer(source, target, chunk_size):
                 writer.start(record.profile, record.library)
             elif isinstance(record, Chunk):
                 for inner in breakup_chunk(record, validate_crc=True):
-                    feed(writer, inner)
+                    _feed(writer, inner)
                 writer.flush()
             elif isinstance(record, Metadata):
                 writer.add_metadata(record.name, record.metadata)

@@ -81,9 +81,10 @@ def bag_consistent(bag: Path) -> None:
     assert meta['message_count'] == held, (meta['message_count'], held)
 
 
+@pytest.mark.usefixtures('cpu_hog')
 @pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM], ids=['SIGINT', 'SIGTERM'])
 def test_a_signal_at_a_random_moment_under_load_exits_0_without_traceback_or_fatal(
-        tmp_path, cpu_hog, sig):
+        tmp_path, sig):
     rng = random.Random()
     for k in range(ROUNDS):
         sim_bag, rec_bag = tmp_path / f'sim{k}', tmp_path / f'rec{k}'

@@ -276,7 +276,7 @@ def test_numpy_warnings_are_errors_inside_abb_sim_only(capsys, monkeypatch):
 
     from abb_ros.commands import freqs
 
-    def overflow(args):
+    def overflow(_args):
         return {'x': float(np.float64(1e300) * np.float64(1e300))}
 
     monkeypatch.setattr(freqs, 'run', overflow)

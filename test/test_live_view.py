@@ -236,10 +236,10 @@ def test_sinks_hold_messages_until_their_stamp_is_due():
     now, slept, got = [0.0], [], []
 
     class Sink:
-        def add_topic(self, topic, type_name):
+        def add_topic(self, topic, _type_name):
             got.append(topic)
 
-        def write(self, topic, data, stamp_ns):
+        def write(self, topic, _data, _stamp_ns):
             got.append((topic, now[0]))
 
     def sleep(s):

@@ -31,7 +31,7 @@ def view():
     """A LiveView on a free port with one topic written every millisecond."""
     taken = []
     live = LiveView(port=0, on_client_message=lambda *m: taken.append(m),
-                    check_client_message=lambda topic, schema, data: (
+                    check_client_message=lambda _topic, _schema, data: (
                         '' if len(data) == 12 else f'{len(data)} bytes'))
     live.add_topic('spindle/speed', 'std_msgs/msg/Float64')
     live.taken = taken

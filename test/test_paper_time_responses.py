@@ -53,7 +53,7 @@ def test_p1_balls_merge_on_the_imbalance_side_at_the_locked_angle():
     assert _last(rbar, result.t).min() > 0.015                    # not balanced
 
 
-def test_p2_no_settling_and_severe_fluctuation(p3):
+def test_p2_no_settling_and_severe_fluctuation():
     """Fig. 10: inside the unbalanced band the balls never settle and rbar keeps fluctuating,
     far above P3's residual."""
     _, result, rbar, phi = _run('p2')

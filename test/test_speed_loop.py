@@ -89,7 +89,7 @@ def test_after_a_long_saturated_run_up_the_speed_does_not_overshoot_the_hold():
     overshoots = {}
     for kind in (SpeedLoop, WindingUp):
         loop = kind(TorqueMotor(), J, bandwidth=60.0)
-        t, omega, ref, cmd, lo, hi = run(loop, lambda t: 800.0, 1.5)
+        t, omega, ref, cmd, lo, hi = run(loop, lambda _t: 800.0, 1.5)
         saturated = np.sum(cmd >= hi - 1e-12) * DT
         overshoots[kind] = np.max(omega) - 800.0
         print(f'\n{kind.__name__}: at the limit {saturated:.3f} s, overshoot '

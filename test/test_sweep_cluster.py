@@ -101,7 +101,7 @@ def test_killing_a_worker_mid_sweep_loses_nothing(tmp_path, client):
     before = client.run(os.getpid)
     killed = []
 
-    def kill_busy_worker(index):
+    def kill_busy_worker(_index):
         if killed:
             return
         busy = [addr for addr, keys in client.processing().items() if keys]

@@ -44,7 +44,7 @@ class Terminated(BaseException):
 _DEFERRED = {'depth': 0, 'pending': None}
 
 
-def _on_signal(signum, frame):
+def _on_signal(signum, _frame):
     if _DEFERRED['depth']:
         _DEFERRED['pending'] = signum
         return

@@ -30,7 +30,7 @@ def add_arguments(parser) -> None:
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
 
 
-def run(args) -> dict:
+def run(args) -> dict:  # noqa: C901 (14: not split yet)
     """Run the spec's sweep on a Dask cluster into the output directory; return the summary."""
     from abb_ros.sweep.runner import SweepError, check_out_dir, local_cluster, run_sweep
     from abb_ros.sweep.spec import load_spec

@@ -98,7 +98,8 @@ def qos_dict(profile) -> dict:
 class _Dumper(yaml.SafeDumper):
     """yaml-cpp's layout: block style, sequences indented under their key, '' as ""."""
 
-    def increase_indent(self, flow=False, indentless=False):
+    def increase_indent(self, flow=False, indentless=False):  # noqa: ARG002
+        # PyYAML's signature; indentless is ignored on purpose: sequences indent under keys
         return super().increase_indent(flow, False)
 
 

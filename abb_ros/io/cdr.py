@@ -190,7 +190,7 @@ def imu(sec: int, nanosec: int, content) -> bytes:
 _CLOCK = Layout().var('i').var('I').compile()
 
 
-def clock(sec: int, nanosec: int, content=None) -> bytes:
+def clock(sec: int, nanosec: int, _content=None) -> bytes:
     """Encode rosgraph_msgs/Clock."""
     st, (c0,) = _CLOCK
     return st.pack(c0, sec, nanosec)
@@ -199,7 +199,7 @@ def clock(sec: int, nanosec: int, content=None) -> bytes:
 _FLOAT64 = Layout().var('d').compile()
 
 
-def float64(sec: int, nanosec: int, content: float) -> bytes:
+def float64(_sec: int, _nanosec: int, content: float) -> bytes:
     """Encode std_msgs/Float64 (no header: the stamp is not encoded)."""
     st, (c0,) = _FLOAT64
     return st.pack(c0, content)

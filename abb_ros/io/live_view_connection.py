@@ -51,7 +51,7 @@ class Connection(WebSocketHandler):
         """Whether a browser page of ``origin`` may connect (else HTTP 403)."""
         return origin_allowed(origin, self.view.allowed_origins)
 
-    def open(self, *args, **kwargs) -> None:
+    def open(self, *_args, **_kwargs) -> None:
         """Send ``serverInfo``, the channels and the services."""
         self.set_nodelay(True)
         self.view.connections.add(self)

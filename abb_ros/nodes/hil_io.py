@@ -37,7 +37,7 @@ class HilIO:
     ``drive``, ``stamp_ns()``, ``pacer`` and ``send(topic, data, stamp_ns)``.
     """
 
-    def __init__(self, node, qos_depth: int):
+    def __init__(self, node):
         self.node = node
         s = node.settings
         self.speed = SpeedSensor(s.hil.speed_sensor, s.seed)
@@ -83,7 +83,7 @@ class HilIO:
         return {**self.imu_faults.active(), **self.speed_faults.active()}
 
     # ---- disturbances --------------------------------------------------------------------
-    def _on_shock(self, request, response):
+    def _on_shock(self, _request, response):
         self.node._apply_parameters()   # the parameters just set, not those of the last tick
         sim = self.node.sim
         step = self.config.shock_velocity
@@ -99,7 +99,7 @@ class HilIO:
         response.success, response.message = True, self._last_event
         return response
 
-    def _on_swap(self, request, response):
+    def _on_swap(self, _request, response):
         self.node._apply_parameters()
         node, sim, b = self.node, self.node.sim, self.config
         result = node.set_parameters([Parameter('drive.eps', value=b.disc_eps)])[0]

@@ -67,7 +67,7 @@ class Recorder(Node):
         self.create_timer(DRAIN_PERIOD_S, self.recording.drain)
         self.create_timer(DIAGNOSTICS_PERIOD_S, self.publish_diagnostics)
 
-    def _on_failure(self, reason: str) -> None:
+    def _on_failure(self, _reason: str) -> None:
         """End the node after a write failure (exit code 1): the spin loop ends, close()."""
         self.exit_code = 1
 

@@ -330,14 +330,14 @@ class InProcessRecording:
         :func:`default_output` when it is empty, with the topics of the parameter this
         object was made for.
         """
-        def start(request, response):
+        def start(_request, response):
             path = self.node.get_parameter(path_param).value or default_output()
             error = self.start(path, self.node.get_parameter(self._param).value, prepare)
             response.success = not error
             response.message = error or f'recording to {self.current.bag.path}'
             return response
 
-        def stop(request, response):
+        def stop(_request, response):
             response.success = self.current is not None
             response.message = self.stop()
             return response

@@ -96,7 +96,7 @@ class SimulatorNode(Node):
                       for topic, kind in ros_messages.TOPIC_TYPES.items()}
         self._bag_topics = {topic: (pub.topic_name, _type_name(ros_messages.TOPIC_TYPES[topic]),
                                     pub.qos_profile) for topic, pub in self._pubs.items()}
-        self.hil = HilIO(self, QOS_DEPTH)   # FG, faults, disturbances, markers
+        self.hil = HilIO(self)   # FG, faults, disturbances, markers
         self.create_subscription(Float64, SPEED_CMD, self._on_speed_cmd, QOS_DEPTH)
         self.create_subscription(Float64, CURRENT_CMD, self._on_current_cmd,
                                  QOS_DEPTH)
@@ -294,7 +294,7 @@ class SimulatorNode(Node):
         self.sim.set_spindle(s.spindle())
         self.sim.set_command(self.commands.of_mode(s.spindle_mode))
 
-    def _on_parameters_set(self, parameters) -> None:
+    def _on_parameters_set(self, _parameters) -> None:
         # Validated already; applied at the next step boundary by _apply_parameters.
         self._params_changed = True
 
@@ -325,7 +325,7 @@ class SimulatorNode(Node):
             self._restart_pacing()
 
     # ---- services ------------------------------------------------------------------------
-    def _on_reset(self, request, response):
+    def _on_reset(self, _request, response):
         self._params_changed = True
         self._apply_parameters()
         s = self.settings
@@ -356,7 +356,7 @@ class SimulatorNode(Node):
         response.message = 'paused' if self.paused else 'running'
         return response
 
-    def _on_step(self, request, response):
+    def _on_step(self, _request, response):
         if not self.paused:
             response.success, response.message = False, 'not paused: call ~/pause first'
             return response

@@ -20,7 +20,7 @@ class StopRequest:
     def __init__(self):
         self.signum = None
 
-    def __call__(self, signum, frame) -> None:
+    def __call__(self, signum, _frame) -> None:
         """Record ``signum`` unless a stop signal came already."""
         if self.signum is None:
             self.signum = signum

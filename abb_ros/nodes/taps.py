@@ -15,7 +15,7 @@ from rclpy.node import Node
 from abb_ros.nodes.rclpy_access import take_message
 
 
-def _never_called(data) -> None:
+def _never_called(_data) -> None:
     raise AssertionError('a tap subscription is taken by Taps.take, not called back')
 
 

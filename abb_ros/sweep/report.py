@@ -93,7 +93,7 @@ def _figure(path, draw):
     return str(path)
 
 
-def make_report(sweep_dir, out_dir) -> dict:
+def make_report(sweep_dir, out_dir) -> dict:  # noqa: C901 (11: not split yet)
     """Write the figures and summary.json into out_dir; returns the summary."""
     table, info = read_results(sweep_dir)
     spec = info['spec']

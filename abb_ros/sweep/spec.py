@@ -174,7 +174,7 @@ def load_spec(path) -> SweepSpec:
     return parse_spec(doc, base_dir=os.path.dirname(os.path.abspath(str(path))))
 
 
-def parse_spec(doc, base_dir=None) -> SweepSpec:
+def parse_spec(doc, base_dir=None) -> SweepSpec:  # noqa: C901 (21: not split yet)
     """Validate a spec mapping (as loaded from YAML) and normalise it."""
     from abb_ros.io.scenario import load_scenario
     fields.mapping('', doc, _TOP_KEYS, required=('parameters', 'compute'))
@@ -328,7 +328,7 @@ def _check_value(where, name, value, nominal):
         raise ParamError(where, value, exc.valid, f'outside the valid range of {name}') from None
 
 
-def _distribution(where, name, dist, nominal):
+def _distribution(where, name, dist, nominal):  # noqa: C901 (15: not split yet)
     if not isinstance(dist, dict) or 'dist' not in dist:
         raise ParamError(where, dist, 'a mapping {dist: ' + ' | '.join(DISTRIBUTIONS) + ', ...}')
     kind = dist['dist']

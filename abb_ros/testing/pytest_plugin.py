@@ -13,7 +13,7 @@ import random
 import pytest
 
 
-def pytest_configure(config):
+def pytest_configure(config):  # noqa: ARG001 (pytest passes hook arguments by name)
     """Keep DDS on this machine and on a random domain, unless the environment says otherwise."""
     os.environ.setdefault('ROS_DOMAIN_ID', str(random.randint(1, 101)))
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')

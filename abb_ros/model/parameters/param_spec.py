@@ -111,11 +111,7 @@ class ParamSpec:
             value = self._number(name, value)
             return float(value) if isinstance(value, int) else value
         if self.type == INTEGER:
-            if isinstance(value, float) and not strict and value.is_integer():
-                value = int(value)
-            if isinstance(value, float):
-                raise ParamError(name, value, self.valid_text(), 'not an integer')
-            return self._number(name, value)
+            return self._integer(name, value, strict)
         if self.type == BOOL:
             if not isinstance(value, bool):
                 raise ParamError(name, value, self.valid_text(), 'not true or false')
@@ -134,6 +130,14 @@ class ParamSpec:
         if not (isinstance(value, list) and all(isinstance(x, str) for x in value)):
             raise ParamError(name, value, self.valid_text())
         return value
+
+    def _integer(self, name, value, strict: bool):
+        """Return ``value`` as an integer in range (a whole float too unless ``strict``)."""
+        if isinstance(value, float) and not strict and value.is_integer():
+            value = int(value)
+        if isinstance(value, float):
+            raise ParamError(name, value, self.valid_text(), 'not an integer')
+        return self._number(name, value)
 
     def _number(self, name, value):
         if not _is_number(value):

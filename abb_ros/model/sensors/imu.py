@@ -118,13 +118,18 @@ def _omega_dot(alpha, beta, dalpha, dbeta, dgamma, ddalpha, ddbeta, ddgamma
             - dgamma * dalpha * sa * cb - dgamma * dbeta * ca * sb)
 
 
-def deck_angular_velocity(alpha, beta, gamma, dalpha, dbeta, dgamma) -> np.ndarray:
-    """Return omega_P of Eq. (10) in deck axes [rad/s], shape (3,)."""
+def deck_angular_velocity(alpha, beta, gamma,  # noqa: ARG001 (the Euler triple of Eqs. 1-2)
+                          dalpha, dbeta, dgamma) -> np.ndarray:
+    """Return omega_P of Eq. (10) in deck axes [rad/s], shape (3,).
+
+    It takes the whole Euler triple and its rates, as Eqs. (1)-(2) name them; Eq. (10) does
+    not depend on gamma.
+    """
     return np.array(_omega(alpha, beta, dalpha, dbeta, dgamma))
 
 
-def deck_angular_acceleration(alpha, beta, gamma, dalpha, dbeta, dgamma,
-                              ddalpha, ddbeta, ddgamma) -> np.ndarray:
+def deck_angular_acceleration(alpha, beta, gamma,  # noqa: ARG001 (as deck_angular_velocity)
+                              dalpha, dbeta, dgamma, ddalpha, ddbeta, ddgamma) -> np.ndarray:
     """Return the time derivative of Eq. (10) in deck axes [rad/s^2], shape (3,)."""
     return np.array(_omega_dot(alpha, beta, dalpha, dbeta, dgamma, ddalpha, ddbeta, ddgamma))
 

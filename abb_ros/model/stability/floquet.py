@@ -87,7 +87,7 @@ def eval_coeffs(H, basis, out):
 
 
 @kernel
-def accel_matrix(Mh, Ch, Kh, tau, Mw, R, basis):
+def accel_matrix(Mh, Ch, Kh, tau, Mw, R, basis):  # noqa: C901 (16: compiled kernel, one pass)
     """Set R = -M(tau)^-1 [K(tau) C(tau)], shape (nq, 2 nq), by Gauss elimination (pivoting).
 
     Mw (nq, nq) and basis (5,) are work buffers.
@@ -363,7 +363,7 @@ def _rate_estimate(Mh, Ch, Kh, omega):
     return rate
 
 
-def _built(p, builder, omegas, phi, tau_end, sel):
+def _built(p, builder, omegas, phi, sel):
     """Return the harmonics and the fastest rate (:func:`_rate_estimate`) of the points ``sel``."""
     sub = type(p)(**{f: v[sel] if isinstance(v, np.ndarray) else v for f, v in vars(p).items()})
     Mh, Ch, Kh = builder(sub, omegas[sel], phi[sel])
@@ -377,7 +377,7 @@ def _check_steps(p, builder, omegas, phi, tau_end, chunks):
     """
     worst, where, kept = 0.0, 0.0, []
     for sel in chunks:
-        Mh, Ch, Kh, rate = _built(p, builder, omegas, phi, tau_end, sel)
+        Mh, Ch, Kh, rate = _built(p, builder, omegas, phi, sel)
         if len(chunks) == 1:
             kept = [(Mh, Ch, Kh, rate)]
         i = int(np.argmax(rate))
@@ -456,8 +456,7 @@ def multipliers_batch(params_list, omegas, plane='in', phi_star=None, progress=N
     chunks = [idx[start:start + CHUNK] for start in range(0, idx.size, CHUNK)]
     built = _check_steps(p, builder, omegas, phi, tau_end, chunks)
     for sel in chunks:
-        Mh, Ch, Kh, rate = built.pop(0) if built else _built(p, builder, omegas, phi, tau_end,
-                                                               sel)
+        Mh, Ch, Kh, rate = built.pop(0) if built else _built(p, builder, omegas, phi, sel)
         steps = steps_for(rate, tau_end)
         Phi = monodromy_batch(Mh, Ch, Kh, omegas[sel], tau_end, steps, kern)
         if plane == 'in' and phi.shape[1] > 1:
@@ -673,8 +672,8 @@ def _finite_range(lam):
     return [float(fin.min()), float(fin.max())] if fin.size else []
 
 
-def stability_map(base, x, x_values, y, y_values, settings=None, plane='in',
-                  progress=None, members=0) -> StabilityMap:
+def stability_map(base, x, x_values, y, y_values,  # noqa: C901 (12: not split yet)
+                  settings=None, plane='in', progress=None, members=0) -> StabilityMap:
     """Compute |lambda|max over the grid x_values x y_values of two Eq. (39) parameters.
 
     base : DriveParams; settings : further fixed settings for apply_settings (e.g. zeta, wbar);

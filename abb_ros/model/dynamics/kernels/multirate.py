@@ -80,7 +80,7 @@ def velocity_coupling(y, n, P, inv, Ainv, W, B, Jv):
 
 
 @kernel
-def mis_contact_step(t, dt, y, n, P, S, sub, trace, solver):
+def mis_contact_step(t, dt, y, n, P, S, sub, trace, solver):  # noqa: C901 (13: compiled, one pass)
     """Take one step of dt from (t, y) while balls touch, y in place; return its sub-steps.
 
     A multirate infinitesimal step (MIS: Wensch, Knoth, Galant 2009) on Knoth & Wolke's
@@ -105,7 +105,7 @@ def mis_contact_step(t, dt, y, n, P, S, sub, trace, solver):
     reach = math.asin(P[P_R_BALL] / P[P_R])
     pairs = neighbour_pairs(y, n)
     ref = np.empty((pairs.shape[0], 4))
-    neighbour_reference(y, n, pairs, ref)
+    neighbour_reference(y, pairs, ref)
     Ainv = np.empty((6, 6))
     psi = np.empty((n + 1, 3))
     for b in range(n):

@@ -66,7 +66,7 @@ def neighbour_pairs(y, n):
 
 
 @kernel
-def neighbour_reference(y, n, pairs, ref):
+def neighbour_reference(y, pairs, ref):
     """Fill ref with the reference angles of the neighbour pairs at y.
 
     ref[k] = [its wrap 2 pi w, half-angle h0, sin h0, cos h0] of neighbour pair k at y (half =
@@ -145,7 +145,7 @@ def apart_substeps(y, n, reach, pairs, ref, h, left):
 
 
 @kernel
-def mis_fast_solve(t0, m, h, y, n, P, fast, trace, rows):
+def mis_fast_solve(t0, m, h, y, n, P, fast, trace, rows):  # noqa: C901 (22: compiled, one pass)
     """Take m RK4 sub-steps of h of the multirate step's fast part from (t0, y), y in place.
 
     The fast part of :func:`abb_ros.model.dynamics.kernels.multirate.mis_contact_step`: q' = q-dot,

@@ -92,7 +92,7 @@ def rolling_cache_hit(y, n, S, cache):
 
 
 @kernel
-def rolling_substep(t, h, y, n, P, S, stages, solver, events, cache):
+def rolling_substep(t, h, y, n, P, S, stages, solver, events, cache):  # noqa: C901 (28: compiled)
     """Take one RK4 step of h from (t, y) under rolling resistance, y in place.
 
     Its regime switches are located; returns their number.

@@ -45,7 +45,7 @@ def rolling_threshold(y, n, P, b):
 
 
 @kernel
-def accel_rolling(y, n, P, mR2, qdd, solver, mode, frozen):
+def accel_rolling(y, n, P, mR2, qdd, solver, mode, frozen):  # noqa: C901 (19: compiled, one pass)
     """Fill qdd (deck and balls) with q'' under rolling resistance; return the margin.
 
     Rolling resistance is Coulomb's law with a Karnopp stick band, acting on the rows that

@@ -68,7 +68,7 @@ def check_state(y, n):
 
 
 @kernel
-def step(t, dt, y, n, P, S, stages, solver, cache):
+def step(t, dt, y, n, P, S, stages, solver, cache):  # noqa: C901 (13: compiled kernel, one pass)
     """Take one step of dt from (t, y), y in place; return (status, sub-steps, switches).
 
     One classical RK4 step, or, while balls touch, sub-steps of dt /

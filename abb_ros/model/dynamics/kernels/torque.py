@@ -61,7 +61,7 @@ def theta_row(y, n, P, a, col):
 
 
 @kernel
-def accel_free_theta(t, y, n, P, S, qdd, solver):
+def accel_free_theta(t, y, n, P, S, qdd, solver):  # noqa: ARG001 (every q'' kernel's signature)
     """Fill qdd with q'' for theta a degree of freedom driven by Q_theta.
 
     Q_theta = :func:`abb_ros.model.dynamics.kernels.spindle.spindle_torque`.
