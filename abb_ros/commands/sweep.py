@@ -30,11 +30,8 @@ def add_arguments(parser) -> None:
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
 
 
-def run(args) -> dict:  # noqa: C901 (14: not split yet)
-    """Run the spec's sweep on a Dask cluster into the output directory; return the summary."""
-    from abb_ros.sweep.runner import SweepError, check_out_dir, local_cluster, run_sweep
-    from abb_ros.sweep.spec import load_spec
-
+def _check_options(args) -> None:
+    """Refuse option combinations that contradict each other (UsageError)."""
     if args.workers is not None and args.scheduler:
         raise UsageError('--workers applies to the local cluster only; leave it out with '
                          '--scheduler')
@@ -42,6 +39,47 @@ def run(args) -> dict:  # noqa: C901 (14: not split yet)
         raise UsageError('--serial runs in this process: leave out --scheduler and --workers')
     if args.workers is not None and not 1 <= args.workers <= 256:
         raise UsageError(f'--workers {args.workers}: valid range is 1..256')
+
+
+def _connect(args):
+    """Return (cluster, client) of the options: (None, None) with --serial.
+
+    Returns
+    -------
+    cluster : distributed.LocalCluster or None
+        The local cluster started here (None for --scheduler or --serial).
+    client : distributed.Client or None
+        The client of the sweep's tasks.
+    """
+    if args.serial:
+        return None, None
+    from distributed import Client
+
+    from abb_ros.sweep.runner import local_cluster
+    cluster = None
+    if args.scheduler:
+        try:
+            client = Client(args.scheduler, timeout='20s')
+        except (OSError, TimeoutError, ValueError) as exc:
+            raise UsageError(f'--scheduler {args.scheduler}: cannot connect ({exc})') from None
+    else:
+        cluster = local_cluster(args.workers or os.cpu_count() or 1, dashboard=True)
+        try:
+            client = Client(cluster)
+        except BaseException:
+            cluster.close()
+            raise
+    if _has_dashboard(client):
+        print(f'abb-sim sweep: Dask dashboard at {client.dashboard_link}', file=sys.stderr)
+    return cluster, client
+
+
+def run(args) -> dict:
+    """Run the spec's sweep on a Dask cluster into the output directory; return the summary."""
+    from abb_ros.sweep.runner import SweepError, check_out_dir, run_sweep
+    from abb_ros.sweep.spec import load_spec
+
+    _check_options(args)
     spec = load_spec(args.spec)
     try:
         check_out_dir(spec, args.out, args.resume)   # before a cluster is started
@@ -54,20 +92,7 @@ def run(args) -> dict:  # noqa: C901 (14: not split yet)
                    smoothing=0.1)
     cluster = client = None
     try:
-        if not args.serial:
-            from distributed import Client
-            if args.scheduler:
-                try:
-                    client = Client(args.scheduler, timeout='20s')
-                except (OSError, TimeoutError, ValueError) as exc:
-                    raise UsageError(f'--scheduler {args.scheduler}: cannot connect ({exc})') \
-                        from None
-            else:
-                cluster = local_cluster(args.workers or os.cpu_count() or 1, dashboard=True)
-                client = Client(cluster)
-            if _has_dashboard(client):
-                print(f'abb-sim sweep: Dask dashboard at {client.dashboard_link}',
-                      file=sys.stderr)
+        cluster, client = _connect(args)
         try:
             result = run_sweep(spec, args.out, client, resume=args.resume,
                                progress=bar.update if bar else None)
