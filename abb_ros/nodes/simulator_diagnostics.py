@@ -44,6 +44,13 @@ def level_and_message(window: PacingWindow, *, fault: str = '', paused: bool = F
         (WARN), else None.
     contact_note : str
         The contact step-size note of the simulation ('' none): WARN.
+
+    Returns
+    -------
+    level : bytes
+        The DiagnosticStatus level: the worst of the conditions above.
+    message : str
+        One line: how the run goes, then each warning, joined by '; '.
     """
     lag, slips = window.stamp_lag, window.slips
     if fault:
