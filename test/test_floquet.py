@@ -115,3 +115,42 @@ def test_no_balanced_equilibrium_is_reported_as_infinite_multiplier_never_nan():
     assert np.all(np.isinf(lam)) and not np.isnan(lam).any()
     res = F.point_stability(p4, w)
     assert not res.exists and res.verdict.startswith('unbalanced')
+
+
+def test_the_floquet_rk4_step_is_kernels_rk4_combination_bit_for_bit():
+    """The monodromy kernel keeps its own loop over the matrix entries (its kernel set is
+    compiled with fastmath, the nonlinear model's is not), but its RK4 step is the package's
+    one combination: four steps of monodromy_one equal, bit for bit, the same stages combined by
+    kernels/rk4.py's rk4_stage_point and rk4_combine on the flattened [Q, V] (both interpreted,
+    so the comparison is of the arithmetic, not of the compiler)."""
+    from abb_ros.model.dynamics import kernels
+    rng = np.random.default_rng(5)
+    nq, nsteps, tau_end = 3, 4, 2 * math.pi
+    Mh = rng.normal(0.0, 0.05, (5, nq, nq))
+    Mh[0] += np.eye(nq)
+    Ch, Kh = rng.normal(0.0, 0.3, (5, nq, nq)), rng.normal(0.0, 1.0, (5, nq, nq))
+    Phi = np.empty((2 * nq, 2 * nq))
+    F.PY.monodromy_one(Mh, Ch, Kh, tau_end, nsteps, Phi)
+
+    m = 2 * nq
+    y = np.concatenate([np.eye(nq, m), np.eye(nq, m, nq)])    # [Q; V], shape (2 nq, m)
+    Mw, basis = np.empty((nq, nq)), np.empty(5)
+    R = {}
+    h = tau_end / nsteps
+
+    def rate(tau, state, out):
+        if tau not in R:
+            R[tau] = np.empty((nq, m))
+            F.PY.accel_matrix(Mh, Ch, Kh, tau, Mw, R[tau], basis)
+        F.PY.deriv(R[tau], state[:nq], state[nq:], out[:nq], out[nq:])
+
+    k = [np.empty_like(y) for _ in range(4)]
+    yt = np.empty_like(y)
+    for step in range(nsteps):
+        t0 = step * h
+        rate(t0, y, k[0])
+        for i, (a, c) in enumerate(((0.5, 0.5), (0.5, 0.5), (1.0, 1.0))):
+            kernels.PY.rk4_stage_point(y.ravel(), a * h, k[i].ravel(), yt.ravel())
+            rate(t0 + c * h, yt, k[i + 1])
+        kernels.PY.rk4_combine(y.ravel(), h, *(ki.ravel() for ki in k), y.ravel())
+    np.testing.assert_array_equal(Phi, y)
