@@ -174,13 +174,41 @@ def load_spec(path) -> SweepSpec:
     return parse_spec(doc, base_dir=os.path.dirname(os.path.abspath(str(path))))
 
 
-def parse_spec(doc, base_dir=None) -> SweepSpec:  # noqa: C901 (21: not split yet)
+def parse_spec(doc, base_dir=None) -> SweepSpec:
     """Validate a spec mapping (as loaded from YAML) and normalise it."""
-    from abb_ros.io.scenario import load_scenario
     fields.mapping('', doc, _TOP_KEYS, required=('parameters', 'compute'))
     doc = copy.deepcopy(doc)
     name = _str('name', doc.get('name', 'sweep'))
     description = _str('description', doc.get('description', ''))
+    scen_name, scenario, base = _scenario(doc, base_dir)
+    nominal = scenario.params
+    parameters = _parameters(doc['parameters'], nominal)
+    sampling = fields.mapping('sampling', doc.get('sampling') or {}, _SAMPLING_KEYS)
+    method = sampling.get('method', 'random')
+    if method not in METHODS:
+        raise ParamError('sampling.method', method, 'one of ' + ', '.join(METHODS))
+    seed = _int('sampling.seed', sampling.get('seed', 0), 0, 2 ** 63 - 1)
+    samples = _samples(doc, parameters)
+    partition_size = _int('partition_size', doc.get('partition_size', DEFAULT_PARTITION), 1,
+                          MAX_PARTITION)
+    operating = _operating(doc, scenario)
+    compute = fields.mapping('compute', doc['compute'], _COMPUTE_KEYS)
+    if not compute:
+        raise ParamError('compute', compute, 'at least one of stability, run')
+    speeds = None
+    if 'stability' in compute:
+        speeds = _speeds(compute['stability'] or {}, nominal.omega0, operating)
+    run = _run(compute['run'], scenario) if 'run' in compute else None
+    doc.update(name=name, description=description, scenario=scen_name, base=base,
+               parameters=parameters, samples=samples,
+               sampling={'method': method, 'seed': seed}, partition_size=partition_size)
+    return SweepSpec(doc, name, scenario, base, parameters, samples, method, seed,
+                     partition_size, float(operating), speeds, run)
+
+
+def _scenario(doc, base_dir):
+    """Return (its name, the scenario with ``base`` applied, ``base``) of a spec."""
+    from abb_ros.io.scenario import load_scenario
     scen_name = _str('scenario', doc.get('scenario', 'p3'))
     if base_dir and (scen_name.endswith(('.yaml', '.yml')) or os.sep in scen_name) \
             and not os.path.isabs(scen_name):
@@ -195,10 +223,11 @@ def parse_spec(doc, base_dir=None) -> SweepSpec:  # noqa: C901 (21: not split ye
         if key not in SAMPLEABLE:
             raise ParamError(f'base.{key}', value, 'one of ' + ', '.join(SAMPLEABLE),
                              'unknown parameter')
-    scenario = scenario.with_settings(base)
-    nominal = scenario.params
+    return scen_name, scenario.with_settings(base), base
 
-    params_doc = doc['parameters']
+
+def _parameters(params_doc, nominal) -> dict:
+    """Return {name: checked distribution} of the spec's ``parameters``."""
     if not isinstance(params_doc, dict) or not params_doc:
         raise ParamError('parameters', params_doc,
                          'a non-empty mapping name: {dist: ...} with names from '
@@ -213,12 +242,11 @@ def parse_spec(doc, base_dir=None) -> SweepSpec:  # noqa: C901 (21: not split ye
             raise ParamError(f'parameters.{pname}', dist, f'one of {pname} and {twin}, not '
                              'both', f'both set {_SAME_FIELD.get(pname, pname)}')
         parameters[pname] = _distribution(f'parameters.{pname}', pname, dist, nominal)
+    return parameters
 
-    sampling = fields.mapping('sampling', doc.get('sampling') or {}, _SAMPLING_KEYS)
-    method = sampling.get('method', 'random')
-    if method not in METHODS:
-        raise ParamError('sampling.method', method, 'one of ' + ', '.join(METHODS))
-    seed = _int('sampling.seed', sampling.get('seed', 0), 0, 2 ** 63 - 1)
+
+def _samples(doc, parameters) -> int:
+    """Return the draws per grid point: ``samples``, 1 when every parameter is a grid."""
     has_drawn = any(v['dist'] != 'grid' for v in parameters.values())
     if 'samples' in doc:
         samples = _int('samples', doc['samples'], 1, MAX_SAMPLES)
@@ -233,41 +261,33 @@ def parse_spec(doc, base_dir=None) -> SweepSpec:  # noqa: C901 (21: not split ye
     if samples * grid_points > MAX_SAMPLES:
         raise ParamError('samples', samples, f'at most {MAX_SAMPLES} drives in all '
                          f'(samples x {grid_points} grid points)')
-    partition_size = _int('partition_size', doc.get('partition_size', DEFAULT_PARTITION), 1,
-                          MAX_PARTITION)
+    return samples
 
+
+def _operating(doc, scenario) -> float:
+    """Return the operating speed [rad/s]: given as wbar or omega, else the scenario's last."""
     if 'operating_wbar' in doc and 'operating_omega' in doc:
         raise ParamError('operating_omega', doc['operating_omega'],
                          'absent when operating_wbar is given (one of the two)')
     if 'operating_wbar' in doc:
-        operating = _speed('operating_wbar', doc['operating_wbar'], nominal.omega0)
-    elif 'operating_omega' in doc:
-        operating = _speed('operating_omega', doc['operating_omega'], 1.0)
-    else:
-        operating = scenario.commands[-1].omega if scenario.commands else scenario.omega
-        if operating <= 0:
-            raise ParamError('operating_wbar', None, '(0, inf): the scenario stops the spindle')
+        return _speed('operating_wbar', doc['operating_wbar'], scenario.params.omega0)
+    if 'operating_omega' in doc:
+        return _speed('operating_omega', doc['operating_omega'], 1.0)
+    operating = scenario.commands[-1].omega if scenario.commands else scenario.omega
+    if operating <= 0:
+        raise ParamError('operating_wbar', None, '(0, inf): the scenario stops the spindle')
+    return operating
 
-    compute = fields.mapping('compute', doc['compute'], _COMPUTE_KEYS)
-    if not compute:
-        raise ParamError('compute', compute, 'at least one of stability, run')
-    speeds = None
-    if 'stability' in compute:
-        speeds = _speeds(compute['stability'] or {}, nominal.omega0, operating)
-    run = None
-    if 'run' in compute:
-        r = fields.mapping('compute.run', compute['run'] or {}, _RUN_KEYS)
-        number = fields.finite_number
-        run = {'duration': number('compute.run.duration', r.get('duration', scenario.duration),
-                                  0.0, True, MAX_DURATION),
-               'rbar_limit': number('compute.run.rbar_limit',
-                                    r.get('rbar_limit', DEFAULT_RBAR_LIMIT), 0.0, True),
-               'dt': number('compute.run.dt', r.get('dt', 1e-4), 0.0, True, 1e-2)}
-    doc.update(name=name, description=description, scenario=scen_name, base=base,
-               parameters=parameters, samples=samples,
-               sampling={'method': method, 'seed': seed}, partition_size=partition_size)
-    return SweepSpec(doc, name, scenario, base, parameters, samples, method, seed,
-                     partition_size, float(operating), speeds, run)
+
+def _run(run_doc, scenario) -> dict:
+    """Return the checked ``compute.run``: duration, rbar_limit, dt."""
+    r = fields.mapping('compute.run', run_doc or {}, _RUN_KEYS)
+    number = fields.finite_number
+    return {'duration': number('compute.run.duration', r.get('duration', scenario.duration),
+                               0.0, True, MAX_DURATION),
+            'rbar_limit': number('compute.run.rbar_limit',
+                                 r.get('rbar_limit', DEFAULT_RBAR_LIMIT), 0.0, True),
+            'dt': number('compute.run.dt', r.get('dt', 1e-4), 0.0, True, 1e-2)}
 
 
 def _speeds(st, omega0, operating):
