@@ -118,5 +118,6 @@ class Recorder(Node):
 
 def main(args=None) -> int:
     """Run the recorder until SIGINT/SIGTERM or a write failure; return the exit code."""
-    return run_node('abb_recorder', Recorder, args, usage_errors=(ParamError, BagError, OSError))
+    return run_node('abb_recorder', Recorder, args, usage_errors=(ParamError, BagError, OSError),
+                    kind='recorder')
 

@@ -392,4 +392,4 @@ def _warm_up(sim: Simulation) -> None:
 
 def main(args=None):
     """Run the simulator node until SIGINT/SIGTERM; return the exit code."""
-    return run_node(NODE_NAME, SimulatorNode, args)
+    return run_node(NODE_NAME, SimulatorNode, args, kind='simulator')
