@@ -125,9 +125,17 @@ def test_run_out_onto_an_existing_bag_needs_overwrite(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ['bag']
 
 
+ROSBAG_METADATA = ('rosbag2_bagfile_information:\n  version: 9\n  storage_identifier: mcap\n'
+                   '  custom_data: {note: mine}\n')
+"""A metadata.yaml another tool (rosbag2, a user) wrote: a bag, but not this package's."""
+
+
 @pytest.mark.parametrize('case', ['two recordings', 'a recording without metadata',
-                                  'a foreign file', 'a file'])
+                                  'a foreign file', 'a file', "a user's metadata and mcap",
+                                  "another tool's bag"])
 def test_run_overwrite_replaces_one_bag_only(tmp_path, capsys, case):
+    """Only a bag this package wrote (its metadata says so) is replaced; anything else: exit 2,
+    one line, every file where it was."""
     out = tmp_path / 'recs'
     if case == 'a file':
         out.write_text('x')
@@ -135,9 +143,12 @@ def test_run_overwrite_replaces_one_bag_only(tmp_path, capsys, case):
         out.mkdir()
         names = {'two recordings': ['metadata.yaml', 'a.mcap', 'b.mcap'],
                  'a recording without metadata': ['a.mcap'],
-                 'a foreign file': ['metadata.yaml', 'a.mcap', 'notes.txt']}[case]
+                 'a foreign file': ['metadata.yaml', 'a.mcap', 'notes.txt'],
+                 "a user's metadata and mcap": ['metadata.yaml', 'flight.mcap'],
+                 "another tool's bag": ['metadata.yaml', 'recs_0.mcap']}[case]
         for name in names:
-            (out / name).write_text(name)
+            (out / name).write_text(ROSBAG_METADATA if case == "another tool's bag"
+                                    and name == 'metadata.yaml' else name)
     before = sorted(tmp_path.rglob('*'))
     line = refused(capsys, ['run', '--duration', '0.01', '--no-progress', '--out', str(out),
                             '--overwrite'])
