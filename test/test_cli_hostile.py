@@ -204,6 +204,13 @@ SPEC_CASES = {
     'a stability range up to 1e300': (
         '  k: {dist: uniform, low: 3500, high: 4500}', '',
         '{range: {wbar: [1, 1.0e+300], points: 3}}', "'compute.stability.range.wbar'"),
+    'a run step of 1e-12 s': (
+        '  k: {dist: uniform, low: 3500, high: 4500}', '',
+        '{wbar: [2]}\n  run: {duration: 1.0, dt: 1.0e-12}', "'compute.run.dt' = 1e-12",
+        '100000000 steps'),
+    'a run step of 5e-324 s': (
+        '  k: {dist: uniform, low: 3500, high: 4500}', '', '{wbar: [2]}\n  run: {dt: 5e-324}',
+        "'compute.run.dt'"),
     'a stability speed of 1e300': (
         '  k: {dist: uniform, low: 3500, high: 4500}', '', '{omega: [1.0e+300]}',
         "'compute.stability.omega'"),

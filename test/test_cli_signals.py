@@ -87,3 +87,57 @@ def test_sigterm_while_writing_a_bag_leaves_it_closed_and_marked(tmp_path):
             assert _closed_or_marked(out)
             info = load_file(out / 'metadata.yaml')['rosbag2_bagfile_information']
             assert 'interrupted' in info['custom_data'][INCOMPLETE_KEY]
+
+
+SWEEP_SPEC = """\
+name: long
+scenario: p3
+parameters:
+  k: {dist: uniform, low: 3500, high: 4500}
+samples: 8
+sampling: {method: sobol, seed: 3}
+partition_size: 2
+compute:
+  run: {duration: 2.0, dt: 2.0e-5}
+"""
+"""Four partitions of 100,000 steps per drive: seconds each, so a signal finds it mid-sweep."""
+SWEEP_STOP_S = 30.0
+"""Longest wait from the signal to the exit: the local cluster closes, killing a worker busy in
+a compiled kernel after distributed's 4 s grace, on a loaded 2-core machine."""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('mode', [['--serial'], ['--workers', '1']])
+def test_a_sweep_stops_on_sigint_and_sigterm_at_any_moment(tmp_path, mode):
+    """Start-up, cluster start, mid-partition: exit 130 (SIGINT) or 143 (SIGTERM) within
+    SWEEP_STOP_S, one line, no traceback, and only whole partitions in the output."""
+    spec = tmp_path / 'spec.yaml'
+    spec.write_text(SWEEP_SPEC)
+    rng = np.random.default_rng(29)
+    for k, delay in enumerate(rng.uniform(0.0, 12.0, 3)):
+        sig = (signal.SIGINT, signal.SIGTERM)[k % 2]
+        out = tmp_path / f'out{k}'
+        proc = subprocess.Popen(
+            [ABB_SIM, 'sweep', str(spec), '--out', str(out), '--no-progress', *mode],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True,
+            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+        _wait_for_python(proc)
+        time.sleep(delay)
+        t0 = time.monotonic()
+        proc.send_signal(sig)
+        try:
+            _, stderr = proc.communicate(timeout=SWEEP_STOP_S)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+        waited = time.monotonic() - t0
+        assert 'Traceback' not in stderr, stderr
+        assert waited < SWEEP_STOP_S
+        if proc.returncode in (0, -sig):   # it finished first, or the interpreter was not up
+            continue
+        assert proc.returncode == 128 + sig, stderr
+        lines = stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].endswith(
+            'interrupted' if sig == signal.SIGINT else 'terminated'), stderr
+        assert not list(out.glob('.part-*')) if out.exists() else True

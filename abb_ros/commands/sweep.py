@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 import sys
 
-from abb_ros.commands.api import UsageError
+from abb_ros.commands.api import UsageError, signals_deferred
 
 
 def add_arguments(parser) -> None:
@@ -63,8 +63,13 @@ def run(args) -> dict:
                     raise UsageError(f'--scheduler {args.scheduler}: cannot connect ({exc})') \
                         from None
             else:
-                cluster = local_cluster(args.workers or os.cpu_count() or 1, dashboard=True)
-                client = Client(cluster)
+                # a signal while the cluster starts is held until it stands, then unwinds
+                # through the finally below, which closes it (never a half-made cluster that
+                # distributed's atexit hook trips over)
+                with signals_deferred():
+                    cluster = local_cluster(args.workers or os.cpu_count() or 1,
+                                            dashboard=True)
+                    client = Client(cluster)
             if _has_dashboard(client):
                 print(f'abb-sim sweep: Dask dashboard at {client.dashboard_link}',
                       file=sys.stderr)

@@ -271,11 +271,27 @@ def parse_spec(doc, base_dir=None) -> SweepSpec:
                'rbar_limit': _num('compute.run.rbar_limit', r.get('rbar_limit',
                                                                   DEFAULT_RBAR_LIMIT), 0.0, True),
                'dt': _num('compute.run.dt', r.get('dt', 1e-4), 0.0, True, 1e-2)}
+        _check_run_steps(run)
     doc.update(name=name, description=description, scenario=scen_name, base=base,
                parameters=parameters, samples=samples,
                sampling={'method': method, 'seed': seed}, partition_size=partition_size)
     return SweepSpec(doc, name, scenario, base, parameters, samples, method, seed,
                      partition_size, float(operating), speeds, run)
+
+
+def _check_run_steps(run: dict) -> None:
+    """Refuse a run of more steps than ``abb-sim run`` takes (MAX_RUN_STEPS), before any work.
+
+    ``compute.run.dt: 1e-12`` would otherwise integrate 1e12 steps per drive, for days.
+    """
+    from abb_ros.model.integrate import MAX_RUN_STEPS
+    steps = run['duration'] / run['dt']
+    if steps > MAX_RUN_STEPS:
+        raise ParamError('compute.run.dt', run['dt'],
+                         f"[{run['duration'] / MAX_RUN_STEPS:g}, 0.01] s for a duration of "
+                         f"{run['duration']:g} s",
+                         f'{steps:.3g} steps per drive; at most {MAX_RUN_STEPS} steps per run, '
+                         'as abb-sim run')
 
 
 def _speeds(st, omega0, operating):
