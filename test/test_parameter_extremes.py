@@ -15,14 +15,14 @@ import math
 import numpy as np
 import pytest
 
-from abb_ros.model import disturbances
-from abb_ros.model.integrate import Simulation, StateError
-from abb_ros.model.param_spec import DOUBLE, DOUBLE_ARRAY, ParamError
-from abb_ros.model.params import DriveParams
-from abb_ros.model.sampling import PlantSampler
-from abb_ros.model.sensor_faults import ImuFaults, SpeedFaults
-from abb_ros.model.sensors import ImuModel
-from abb_ros.model.speed_sensor import SpeedSensor
+from abb_ros.model.dynamics.integrate import Simulation, StateError
+from abb_ros.model.parameters.param_spec import DOUBLE, DOUBLE_ARRAY, ParamError
+from abb_ros.model.parameters.params import DriveParams
+from abb_ros.model.sensors import disturbances
+from abb_ros.model.sensors.faults import ImuFaults, SpeedFaults
+from abb_ros.model.sensors.imu import ImuModel
+from abb_ros.model.sensors.sampling import PlantSampler
+from abb_ros.model.sensors.speed_sensor import SpeedSensor
 from abb_ros.nodes.ros_params import P3_WBAR, SIMULATOR_PARAMS, settings_from, with_ros_names
 
 HOSTILE = (1e308, 1e200, 1e20, -1e308, -1.0, 5e-324, -5e-324, 0.0)
