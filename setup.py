@@ -30,7 +30,7 @@ setup(
             'simulator = abb_ros.nodes.script:simulator',
             'analysis = abb_ros.nodes.script:analysis',
             'recorder = abb_ros.nodes.script:recorder',
-            'abb-sim = abb_ros.cli:main',
+            'abb-sim = abb_ros.cli:script',
             'spin_controller = abb_ros.nodes.script:spin_controller',
             'warmup = abb_ros.model.warmup:main',
         ],

@@ -9,19 +9,17 @@ message naming the parameter and its valid range; a simulation whose state blows
 (:class:`CommandFailed`, e.g. a full disk) or any other refusal of the operating system
 (``OSError``) exits with code 1, and so does a computation whose numbers overflow (numpy's
 warnings are errors here, never text beside a result). SIGINT exits with code 130 and SIGTERM
-with 143, at any moment after the dispatcher has loaded: the commands' ``finally`` blocks run
+with 143, at any moment from the first statement of the console script (:func:`script`,
+before the dispatcher's imports): the commands' ``finally`` blocks run
 (a bag is finished and marked incomplete). Every error is one line on stderr.
 """
 
 from __future__ import annotations
 
-import argparse
-import importlib
-import json
+import signal
 import sys
-import warnings
 
-__all__ = ['main', 'SUBCOMMANDS']
+__all__ = ['main', 'script', 'SUBCOMMANDS']
 
 SUBCOMMANDS = {
     'run': 'headless simulation (no DDS) written to a rosbag2 MCAP directory',
@@ -34,15 +32,36 @@ SUBCOMMANDS = {
 }
 
 
-class _Parser(argparse.ArgumentParser):
-    """argparse with one-line errors (no usage block): ``abb-sim run: error: ...``, exit 2."""
+def script() -> None:
+    """Run ``abb-sim`` as its console script: note SIGINT and SIGTERM first, then load.
 
-    def error(self, message):
-        self.exit(2, f'{self.prog}: error: {message} (see {self.prog} --help)\n')
+    Its first statement installs handlers that only note a signal, so one that arrives while
+    the dispatcher and numpy load (a second or more on a loaded machine) ends ``abb-sim`` with
+    its line and exit code (130, 143), never a KeyboardInterrupt traceback from inside an
+    import; they stay after :func:`main`, so a signal during the interpreter's exit is quiet
+    too. This module imports only ``signal`` and ``sys`` before that; importing it installs
+    nothing (tests call :func:`main` in-process).
+    """
+    early = []
+    for signum in (signal.SIGINT, signal.SIGTERM):
+        signal.signal(signum, lambda number, _frame: early.append(number))
+    sys.exit(main(early=early))
 
 
-def build_parser() -> argparse.ArgumentParser:
-    parser = _Parser(
+def _parser_class():
+    import argparse
+
+    class _Parser(argparse.ArgumentParser):
+        """argparse with one-line errors (no usage block): ``abb-sim run: error: ...``."""
+
+        def error(self, message):
+            self.exit(2, f'{self.prog}: error: {message} (see {self.prog} --help)\n')
+
+    return _Parser
+
+
+def build_parser() -> argparse.ArgumentParser:  # noqa: F821 - argparse is imported lazily
+    parser = _parser_class()(
         prog='abb-sim', description='Optical disk drive with an automatic ball balancer.')
     sub = parser.add_subparsers(dest='command', required=True)
     for name, help_text in SUBCOMMANDS.items():
@@ -53,6 +72,7 @@ def build_parser() -> argparse.ArgumentParser:
 
 
 def _load(name):
+    import importlib
     return importlib.import_module(f"abb_ros.commands.{name.replace('-', '_')}")
 
 
@@ -80,13 +100,22 @@ def _print_human(summary: dict) -> None:
         print(f'{key}: {value}')
 
 
-def main(argv=None) -> int:
-    """Run the `abb-sim` command line ``argv``; return the exit status (0, 1 failed, 2 usage)."""
+def main(argv=None, early=()) -> int:
+    """Run the `abb-sim` command line ``argv``; return the exit status (0, 1 failed, 2 usage).
+
+    ``early``: the signals that arrived before this was called (the console script's
+    :mod:`abb_ros.cli_script` collects them while the imports run), appended to until this
+    function's own handlers are in place; any of them stops the command before it starts.
+    """
     who = ['abb-sim']     # with the subcommand once it is known
     try:
         from abb_ros.commands.api import Terminated, stop_signals
         with stop_signals():
             try:
+                if early:
+                    raise KeyboardInterrupt if early[0] == signal.SIGINT else \
+                        Terminated(early[0])
+                import warnings
                 with warnings.catch_warnings():
                     warnings.simplefilter('error', RuntimeWarning)
                     return _dispatch(argv, who)
@@ -130,6 +159,7 @@ def _dispatch(argv, who: list) -> int:
               'the parameters are beyond what it resolves', file=sys.stderr)
         return 1
     if args.json:
+        import json
         print(json.dumps(summary, default=_jsonable))
     else:
         _print_human(summary)

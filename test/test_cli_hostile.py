@@ -125,9 +125,17 @@ def test_run_out_onto_an_existing_bag_needs_overwrite(tmp_path, capsys):
     assert sorted(p.name for p in tmp_path.iterdir()) == ['bag']
 
 
+ROSBAG_METADATA = ('rosbag2_bagfile_information:\n  version: 9\n  storage_identifier: mcap\n'
+                   '  custom_data: {note: mine}\n')
+"""A metadata.yaml another tool (rosbag2, a user) wrote: a bag, but not this package's."""
+
+
 @pytest.mark.parametrize('case', ['two recordings', 'a recording without metadata',
-                                  'a foreign file', 'a file'])
+                                  'a foreign file', 'a file', "a user's metadata and mcap",
+                                  "another tool's bag"])
 def test_run_overwrite_replaces_one_bag_only(tmp_path, capsys, case):
+    """Only a bag this package wrote (its metadata says so) is replaced; anything else: exit 2,
+    one line, every file where it was."""
     out = tmp_path / 'recs'
     if case == 'a file':
         out.write_text('x')
@@ -135,9 +143,12 @@ def test_run_overwrite_replaces_one_bag_only(tmp_path, capsys, case):
         out.mkdir()
         names = {'two recordings': ['metadata.yaml', 'a.mcap', 'b.mcap'],
                  'a recording without metadata': ['a.mcap'],
-                 'a foreign file': ['metadata.yaml', 'a.mcap', 'notes.txt']}[case]
+                 'a foreign file': ['metadata.yaml', 'a.mcap', 'notes.txt'],
+                 "a user's metadata and mcap": ['metadata.yaml', 'flight.mcap'],
+                 "another tool's bag": ['metadata.yaml', 'recs_0.mcap']}[case]
         for name in names:
-            (out / name).write_text(name)
+            (out / name).write_text(ROSBAG_METADATA if case == "another tool's bag"
+                                    and name == 'metadata.yaml' else name)
     before = sorted(tmp_path.rglob('*'))
     line = refused(capsys, ['run', '--duration', '0.01', '--no-progress', '--out', str(out),
                             '--overwrite'])
@@ -193,6 +204,13 @@ SPEC_CASES = {
     'a stability range up to 1e300': (
         '  k: {dist: uniform, low: 3500, high: 4500}', '',
         '{range: {wbar: [1, 1.0e+300], points: 3}}', "'compute.stability.range.wbar'"),
+    'a run step of 1e-12 s': (
+        '  k: {dist: uniform, low: 3500, high: 4500}', '',
+        '{wbar: [2]}\n  run: {duration: 1.0, dt: 1.0e-12}', "'compute.run.dt' = 1e-12",
+        '100000000 steps'),
+    'a run step of 5e-324 s': (
+        '  k: {dist: uniform, low: 3500, high: 4500}', '', '{wbar: [2]}\n  run: {dt: 5e-324}',
+        "'compute.run.dt'"),
     'a stability speed of 1e300': (
         '  k: {dist: uniform, low: 3500, high: 4500}', '', '{omega: [1.0e+300]}',
         "'compute.stability.omega'"),
@@ -287,3 +305,69 @@ def test_numpy_warnings_are_errors_inside_abb_sim_only(capsys, monkeypatch):
         np.float64(1e300) * np.float64(1e300)
     assert caught and issubclass(caught[0].category, RuntimeWarning)
 
+
+
+TINY_SWEEP = """\
+name: {name}
+scenario: p3
+parameters:
+  k: {{dist: uniform, low: 3500, high: 4500}}
+samples: 4
+sampling: {{method: random, seed: {seed}}}
+partition_size: 2
+compute:
+  stability: {{wbar: [2]}}
+"""
+
+
+@pytest.fixture(scope='module')
+def two_sweeps(tmp_path_factory):
+    """Two small sweeps of the same columns (different seeds): directories a and b."""
+    root = tmp_path_factory.mktemp('sweeps')
+    for name, seed in (('a', 1), ('b', 2)):
+        spec = root / f'{name}.yaml'
+        spec.write_text(TINY_SWEEP.format(name=name, seed=seed))
+        assert main(['sweep', str(spec), '--out', str(root / name), '--serial',
+                     '--no-progress']) == 0
+    return root
+
+
+def _copy_sweep(src, dst):
+    import shutil
+    shutil.copytree(src, dst)
+    return dst
+
+
+@pytest.mark.parametrize('case', ['a part of another sweep', 'a part copied in twice',
+                                  'a part of other columns'])
+def test_sweep_report_refuses_parts_that_are_not_of_this_sweep(two_sweeps, tmp_path, capsys,
+                                                               case):
+    """The sweep's identity (its spec) and columns are checked across the part files: one
+    line naming the file, exit 2, no report (never 8 samples of 6 planned)."""
+    import pyarrow.parquet as pq
+    sweep = _copy_sweep(two_sweeps / 'a', tmp_path / 'a')
+    if case == 'a part of another sweep':
+        (sweep / 'part-00002.parquet').write_bytes(
+            (two_sweeps / 'b' / 'part-00001.parquet').read_bytes())
+    elif case == 'a part copied in twice':
+        (sweep / 'part-00002.parquet').write_bytes((sweep / 'part-00001.parquet').read_bytes())
+    else:
+        table = pq.read_table(sweep / 'part-00001.parquet')
+        pq.write_table(table.drop_columns([table.column_names[-1]]),
+                       sweep / 'part-00001.parquet')
+    capsys.readouterr()
+    line = refused(capsys, ['sweep-report', str(sweep), '--out', str(tmp_path / 'r')])
+    needle = {'a part of another sweep': 'part-00002.parquet: a part of another sweep',
+              'a part copied in twice': 'two part files',
+              'a part of other columns': 'part-00001.parquet: its columns differ'}[case]
+    assert needle in line
+    assert not (tmp_path / 'r').exists()
+
+
+def test_sweep_report_onto_an_existing_file_is_exit_2(two_sweeps, tmp_path, capsys):
+    """--out naming a file: a usage error (exit 2, one line), the file untouched."""
+    out = tmp_path / 'report'
+    out.write_text('mine')
+    line = refused(capsys, ['sweep-report', str(two_sweeps / 'a'), '--out', str(out)])
+    assert f'--out {out}' in line and 'not a directory' in line
+    assert out.read_text() == 'mine'

@@ -39,6 +39,52 @@ def _signal_after(args, sig, delay):
     return proc.returncode, stdout, stderr, stderr.strip().splitlines()
 
 
+def _wait_for_handlers(proc, timeout=30.0):
+    """Wait until ``abb-sim`` has installed its handlers (SIGTERM caught, in /proc).
+
+    Before that, the interpreter and the console script pip generated (importlib.metadata)
+    run, which no package code can cover; from then on every signal must be clean.
+    """
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline and proc.poll() is None:
+        try:   # after the exec only: the forked child has pytest's handlers until then
+            with open(f'/proc/{proc.pid}/cmdline', 'rb') as f:
+                execed = b'abb-sim' in f.read()
+            with open(f'/proc/{proc.pid}/status') as f:
+                caught = next(int(line.split()[1], 16) for line in f
+                              if line.startswith('SigCgt:'))
+        except (OSError, StopIteration):
+            return
+        if execed and caught >> (signal.SIGTERM - 1) & 1:
+            return
+        time.sleep(0.001)
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('sig', [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_in_the_start_up_window_is_one_line_and_its_exit_code(tmp_path, sig):
+    """From the console script's first statement on (the imports of the dispatcher, numpy,
+    numba and the command): exit 130 (SIGINT) or 143 (SIGTERM), one line, no traceback, at
+    moments drawn densely over the first second."""
+    rng = np.random.default_rng(int(sig))
+    for delay in rng.uniform(0.0, 1.0, 8):
+        out = tmp_path / f'bag{delay:.4f}'
+        proc = _start(['run', '--duration', '0.05', '--no-progress', '--out', str(out)])
+        _wait_for_handlers(proc)
+        time.sleep(delay)
+        proc.send_signal(sig)
+        stdout, stderr = proc.communicate(timeout=120)
+        assert 'Traceback' not in stderr, stderr
+        if proc.returncode in (0, -sig):   # it finished first (-sig: the signal came in the
+            assert 'bag:' in stdout and stderr == ''   # interpreter's finalisation, which
+            continue                                   # puts the default handlers back)
+        assert proc.returncode == 128 + sig, stderr
+        lines = stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].endswith(
+            'interrupted' if sig == signal.SIGINT else 'terminated'), stderr
+        assert not out.exists() or _closed_or_marked(out)
+
+
 @pytest.mark.slow
 def test_sigint_at_any_moment_of_start_up_is_exit_130_in_one_line(tmp_path):
     """SIGINT at six random moments of start-up: never a traceback; one that lands while the
@@ -93,3 +139,74 @@ def test_sigterm_while_writing_a_bag_leaves_it_closed_and_marked(tmp_path):
             assert _closed_or_marked(out)
             info = load_file(out / 'metadata.yaml')['rosbag2_bagfile_information']
             assert 'interrupted' in info['custom_data'][INCOMPLETE_KEY]
+
+
+SWEEP_SPEC = """\
+name: long
+scenario: p3
+parameters:
+  k: {dist: uniform, low: 3500, high: 4500}
+samples: 8
+sampling: {method: sobol, seed: 3}
+partition_size: 2
+compute:
+  run: {duration: 2.0, dt: 2.0e-5}
+"""
+"""Four partitions of 100,000 steps per drive: seconds each, so a signal finds it mid-sweep."""
+SWEEP_STOP_S = 30.0
+"""Longest wait from the signal to the exit: the local cluster closes, killing a worker busy in
+a compiled kernel after distributed's 4 s grace, on a loaded 2-core machine."""
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('mode', [['--serial'], ['--workers', '1']])
+def test_a_sweep_stops_on_sigint_and_sigterm_at_any_moment(tmp_path, mode):
+    """Start-up, cluster start, mid-partition: exit 130 (SIGINT) or 143 (SIGTERM) within
+    SWEEP_STOP_S, one line, no traceback, and only whole partitions in the output."""
+    spec = tmp_path / 'spec.yaml'
+    spec.write_text(SWEEP_SPEC)
+    rng = np.random.default_rng(29)
+    for k, delay in enumerate(rng.uniform(0.0, 12.0, 3)):
+        sig = (signal.SIGINT, signal.SIGTERM)[k % 2]
+        out = tmp_path / f'out{k}'
+        proc = subprocess.Popen(
+            [ABB_SIM, 'sweep', str(spec), '--out', str(out), '--no-progress', *mode],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True,
+            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
+        _wait_for_python(proc)
+        time.sleep(delay)
+        t0 = time.monotonic()
+        proc.send_signal(sig)
+        try:
+            _, stderr = proc.communicate(timeout=SWEEP_STOP_S)
+        finally:
+            if proc.poll() is None:
+                proc.kill()
+                proc.wait()
+        waited = time.monotonic() - t0
+        assert 'Traceback' not in stderr, stderr
+        assert waited < SWEEP_STOP_S
+        if proc.returncode in (0, -sig):   # it finished first, or the interpreter was not up
+            continue
+        assert proc.returncode == 128 + sig, stderr
+        lines = stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].endswith(
+            'interrupted' if sig == signal.SIGINT else 'terminated'), stderr
+        assert not list(out.glob('.part-*')) if out.exists() else True
+
+
+def test_the_console_script_notes_signals_before_it_loads_anything_heavy():
+    """The first signal handler of ``abb-sim`` is installed before argparse, numpy or any
+    command loads, so the start-up window without one is the interpreter's alone."""
+    code = '\n'.join([
+        'import signal, sys', 'first = []', 'original = signal.signal',
+        'def spy(signum, handler):',
+        "    first.append(sorted(m for m in ('argparse', 'numpy', 'abb_ros.commands.api')",
+        '                        if m in sys.modules))',
+        '    return original(signum, handler)',
+        'signal.signal = spy', "sys.argv = ['abb-sim', '--help']", 'from abb_ros import cli',
+        'try:', '    cli.script()', 'except SystemExit:', '    pass',
+        'sys.stderr.write(repr(first[0]))'])
+    proc = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
+                          timeout=120, stdin=subprocess.DEVNULL)
+    assert proc.stderr.strip().endswith('[]'), proc.stderr

@@ -51,6 +51,10 @@ def _start_fails(node, *params):
     ('simulator', "record.topics:=[x//y]", "'record.topics' = 'x//y'"),
     ('simulator', 'record.topics:=[1, 2]', "'record.topics' = [1, 2]"),
     ('recorder', "topics:=['bad name']", "'topics' = 'bad name' is invalid"),
+    ('simulator', 'imu.accel_noise_density:=1e200', "'imu.accel_noise_density' = 1e+200"),
+    ('simulator', 'fault.imu_accel_bias_step:=[1e308, 1e308, 1e308]',
+     "'fault.imu_accel_bias_step'"),
+    ('simulator', 'fault.speed_noise:=1e308', "'fault.speed_noise' = 1e+308"),
 ])
 @pytest.mark.slow
 def test_wrong_start_up_type_or_value_exits_2_with_one_line_naming_it(node, param, needle):
@@ -146,6 +150,29 @@ def test_integer_literal_for_a_double_parameter_is_accepted(client, tmp_path, no
         # a string is refused, the value stays
         assert not client.set(name, 'drive.k', 'abc').successful
         assert client.get(name, 'drive.k').double_value == 5000.0
+    finally:
+        proc.send_signal(signal.SIGINT)
+        code = proc.wait(timeout=30)
+        log.close()
+    assert code == 0, (tmp_path / 'node.log').read_text()
+
+
+@pytest.mark.slow
+def test_values_that_would_overflow_the_plant_are_refused_at_run_time(client, tmp_path):
+    """``ros2 param set`` of a value that once killed or poisoned the plant: refused with a
+    reason naming the parameter (rclpy's range check or the spec's), and the node lives on."""
+    log = open(tmp_path / 'node.log', 'w')
+    proc = subprocess.Popen(_command('simulator', ['real_time_factor:=0.0']), cwd=ROOT,
+                            stdout=log, stderr=subprocess.STDOUT, stdin=subprocess.DEVNULL)
+    try:
+        for name, value in (('imu.accel_noise_density', 1e200),
+                            ('imu.gyro_noise_density', 1e200),
+                            ('fault.imu_accel_bias_step', [1e308] * 3),
+                            ('fault.speed_noise', 1e308)):
+            result = client.set('abb_simulator', name, value)
+            assert not result.successful and name in result.reason, result.reason
+        assert client.set('abb_simulator', 'fault.speed_noise', 1.0).successful
+        assert proc.poll() is None, (tmp_path / 'node.log').read_text()
     finally:
         proc.send_signal(signal.SIGINT)
         code = proc.wait(timeout=30)

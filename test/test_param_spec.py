@@ -103,7 +103,8 @@ def test_open_and_closed_bounds_read_as_intervals():
     specs = specs_for('simulator')
     assert specs['drive.k'].valid_text() == '[0.003972, 3.972e+09] N/m'
     assert specs['drive.c'].valid_text() == '[0, 2.53e+06] kg/s'
-    assert specs['spindle.max_accel'].valid_text() == '(0, inf) rad/s^2'
+    assert specs['spindle.max_accel'].valid_text() == '(0, 1e+09] rad/s^2'
+    assert specs['fault.imu_accel_bias_step'].valid_text() == '3 values in [-1000, 1000] [m/s^2]'
     assert specs['drive.n'].valid_text() == '[0, 64]'
     assert specs['drive.c'].check(0.0) == 0.0
     with pytest.raises(ParamError):

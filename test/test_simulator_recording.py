@@ -201,3 +201,24 @@ def test_an_empty_record_topics_list_in_a_parameter_file_is_no_extra_topic(tmp_p
     own = {t.name if t.name.startswith('/') else '/' + t.name
            for t in topics.TOPICS if 'simulator' in t.publishers}
     assert '/joint_states' in counts and set(counts) <= own, counts
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('name', ['bad name!', 'x//y', '1abc', ''])
+def test_a_bad_record_topic_is_refused_when_set_and_never_ends_the_node(plant_factory,
+                                                                       tmp_path, name):
+    """``record.topics = ['bad name!']`` at run time: refused with the parameter named; a
+    recording asked for such a name answers failure and leaves no bag directory; the plant
+    and ``~/start_recording`` work on."""
+    bag = tmp_path / 'bag'
+    p = plant_factory(**{'record.path': '', 'max_stamp_lag': 5.0})
+    result = p.sim.set_parameters([Parameter('record.topics', value=[name])])[0]
+    assert not result.successful and "'record.topics'" in result.reason, result.reason
+    assert p.sim.get_parameter('record.topics').value == []
+    error = p.sim.recorder.start(str(bag), [name])
+    assert "'record.topics'" in error and not bag.exists()
+    p.sim.set_parameters([Parameter('record.path', value=str(bag))])
+    reply = p.call(Trigger, '/abb_simulator/start_recording', Trigger.Request())
+    assert reply.success, reply.message
+    assert p.call(Trigger, '/abb_simulator/stop_recording', Trigger.Request()).success
+    assert is_finished(bag)

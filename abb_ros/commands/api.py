@@ -14,7 +14,7 @@ from pathlib import Path
 
 from abb_ros.commands.settings import cli_names, spec_for_command
 from abb_ros.io.drive_file import read_drive_yaml
-from abb_ros.io.safe_yaml import YamlFileError, load_text
+from abb_ros.io.safe_yaml import YamlFileError, load_file, load_text
 from abb_ros.model.parameters.param_spec import STRING, ParamError, ParamSpec
 from abb_ros.model.parameters.params import (
     DIMENSIONLESS_NAMES,
@@ -197,6 +197,26 @@ def _one_bag(path: Path) -> str:
         return f'it holds {len(mcaps)} recording(s) without a metadata.yaml'
     if len(mcaps) > 1:
         return f'it holds {len(mcaps)} recordings'
+    return _written_here(path / 'metadata.yaml')
+
+
+def _written_here(metadata: Path) -> str:
+    """Return why ``metadata`` is not that of a bag abb_ros wrote ('' if it is).
+
+    Its ``custom_data`` names this package's writer (``abb_ros.writer``; bags of earlier
+    versions: their ``abb_ros.drive_params``). A user's folder that merely holds a
+    ``metadata.yaml`` and an ``.mcap`` is not replaced.
+    """
+    from abb_ros.io.bag_writer import DRIVE_METADATA, WRITER_KEY  # mcap: not for --help
+    try:
+        info = (load_file(metadata) or {}).get('rosbag2_bagfile_information') or {}
+        custom = info.get('custom_data') or {}
+    except (YamlFileError, AttributeError):
+        return 'its metadata.yaml is not that of a rosbag2 bag'
+    if not isinstance(custom, dict) or not (WRITER_KEY in custom
+                                            or f'{DRIVE_METADATA}.drive_params' in custom):
+        return (f'its metadata.yaml does not say abb_ros wrote it (custom_data '
+                f'{WRITER_KEY})')
     return ''
 
 

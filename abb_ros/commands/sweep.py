@@ -12,7 +12,7 @@ from __future__ import annotations
 import os
 import sys
 
-from abb_ros.commands.api import UsageError
+from abb_ros.commands.api import UsageError, signals_deferred
 
 
 def add_arguments(parser) -> None:
@@ -63,11 +63,15 @@ def _connect(args):
         except (OSError, TimeoutError, ValueError) as exc:
             raise UsageError(f'--scheduler {args.scheduler}: cannot connect ({exc})') from None
     else:
-        cluster = local_cluster(args.workers or os.cpu_count() or 1, dashboard=True)
+        # a signal while the cluster starts is held until it stands, then unwinds through the
+        # close below (never a half-made cluster that distributed's atexit hook trips over)
         try:
-            client = Client(cluster)
+            with signals_deferred():
+                cluster = local_cluster(args.workers or os.cpu_count() or 1, dashboard=True)
+                client = Client(cluster)
         except BaseException:
-            cluster.close()
+            if cluster is not None:
+                cluster.close()
             raise
     if _has_dashboard(client):
         print(f'abb-sim sweep: Dask dashboard at {client.dashboard_link}', file=sys.stderr)

@@ -5,7 +5,7 @@ See abb_ros/sweep/report.py and docs/sweep.md.
 
 from __future__ import annotations
 
-from abb_ros.commands.api import UsageError
+from abb_ros.commands.api import UsageError, check_output
 
 
 def add_arguments(parser) -> None:
@@ -18,6 +18,10 @@ def run(args) -> dict:
     """Write the sweep's figures and summary.json; return the key figures of the summary."""
     from abb_ros.sweep.report import make_report
     from abb_ros.sweep.store import SweepFileError
+    out = check_output('--out', args.out)
+    if out.exists() and not out.is_dir():
+        raise UsageError(f'--out {out}: it exists and is not a directory (the report writes '
+                         'PNGs and summary.json into a directory)')
     try:
         summary = make_report(args.sweep_dir, args.out)
     except (FileNotFoundError, NotADirectoryError) as exc:

@@ -7,7 +7,8 @@ encoding ``cdr``, with channel metadata ``offered_qos_profiles`` (YAML text, met
 names) and ``topic_type_hash`` (RIHS01); at close a metadata record ``rosbag2`` whose key
 ``serialized_metadata`` is the bag metadata as YAML (``ros_distro: jazzy``). The drive
 parameters go into a metadata record ``abb_ros`` (key ``drive_params``, JSON, SI) and into
-``custom_data`` of ``metadata.yaml``. Reading is :mod:`abb_ros.io.bag_reader`, finishing a
+``custom_data`` of ``metadata.yaml``, beside ``abb_ros.writer`` (this writer made the bag).
+Reading is :mod:`abb_ros.io.bag_reader`, finishing a
 bag whose writer died is :mod:`abb_ros.io.bag_recovery`.
 
 Crash safety: messages are grouped into zstd-compressed chunks written whole to the OS when a
@@ -45,6 +46,9 @@ DEFAULT_FLUSH_PERIOD = 1.0  # a chunk in progress is written at least this often
 DRIVE_METADATA = 'abb_ros'
 INCOMPLETE_KEY = 'abb_ros.incomplete'
 """custom_data key of metadata.yaml marking a bag cut short (its value says why)."""
+WRITER_KEY = 'abb_ros.writer'
+"""custom_data key of metadata.yaml naming this writer (:data:`LIBRARY`) in every bag it
+writes: what ``abb-sim run --overwrite`` asks before it replaces a directory."""
 _CHUNK_OPCODE = 0x06   # MCAP record opcode of a Chunk
 _RESERVE = 'metadata.reserve.tmp'
 _MIN_RESERVE = 8192    # [bytes]
@@ -224,7 +228,7 @@ class BagWriter:
         self.write, self.write_many = self._mcap.write, self._mcap.write_many
         self._topics: dict[str, _Topic] = {}
         self._schemas: dict[str, int] = {}
-        self._custom: dict[str, str] = {}
+        self._custom: dict[str, str] = {WRITER_KEY: LIBRARY}
         self._durable_span: tuple[int, int] | None = None   # (start, end) of durable messages
         self.durable_count = 0
         self.closed = False

@@ -6,15 +6,21 @@ silently): a 1 KB "billion laughs" file of nested aliases would otherwise expand
 to gigabytes when it is printed or walked, and a file of ten thousand ``[`` would exhaust the
 parser's recursion. Any problem (missing file, a directory, not UTF-8, malformed, over a limit)
 is one :class:`YamlFileError` that names the file and what is wrong.
+
+Numbers are read as ROS parameter files and YAML 1.2 read them: ``5e-5`` and ``1E3`` are floats
+(YAML 1.1, PyYAML's default, wants a dot in the mantissa and a sign in the exponent and reads
+them as text), so a value means the same in a parameter file, a scenario, a sweep spec and on
+the command line.
 """
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import yaml
 
-__all__ = ['YamlFileError', 'load_file', 'load_text', 'MAX_BYTES', 'MAX_DEPTH']
+__all__ = ['YamlFileError', 'load_file', 'load_text', 'MAX_BYTES', 'MAX_DEPTH', 'FLOAT_12']
 
 MAX_BYTES = 64 * 1024
 """Largest YAML file read [bytes]: parameter files and scenarios are a few KB; 64 KB parses in
@@ -46,7 +52,24 @@ class _PyLoader(yaml.SafeLoader):
         super().fetch_flow_collection_start(TokenClass)
 
 
-_LOADER = getattr(yaml, 'CSafeLoader', None) or _PyLoader
+FLOAT_12 = re.compile(r'^[-+]?(?:\.[0-9]+|[0-9]+(?:\.[0-9]*)?)(?:[eE][-+]?[0-9]+)?$')
+"""A float of the YAML 1.2 core schema (the rule rcl's parameter-file parser follows too):
+mantissa with or without a dot, exponent with or without a sign. Whole numbers without an
+exponent are matched first by the integer rule, so ``5`` stays an int."""
+
+
+def _with_yaml12_floats(base):
+    """Return a subclass of the loader ``base`` that also reads YAML 1.2 floats as floats.
+
+    The resolver is appended after PyYAML's own: its float (with a dot) and int rules come
+    first, so only what they leave as text (``5e-5``, ``1E3``, ``1.e+3``) is added.
+    """
+    loader = type(f'{base.__name__}12', (base,), {})
+    loader.add_implicit_resolver('tag:yaml.org,2002:float', FLOAT_12, list('-+.0123456789'))
+    return loader
+
+
+_LOADER = _with_yaml12_floats(getattr(yaml, 'CSafeLoader', None) or _PyLoader)
 
 
 def _one_line(exc: yaml.YAMLError) -> str:

@@ -298,5 +298,5 @@ def _resolve(name: str, namespace: str) -> str:
 
 def main(args=None):
     """Run the analysis node until SIGINT/SIGTERM; return the exit code."""
-    return run_node(NODE_NAME, AnalysisNode, args)
+    return run_node(NODE_NAME, AnalysisNode, args, kind='analysis')
 

@@ -20,6 +20,7 @@ from rclpy.signals import SignalHandlerOptions
 
 from abb_ros.model.parameters.params import ParamError
 from abb_ros.nodes import stop as stop_request
+from abb_ros.nodes.param_files import ParamFileError, check_arguments
 from abb_ros.nodes.rclpy_access import RCLError
 
 SPIN_TIMEOUT_S = 0.1
@@ -53,12 +54,15 @@ def spin(node, stop=None) -> None:
         executor.remove_node(node)
 
 
-def run_node(name: str, factory, args=None, usage_errors=(ParamError,)) -> int:
+def run_node(name: str, factory, args=None, usage_errors=(ParamError,), kind=None) -> int:
     """Run the node made by ``factory()`` until SIGINT/SIGTERM or shutdown.
 
     Installs the stop handlers (:mod:`abb_ros.nodes.stop`) for the time it runs. Returns the
     exit code: 0, the node's ``exit_code`` if it set one (a runtime failure), or 2 with one
-    line on stderr when construction raises one of ``usage_errors`` (invalid parameters).
+    line on stderr when construction raises one of ``usage_errors`` (invalid parameters) or,
+    before it, a parameter file or ``-p`` holds what the node would ignore
+    (:mod:`abb_ros.nodes.param_files`; ``kind``: the node's entry in
+    :data:`abb_ros.nodes.parameter_table.NODES`; None: a node without specs, not checked).
     """
     stop = stop_request.REQUEST
     previous = stop_request.install()
@@ -71,9 +75,13 @@ def run_node(name: str, factory, args=None, usage_errors=(ParamError,)) -> int:
             print(f'{name}: invalid --ros-args: {str(err).split(", at ")[0]}', file=sys.stderr)
             return 2
         if not stop:   # a signal during the imports: do not start at all
+            _check_parameter_files(name, kind, args)
             node = factory()
             spin(node, stop)
         code = getattr(node, 'exit_code', None) or 0
+    except ParamFileError as err:
+        print(f'{name}: invalid parameters: {err}', file=sys.stderr)
+        code = 2
     except usage_errors as err:
         print(f'{name}: invalid parameter: {err}', file=sys.stderr)
         code = 2
@@ -92,3 +100,12 @@ def run_node(name: str, factory, args=None, usage_errors=(ParamError,)) -> int:
                 signal.signal(signum, handler)
             stop.signum = None
     return code
+
+
+def _check_parameter_files(name: str, kind: str, args) -> None:
+    """Refuse parameter files and ``-p`` of ``args`` (rclpy's: sys.argv) the node would ignore."""
+    if kind is None:
+        return
+    from abb_ros.nodes import parameter_table
+    check_arguments(sys.argv if args is None else args, name,
+                    parameter_table.specs_for(kind), {s.name for s in parameter_table.SPECS})

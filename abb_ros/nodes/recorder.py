@@ -27,6 +27,7 @@ if __name__ == '__main__':   # python -m: the stop handlers first, then the impo
 import rclpy
 import rclpy.logging
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus
+from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
 
 from abb_ros.io import cdr
@@ -36,7 +37,13 @@ from abb_ros.model.parameters.param_spec import ParamError
 from abb_ros.nodes import ros_params
 from abb_ros.nodes.entry_point import run_node
 from abb_ros.nodes.parameter_table import specs_for
-from abb_ros.nodes.recording import DRAIN_PERIOD_S, Recording, default_output, resolve_topics
+from abb_ros.nodes.recording import (
+    DRAIN_PERIOD_S,
+    Recording,
+    default_output,
+    refuse_bad_topics,
+    resolve_topics,
+)
 
 __all__ = ['Recorder', 'main']
 
@@ -54,6 +61,9 @@ class Recorder(Node):
         topics, output, chunk_size, compression, self._depth, period = (
             self.get_parameter(name).value for name in PARAMS)
         resolve_topics(self, topics, 'topics')     # before the bag: refused, nothing made
+        self.add_on_set_parameters_callback(   # a bad name is refused when set, too
+            lambda ps: refuse_bad_topics(self, ps, 'topics') or SetParametersResult(
+                successful=True))
         self.bag = BagWriter(output or default_output(), chunk_size=chunk_size,
                              compression=compression)
         self.exit_code = None
@@ -118,5 +128,6 @@ class Recorder(Node):
 
 def main(args=None) -> int:
     """Run the recorder until SIGINT/SIGTERM or a write failure; return the exit code."""
-    return run_node('abb_recorder', Recorder, args, usage_errors=(ParamError, BagError, OSError))
+    return run_node('abb_recorder', Recorder, args, usage_errors=(ParamError, BagError, OSError),
+                    kind='recorder')
 

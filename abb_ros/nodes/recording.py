@@ -36,7 +36,8 @@ from abb_ros.nodes.rclpy_access import RCLError
 from abb_ros.nodes.taps import Taps
 
 __all__ = ['DRAIN_PERIOD_S', 'GraphRecording', 'InProcessRecording', 'LossCounter', 'Recording',
-           'default_output', 'request_qos', 'resolve_topics', 'SEQUENCE_UNSUPPORTED']
+           'default_output', 'request_qos', 'resolve_topics', 'refuse_bad_topics',
+           'SEQUENCE_UNSUPPORTED']
 
 DRAIN_PERIOD_S = 0.01
 """How often the subscription queues are emptied into the bag [s] (queue_depth messages must
@@ -91,6 +92,22 @@ def resolve_topics(node: Node, topics, param: str) -> set[str]:
             raise ParamError(param, topic, "ROS topic names ('stability/margin', "
                              "'/diagnostics', '~/x')", why) from None
     return out
+
+
+def refuse_bad_topics(node: Node, parameters, param: str):
+    """Return a refusal if ``parameters`` set ``param`` to a bad topic name, else None.
+
+    The set-parameters check of a topic list (a SetParametersResult naming the parameter), so
+    that a bad name is refused when it is set, not when a recording starts.
+    """
+    from rcl_interfaces.msg import SetParametersResult
+    for p in parameters:
+        if p.name == param:
+            try:
+                resolve_topics(node, p.value or [], param)
+            except ParamError as err:
+                return SetParametersResult(successful=False, reason=str(err))
+    return None
 
 
 class GraphRecording:
@@ -352,6 +369,10 @@ class InProcessRecording:
         """
         if self.current is not None:
             return f'already recording to {self.current.bag.path}'
+        try:   # before the bag: a bad name leaves no directory behind
+            resolve_topics(self.node, topics, self._param)
+        except ParamError as err:
+            return str(err)
         try:
             bag = BagWriter(path)
             if prepare is not None:

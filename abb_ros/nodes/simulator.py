@@ -45,7 +45,7 @@ from abb_ros.nodes.hil_io import HilIO
 from abb_ros.nodes.pacing import Pacer
 from abb_ros.nodes.rclpy_access import RCLError
 from abb_ros.nodes.realtime import FifoScheduling
-from abb_ros.nodes.recording import InProcessRecording, resolve_topics
+from abb_ros.nodes.recording import InProcessRecording, refuse_bad_topics, resolve_topics
 from abb_ros.nodes.simulator_diagnostics import simulation_status
 from abb_ros.nodes.spindle_commands import SpindleCommands
 
@@ -104,7 +104,9 @@ class SimulatorNode(Node):
         self.create_service(SetBool, '~/pause', self._on_pause)
         self.create_service(Trigger, '~/step', self._on_step)
         self.recorder.serve('record.path', prepare=self._prepare_bag)
-        self.add_on_set_parameters_callback(lambda ps: ros_params.validate_change(self, ps))
+        self.add_on_set_parameters_callback(
+            lambda ps: refuse_bad_topics(self, ps, 'record.topics')
+            or ros_params.validate_change(self, ps))
         self.add_post_set_parameters_callback(self._on_parameters_set)
 
         resolve_topics(self, self.get_parameter('record.topics').value, 'record.topics')
@@ -398,4 +400,4 @@ def _warm_up(sim: Simulation) -> None:
 
 def main(args=None):
     """Run the simulator node until SIGINT/SIGTERM; return the exit code."""
-    return run_node(NODE_NAME, SimulatorNode, args)
+    return run_node(NODE_NAME, SimulatorNode, args, kind='simulator')

@@ -13,6 +13,7 @@ import math
 
 from abb_ros.io.live_view import DEFAULT_ALLOWED_ORIGINS
 from abb_ros.io.topics import CURRENT_CMD, DIAGNOSTICS, SPEED_CMD, STABILITY_MARGIN
+from abb_ros.model.parameters.drive_spec import MAX_OMEGA
 from abb_ros.model.parameters.param_spec import (
     BOOL,
     DOUBLE_ARRAY,
@@ -22,6 +23,7 @@ from abb_ros.model.parameters.param_spec import (
     ParamSpec,
 )
 from abb_ros.model.parameters.plant_spec import (
+    IMU_FULL_SCALE,
     IMU_SPECS,
     MAX_SPINDLE_SPEED,
     MOTOR_SPECS,
@@ -32,8 +34,8 @@ from abb_ros.model.parameters.plant_spec import (
 
 __all__ = ['LIVE_VIEW_TOPICS', 'SIMULATOR_SPECS', 'SPINDLE_MODE']
 
-_INF = math.inf
 _AT_STEP = 'at the next step'
+_A_MAX, _G_MAX = IMU_FULL_SCALE
 
 _PACING = (
     ParamSpec('real_time_factor', 1.0, '', 'simulated seconds per wall second (1 = wall '
@@ -48,32 +50,40 @@ _BENCH = (
     ParamSpec('speed_sensor.pulses_per_rev', 6, '', 'FG pulses per spindle revolution (3 per '
               'pole pair of a BLDC motor)', INTEGER, 1, 1000, applies='on ~/reset'),
     ParamSpec('speed_sensor.timer_hz', 1.0e6, 'Hz', 'FG edge capture timer clock '
-              '(quantisation)', low=0.0, low_open=True, high=_INF, applies='on ~/reset'),
+              '(quantisation); 1 Hz to 10 GHz (above any microcontroller capture timer; a '
+              'finite tick count for any edge time)', low=1.0, high=1e10,
+              applies='on ~/reset'),
     ParamSpec('speed_sensor.edge_jitter', 1.0e-6, 's', 'FG edge time jitter, standard '
-              'deviation', low=0.0, high=_INF, applies='on ~/reset'),
+              'deviation; at most 1 s (beyond timeout, every reading is noise)', low=0.0,
+              high=1.0, applies='on ~/reset'),
     ParamSpec('speed_sensor.timeout', 0.1, 's', 'no FG edge for this long reads 0 rad/s: '
               'below 2 pi / (pulses_per_rev timeout), 10.47 rad/s by default, the reading drops '
-              'to 0 between edges',
-              low=0.0, low_open=True, high=_INF, applies='on ~/reset'),
+              'to 0 between edges; at most 1 hour',
+              low=0.0, low_open=True, high=3600.0, applies='on ~/reset'),
     ParamSpec('speed_sensor.pitch_error', 0.0, 'rad', 'FG pole-pitch error, RMS over the '
               'edges of a revolution: a zero-mean pattern drawn from the seed, repeating every '
-              'revolution; below pi / pulses_per_rev^1.5', low=0.0, high=_INF,
+              'revolution; below pi / pulses_per_rev^1.5', low=0.0, high=math.pi,
               applies='on ~/reset'),
     ParamSpec('fault.imu_dropout', False, '', 'IMU dropout: no deck/imu messages while true',
               BOOL, applies=_AT_STEP),
     ParamSpec('fault.imu_stuck', False, '', 'IMU stuck: deck/imu repeats its last reading '
               'while true', BOOL, applies=_AT_STEP),
     ParamSpec('fault.imu_accel_bias_step', [0.0, 0.0, 0.0], 'm/s^2', 'bias step added to '
-              'deck/imu specific force, deck axes', DOUBLE_ARRAY, length=3, applies=_AT_STEP),
+              'deck/imu specific force, deck axes; each within the full scale IMU_FULL_SCALE '
+              '(a saturated reading, finite)', DOUBLE_ARRAY, length=3, low=-_A_MAX,
+              high=_A_MAX, applies=_AT_STEP),
     ParamSpec('fault.imu_gyro_bias_step', [0.0, 0.0, 0.0], 'rad/s', 'bias step added to '
-              'deck/imu angular rate, deck axes', DOUBLE_ARRAY, length=3, applies=_AT_STEP),
+              'deck/imu angular rate, deck axes; each within the full scale IMU_FULL_SCALE',
+              DOUBLE_ARRAY, length=3, low=-_G_MAX, high=_G_MAX, applies=_AT_STEP),
     ParamSpec('fault.speed_dropout', False, '', 'speed sensor dropout: no spindle/speed while '
               'true', BOOL, applies=_AT_STEP),
-    ParamSpec('fault.speed_noise', 0.0, 'rad/s', 'white noise added to spindle/speed, std',
-              low=0.0, high=_INF, applies=_AT_STEP),
+    ParamSpec('fault.speed_noise', 0.0, 'rad/s', 'white noise added to spindle/speed, std; at '
+              'most the model\'s speed limit MAX_OMEGA (a draw of 1e308 rad/s read as inf)',
+              low=0.0, high=MAX_OMEGA, applies=_AT_STEP),
     ParamSpec('disturbance.shock_velocity', [0.0] * 6, 'm/s, rad/s', 'deck twist step of '
-              '~/apply_shock, deck axes [vx, vy, vz, wx, wy, wz]', DOUBLE_ARRAY, length=6,
-              applies='on ~/apply_shock'),
+              '~/apply_shock, deck axes [vx, vy, vz, wx, wy, wz]; each at most 1000 (the deck '
+              'leaves its 20 mm envelope within 20 us: ERROR, never a non-finite state)',
+              DOUBLE_ARRAY, length=6, low=-1000.0, high=1000.0, applies='on ~/apply_shock'),
     ParamSpec('disturbance.disc_eps', 0.25e-3, 'm', 'eccentricity eps of the disc put in by '
               '~/swap_disc (becomes drive.eps)', low=0.0, high=1.0, applies='on ~/swap_disc'),
     ParamSpec('disturbance.disc_angle_deg', 0.0, 'deg', 'imbalance angle of the disc put in '

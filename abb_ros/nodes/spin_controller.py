@@ -189,5 +189,5 @@ def main(args=None):
     """Run the spin controller until SIGINT/SIGTERM; return the exit code."""
     # The simulator's spin: the EventsExecutor keeps up with 1 kHz joint_states, and its timed
     # loop lets SIGINT through.
-    return run_node(NODE_NAME, SpinController, args)
+    return run_node(NODE_NAME, SpinController, args, kind='spin_controller')
 

@@ -7,20 +7,19 @@ The controller also declares the drive's parameters, ``max_spindle_speed`` and t
 
 from __future__ import annotations
 
-import math
-
+from abb_ros.model.parameters.drive_spec import MAX_OMEGA
 from abb_ros.model.parameters.param_spec import INTEGER, STRING, ParamSpec
 
 __all__ = ['CONTROLLER_SPECS']
 
-_INF = math.inf
 
 CONTROLLER_SPECS = (
     ParamSpec('target_speed', None, 'rad/s', 'speed to reach and hold; default wbar = 2.7 (P3) '
-              'with the drive omega0', low=0.0, high=_INF, applies='at once'),
+              'with the drive omega0; at most the model\'s speed limit MAX_OMEGA', low=0.0,
+              high=MAX_OMEGA, applies='at once'),
     ParamSpec('acceleration', 500.0, 'rad/s^2', 'run-up acceleration of the reference outside '
-              'the unbalanced bands (inside them the drive\'s own limit applies)', low=1e-3,
-              high=_INF, applies='at once'),
+              'the unbalanced bands (inside them the drive\'s own limit applies); at most '
+              '1e9 (MAX_OMEGA within 0.1 ms)', low=1e-3, high=1e9, applies='at once'),
     ParamSpec('kp', 0.0, '', 'proportional gain on the speed error (command correction per '
               'rad/s); 0: trust the drive\'s own speed loop', low=0.0, high=100.0,
               applies='at once'),

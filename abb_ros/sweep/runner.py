@@ -11,6 +11,7 @@ again elsewhere. Without a client the partitions are computed in this process, i
 from __future__ import annotations
 
 import json
+import logging
 import time
 import uuid
 from dataclasses import dataclass
@@ -129,14 +130,18 @@ def _count(spec, index):
 def local_cluster(workers: int, dashboard: bool = False):
     """Start a distributed.LocalCluster on this machine.
 
-    ``workers`` processes with one thread each, bound to 127.0.0.1. The scheduler's HTTP server
-    listens on a free port (never a fixed one that another cluster may hold); the dashboard is
-    on it when asked and bokeh is installed.
+    ``workers`` processes with one thread each, bound to 127.0.0.1, their logs below CRITICAL
+    kept off stderr: a stop's 'worker still alive, killing' and the heartbeat errors of workers
+    outliving their scheduler are no errors of the sweep (a task's own exception reaches the
+    client through its future). The
+    scheduler's HTTP server listens on a free port (never a fixed one that another cluster may
+    hold); the dashboard is on it when asked and bokeh is installed.
     """
     from distributed import LocalCluster
     return LocalCluster(n_workers=workers, threads_per_worker=1, processes=True,
                         host='127.0.0.1', dashboard_address='127.0.0.1:0',
-                        scheduler_kwargs={'dashboard': bool(dashboard) and has_bokeh()})
+                        scheduler_kwargs={'dashboard': bool(dashboard) and has_bokeh()},
+                        silence_logs=logging.CRITICAL)
 
 
 def has_bokeh() -> bool:

@@ -283,11 +283,28 @@ def _run(run_doc, scenario) -> dict:
     """Return the checked ``compute.run``: duration, rbar_limit, dt."""
     r = fields.mapping('compute.run', run_doc or {}, _RUN_KEYS)
     number = fields.finite_number
-    return {'duration': number('compute.run.duration', r.get('duration', scenario.duration),
-                               0.0, True, MAX_DURATION),
-            'rbar_limit': number('compute.run.rbar_limit',
-                                 r.get('rbar_limit', DEFAULT_RBAR_LIMIT), 0.0, True),
-            'dt': number('compute.run.dt', r.get('dt', 1e-4), 0.0, True, 1e-2)}
+    run = {'duration': number('compute.run.duration', r.get('duration', scenario.duration),
+                              0.0, True, MAX_DURATION),
+           'rbar_limit': number('compute.run.rbar_limit',
+                                r.get('rbar_limit', DEFAULT_RBAR_LIMIT), 0.0, True),
+           'dt': number('compute.run.dt', r.get('dt', 1e-4), 0.0, True, 1e-2)}
+    _check_run_steps(run)
+    return run
+
+
+def _check_run_steps(run: dict) -> None:
+    """Refuse a run of more steps than ``abb-sim run`` takes (MAX_RUN_STEPS), before any work.
+
+    ``compute.run.dt: 1e-12`` would otherwise integrate 1e12 steps per drive, for days.
+    """
+    from abb_ros.model.dynamics.integrate import MAX_RUN_STEPS
+    steps = run['duration'] / run['dt']
+    if steps > MAX_RUN_STEPS:
+        raise ParamError('compute.run.dt', run['dt'],
+                         f"[{run['duration'] / MAX_RUN_STEPS:g}, 0.01] s for a duration of "
+                         f"{run['duration']:g} s",
+                         f'{steps:.3g} steps per drive; at most {MAX_RUN_STEPS} steps per run, '
+                         'as abb-sim run')
 
 
 def _speeds(st, omega0, operating):

@@ -159,6 +159,24 @@ def _read_part(pq, path):
     return table
 
 
+def _check_same_sweep(first: Path, first_table, path: Path, table) -> None:
+    """Refuse a part file of another sweep, or of other columns, beside ``first`` (one line).
+
+    The sweep's identity is its spec (the metadata every part carries): a part of another
+    sweep with the same columns would otherwise be counted in this one's samples.
+    """
+    if table.schema.metadata.get(SPEC_KEY) != first_table.schema.metadata.get(SPEC_KEY):
+        raise SweepFileError(f'{path}: a part of another sweep (its spec differs from that of '
+                             f'{first.name})')
+    names, expected = table.column_names, first_table.column_names
+    if names != expected:
+        extra = [n for n in names if n not in expected]
+        missing = [n for n in expected if n not in names]
+        raise SweepFileError(f'{path}: its columns differ from those of {first.name} (extra: '
+                             f'{", ".join(extra) or "none"}; missing: '
+                             f'{", ".join(missing) or "none"})')
+
+
 def read_results(out_dir):
     """Read all finished partitions as one pyarrow Table sorted by sample.
 
@@ -172,12 +190,20 @@ def read_results(out_dir):
         raise FileNotFoundError(f'no part-*.parquet files in {out_dir}')
     tables = [_read_part(pq, p) for p in files]
     meta = tables[0].schema.metadata or {}
+    for path, t in zip(files[1:], tables[1:]):
+        _check_same_sweep(files[0], tables[0], path, t)
     try:
         table = pa.concat_tables([t.replace_schema_metadata(None) for t in tables])
     except pa.ArrowException as exc:
-        raise SweepFileError(f'{out_dir}: its part files do not hold one sweep ({exc})'
+        why = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
+        raise SweepFileError(f'{out_dir}: its part files do not hold one sweep ({why})'
                              ) from None
     table = table.sort_by('sample')
+    samples = table.column('sample').to_numpy()
+    repeated = samples[1:][samples[1:] == samples[:-1]]
+    if repeated.size:
+        raise SweepFileError(f'{out_dir}: sample {int(repeated[0])} is in two part files (a part '
+                             'copied in twice)')
     info = {'spec': json.loads(meta.get(SPEC_KEY, b'{}')),
             'version': meta.get(VERSION_KEY, b'unknown').decode()}
     return table, info

@@ -60,8 +60,8 @@ class ParamSpec:
     """One parameter, declared once.
 
     ``name`` is the ROS name (``drive.k``, ``imu.rate_hz``); ``low``/``high`` bound numbers
-    (None: unbounded), ``*_open`` makes a bound exclusive; ``default`` None is computed when
-    declared (documented in ``description``).
+    and each element of a ``double_array`` (None: unbounded), ``*_open`` makes a bound
+    exclusive; ``default`` None is computed when declared (documented in ``description``).
     """
 
     name: str
@@ -86,19 +86,24 @@ class ParamSpec:
     def valid_text(self) -> str:
         """Return what is valid, e.g. ``(0, inf) N/m``."""
         if self.type in (DOUBLE, INTEGER):
-            low = -math.inf if self.low is None else self.low
-            high = math.inf if self.high is None else self.high
-            fmt = (lambda x: str(int(x))) if self.type == INTEGER else (lambda x: f'{x:g}')
-            lo = '(-inf' if math.isinf(low) else ('(' if self.low_open else '[') + fmt(low)
-            hi = 'inf)' if math.isinf(high) else fmt(high) + (')' if self.high_open else ']')
-            return f'{lo}, {hi} {self.unit}'.rstrip()
+            return f'{self._interval()} {self.unit}'.rstrip()
         if self.type == BOOL:
             return 'true or false'
         if self.type == STRING:
             return 'one of ' + ', '.join(self.choices) if self.choices else 'a string'
         if self.type == DOUBLE_ARRAY:
-            return f'{self.length} finite values [{self.unit}]'
+            if self.low is None and self.high is None:
+                return f'{self.length} finite values [{self.unit}]'
+            return f'{self.length} values in {self._interval()} [{self.unit}]'
         return 'a list of strings'
+
+    def _interval(self) -> str:
+        low = -math.inf if self.low is None else self.low
+        high = math.inf if self.high is None else self.high
+        fmt = (lambda x: str(int(x))) if self.type == INTEGER else (lambda x: f'{x:g}')
+        lo = '(-inf' if math.isinf(low) else ('(' if self.low_open else '[') + fmt(low)
+        hi = 'inf)' if math.isinf(high) else fmt(high) + (')' if self.high_open else ']')
+        return f'{lo}, {hi}'
 
     def check(self, value: Any, name: str | None = None, strict: bool = False) -> Any:
         """Return ``value`` if valid (an int for a double becomes a float).
@@ -123,7 +128,7 @@ class ParamSpec:
         value = _plain(value)
         if self.type == DOUBLE_ARRAY:
             ok = isinstance(value, list) and len(value) == self.length and all(
-                _is_number(x) and math.isfinite(x) for x in value)
+                _is_number(x) and math.isfinite(x) and self._within(x) for x in value)
             if not ok:
                 raise ParamError(name, value, self.valid_text())
             return [float(x) for x in value]
@@ -144,11 +149,15 @@ class ParamSpec:
             raise ParamError(name, _plain(value), self.valid_text(), 'not a number')
         if not math.isfinite(value):
             raise ParamError(name, value, self.valid_text(), 'not finite')
-        low, high = self.low, self.high
-        if (low is not None and (value < low or (self.low_open and value == low))) or \
-                (high is not None and (value > high or (self.high_open and value == high))):
+        if not self._within(value):
             raise ParamError(name, value, self.valid_text())
         return value
+
+    def _within(self, value) -> bool:
+        low, high = self.low, self.high
+        return not ((low is not None and (value < low or (self.low_open and value == low)))
+                    or (high is not None and (value > high or (self.high_open
+                                                               and value == high))))
 
 
 def _plain(value):

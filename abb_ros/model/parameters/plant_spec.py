@@ -7,17 +7,16 @@ The simulator node declares them, the headless ``abb-sim run`` takes most of the
 
 from __future__ import annotations
 
-import math
 from typing import Any, Mapping
 
+from abb_ros.model.parameters.drive_spec import MAX_OMEGA
 from abb_ros.model.parameters.param_spec import BOOL, DOUBLE_ARRAY, INTEGER, ParamError, ParamSpec
 from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuConfig
 
-__all__ = ['STEP_SPECS', 'MAX_SPINDLE_SPEED', 'SPINDLE_SPECS', 'SEED', 'IMU_SPECS',
-           'MOTOR_DEFAULTS', 'MOTOR_SPECS', 'PLANT_SPECS', 'PLANT', 'imu_config',
-           'check_rates', 'step_of']
+__all__ = ['STEP_SPECS', 'MAX_SPINDLE_SPEED', 'IMU_FULL_SCALE', 'SPINDLE_SPECS', 'SEED',
+           'IMU_SPECS', 'MOTOR_DEFAULTS', 'MOTOR_SPAN', 'MOTOR_SPECS', 'PLANT_SPECS', 'PLANT',
+           'imu_config', 'check_rates', 'step_of']
 
-_INF = math.inf
 _AT_STEP = 'at the next step'
 
 STEP_SPECS = (
@@ -31,17 +30,20 @@ STEP_SPECS = (
 
 MAX_SPINDLE_SPEED = ParamSpec(
     'max_spindle_speed', 1500.0, 'rad/s', 'largest accepted spindle/speed_cmd (the analysis: '
-    'top of its speed table, > 0)', low=0.0, high=_INF, applies=_AT_STEP)
+    'top of its speed table, > 0); at most the model\'s speed limit MAX_OMEGA', low=0.0,
+    high=MAX_OMEGA, applies=_AT_STEP)
 """The spindle's speed limit, shared by the nodes that take the drive."""
 
 SPINDLE_SPECS = (
     ParamSpec('spindle.initial_speed', None, 'rad/s', 'spindle speed at start and after '
               '~/reset; default wbar = 2.7 (P3) with the drive omega0; at most '
-              'max_spindle_speed', low=0.0, high=_INF, applies='on ~/reset'),
-    ParamSpec('spindle.max_accel', 2000.0, 'rad/s^2', 'spindle motor acceleration limit',
-              low=0.0, low_open=True, high=_INF, applies=_AT_STEP),
-    ParamSpec('spindle.tau', 0.05, 's', 'spindle motor speed-loop time constant', low=0.0,
-              low_open=True, high=_INF, applies=_AT_STEP),
+              'max_spindle_speed', low=0.0, high=MAX_OMEGA, applies='on ~/reset'),
+    ParamSpec('spindle.max_accel', 2000.0, 'rad/s^2', 'spindle motor acceleration limit; at '
+              'most 1e9 (MAX_OMEGA within 0.1 ms, one default step)', low=0.0, low_open=True,
+              high=1e9, applies=_AT_STEP),
+    ParamSpec('spindle.tau', 0.05, 's', 'spindle motor speed-loop time constant; at least '
+              '1e-9 s (one nanosecond, the stamps\' resolution: (command - speed) / tau stays '
+              'finite), at most an hour', low=1e-9, high=3600.0, applies=_AT_STEP),
 )
 """The spindle's start speed and its speed loop (speed mode)."""
 
@@ -50,24 +52,46 @@ SEED = ParamSpec('seed', 0, '', 'seed of the IMU noise generator', INTEGER, 0, 2
 """The seed of the plant's random draws (IMU noise, FG pitch pattern)."""
 
 
-def _imu(field, unit, description):
+def _imu(field, unit, description, high):
     return ParamSpec('imu.' + field, getattr(TYPICAL_IMU, field), unit, description,
-                     low=0.0, high=_INF, applies=_AT_STEP)
+                     low=0.0, high=high, applies=_AT_STEP)
+
+
+IMU_FULL_SCALE = (1000.0, 100.0)
+"""Largest specific force [m/s^2] (about 100 g) and angular rate [rad/s] the IMU parameters
+may produce: ten times the full scale of a MEMS accelerometer (16 g) and gyro (2000 deg/s =
+35 rad/s). Bounding the noise, the biases and the bias steps by them keeps every deck/imu
+reading and covariance finite (a noise density of 1e200 once overflowed its variance)."""
+_A_MAX, _G_MAX = IMU_FULL_SCALE
+_MAX_IMU_RATE = 1e6
+"""The fastest imu.rate_hz [Hz]: a noise density d gives a per-sample std d sqrt(rate), so
+d <= full scale / sqrt(1e6) keeps the white noise within the full scale at any rate."""
+_IMU_BOUND = ('; at most {:g}, so that the reading stays within the full scale '
+              'IMU_FULL_SCALE')
 
 
 IMU_SPECS = (
     ParamSpec('imu.rate_hz', int(TYPICAL_IMU.rate), 'Hz', 'IMU output rate; must divide '
-              'integration_rate_hz', INTEGER, 1, 10**6, applies=_AT_STEP),
+              'integration_rate_hz', INTEGER, 1, int(_MAX_IMU_RATE), applies=_AT_STEP),
     ParamSpec('imu.position', [0.0, 0.0, 0.0], 'm', 'IMU mounting point on the deck, deck '
-              'axes from C', DOUBLE_ARRAY, length=3, applies=_AT_STEP),
+              'axes from C; within 1 m of C (the deck is 70 mm x 110 mm; farther, w x (w x '
+              'r) of the rotating deck is no longer a deck-mounted sensor)', DOUBLE_ARRAY,
+              length=3, low=-1.0, high=1.0, applies=_AT_STEP),
     ParamSpec('imu.gravity', False, '', 'add gravity (-Z of base) to the specific force (the '
               'paper neglects it)', BOOL, applies=_AT_STEP),
-    _imu('accel_noise_density', 'm/s^2/sqrt(Hz)', 'accelerometer white noise'),
-    _imu('accel_bias', 'm/s^2', 'accelerometer turn-on bias std'),
-    _imu('accel_bias_random_walk', 'm/s^3/sqrt(Hz)', 'accelerometer bias random walk'),
-    _imu('gyro_noise_density', 'rad/s/sqrt(Hz)', 'gyro white noise'),
-    _imu('gyro_bias', 'rad/s', 'gyro turn-on bias std'),
-    _imu('gyro_bias_random_walk', 'rad/s^2/sqrt(Hz)', 'gyro bias random walk'),
+    _imu('accel_noise_density', 'm/s^2/sqrt(Hz)', 'accelerometer white noise'
+         + _IMU_BOUND.format(_A_MAX / _MAX_IMU_RATE ** 0.5) + ' at the fastest imu.rate_hz',
+         _A_MAX / _MAX_IMU_RATE ** 0.5),
+    _imu('accel_bias', 'm/s^2', 'accelerometer turn-on bias std' + _IMU_BOUND.format(_A_MAX),
+         _A_MAX),
+    _imu('accel_bias_random_walk', 'm/s^3/sqrt(Hz)', 'accelerometer bias random walk; at most '
+         f'{_A_MAX:g}, a full scale in a second', _A_MAX),
+    _imu('gyro_noise_density', 'rad/s/sqrt(Hz)', 'gyro white noise'
+         + _IMU_BOUND.format(_G_MAX / _MAX_IMU_RATE ** 0.5) + ' at the fastest imu.rate_hz',
+         _G_MAX / _MAX_IMU_RATE ** 0.5),
+    _imu('gyro_bias', 'rad/s', 'gyro turn-on bias std' + _IMU_BOUND.format(_G_MAX), _G_MAX),
+    _imu('gyro_bias_random_walk', 'rad/s^2/sqrt(Hz)', 'gyro bias random walk; at most '
+         f'{_G_MAX:g}, a full scale in a second', _G_MAX),
 )
 """The IMU on the deck (:class:`abb_ros.model.sensors.imu.ImuConfig`)."""
 
@@ -78,9 +102,17 @@ MOTOR_DEFAULTS = dict(torque_constant=0.01, resistance=2.0, current_limit=1.0,
 spindle motor of an optical drive."""
 
 
+MOTOR_SPAN = 1000.0
+"""How far a motor parameter may exceed its default (a small disc-drive spindle motor): a
+thousand times covers any motor that fits a deck, and keeps the torque and the current of
+torque mode finite."""
+
+
 def _motor(field, unit, description, low_open=True):
-    return ParamSpec('motor.' + field, MOTOR_DEFAULTS[field], unit, description, low=0.0,
-                     low_open=low_open, high=_INF, applies=_AT_STEP)
+    high = MOTOR_DEFAULTS[field] * MOTOR_SPAN
+    return ParamSpec('motor.' + field, MOTOR_DEFAULTS[field], unit,
+                     f'{description}; at most {high:g} (MOTOR_SPAN times the default)', low=0.0,
+                     low_open=low_open, high=high, applies=_AT_STEP)
 
 
 MOTOR_SPECS = (

@@ -49,7 +49,7 @@ class Sample:
         return epoch_ns + self.steps * dt_ns
 
     def is_finite(self) -> bool:
-        """Return whether the state and the IMU reading hold no NaN or infinity.
+        """Return whether the state, the IMU and speed readings and the effort are finite.
 
         A sum is NaN or infinite when a term is; finite terms overflow it only beyond 1e300,
         far outside the state envelope that the integrator enforces. Python floats: numpy's
@@ -58,6 +58,9 @@ class Sample:
         total = 0.0 if self.y is None else sum(self.y.tolist())
         if self.imu is not None:
             total += sum(self.imu.accel.tolist()) + sum(self.imu.gyro.tolist())
+        for value in (self.speed, self.effort):
+            if value is not None:
+                total += value
         return math.isfinite(total)
 
 
