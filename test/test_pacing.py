@@ -51,7 +51,7 @@ def test_the_pacing_module_imports_without_rclpy():
 
 def test_wall_time_stamps_start_at_the_wall_clock_rounded_to_a_step():
     p, _ = pacer(1.0)
-    assert not p.owns_time
+    assert not p.publishes_clock
     assert p.epoch_ns == START_NS - START_NS % DT_NS
     assert p.stamp_ns(3) == p.epoch_ns + 3 * DT_NS
 
@@ -59,7 +59,7 @@ def test_wall_time_stamps_start_at_the_wall_clock_rounded_to_a_step():
 @pytest.mark.parametrize('factor', [0.5, 2.0, 0.0])
 def test_any_other_factor_stamps_simulated_time_from_0(factor):
     p, _ = pacer(factor)
-    assert p.owns_time and p.epoch_ns == 0 and p.stamp_ns(7) == 7 * DT_NS
+    assert p.publishes_clock and p.epoch_ns == 0 and p.stamp_ns(7) == 7 * DT_NS
 
 
 @pytest.mark.parametrize('factor', [1.0, 0.5, 4.0])
@@ -179,18 +179,18 @@ def test_a_factor_change_restarts_the_schedule_at_the_new_rate():
     p.start(0)
     steps = run(p, clock, 10)
     p.reconfigure(4.0, EVERY, p.max_lag_ns)
-    assert p.owns_time                         # wall-time stamps only at factor 1
     p.start(steps)
+    assert p.publishes_clock                   # wall-clock stamps only at factor 1
     assert p.tick_period_s == pytest.approx(PERIOD_NS / 4.0 * 1e-9)
     assert run(p, clock, 8, steps) == steps + 8 * EVERY
     clock.advance(PERIOD_NS)                  # four ticks' worth at factor 4
     assert p.due(steps + 8 * EVERY) == 4
 
 
-def test_factor_0_is_not_paced_and_owns_time():
+def test_factor_0_is_not_paced_and_publishes_clock():
     p, clock = pacer(0.0)
     p.start(0)                                 # no anchor, no jump: as fast as possible
-    assert p.owns_time and p.epoch_ns == 0
+    assert p.publishes_clock and p.epoch_ns == 0
     clock.advance(10 * PERIOD_NS)
     window = p.close_window(100_000, True)   # 10 s simulated in 10 ms of wall time
     assert window.real_time_factor == pytest.approx(1000.0)
@@ -222,3 +222,91 @@ def test_paused_windows_do_not_count_for_the_factor_since_start():
     assert first.real_time_factor == pytest.approx(1.0)
     assert paused.real_time_factor == 0.0
     assert paused.since_start == pytest.approx(1.0)
+
+
+# ---- the time rule (abb_ros.nodes.sim_clock): every transition on the fake clock --------------
+
+def run_at(p, clock, factor, ticks, steps):
+    """Set ``factor``, restart the pacing as the node does, tick ``ticks`` periods."""
+    p.reconfigure(factor, EVERY, p.max_lag_ns)
+    p.start(steps)
+    return run(p, clock, ticks, steps)
+
+
+def test_after_a_speed_up_stamps_never_go_back_and_clock_carries_them_for_good():
+    p, clock = pacer(1.0)
+    p.start(0)
+    steps = run(p, clock, 100)
+    assert not p.publishes_clock and p.clock.on_wall
+    steps = run_at(p, clock, 2.0, 8000, steps)     # 4 s of wall time at factor 2: 8 s simulated
+    assert p.publishes_clock and not p.clock.on_wall
+    ahead = p.stamp_ns(steps) - clock.now
+    assert ahead > 3.9e9                           # simulated time is 4 s ahead of the wall
+    before = p.stamp_ns(steps)
+    steps = run_at(p, clock, 1.0, 1000, steps)     # back at factor 1 for 1 s
+    assert p.stamp_ns(steps) == before + 1_000_000_000    # continuous: no jump back
+    assert p.publishes_clock and not p.clock.on_wall      # /clock carries the stamps
+    assert p.stamp_ns(steps) - clock.now == pytest.approx(ahead, abs=PERIOD_NS)
+
+
+def test_after_a_slow_down_stamps_rejoin_the_wall_clock_and_clock_stays():
+    p, clock = pacer(1.0)
+    p.start(0)
+    steps = run(p, clock, 100)
+    steps = run_at(p, clock, 0.5, 2000, steps)     # 4 s of wall time: 2 s simulated
+    assert clock.now - p.stamp_ns(steps) > 1.9e9
+    p.reconfigure(1.0, EVERY, p.max_lag_ns)
+    p.start(steps)
+    assert 0 <= clock.now - p.stamp_ns(steps) < DT_NS     # jumped forward to the wall
+    assert p.clock.on_wall and p.publishes_clock          # /clock never goes silent again
+
+
+@pytest.mark.parametrize('factor', [1.0, 3.0])
+def test_a_pause_publishes_clock_for_good_and_the_resume_at_1_rejoins_the_wall(factor):
+    p, clock = pacer(1.0)
+    p.start(0)
+    steps = run_at(p, clock, factor, 100, 0)
+    p.hold()                                      # paused (or a fault)
+    assert p.publishes_clock and not p.clock.on_wall
+    steps += 3 * EVERY                            # three ~/step calls while paused
+    clock.advance(2_000_000_000)
+    steps = run_at(p, clock, 1.0, 10, steps)      # resumed at factor 1
+    assert p.publishes_clock and p.clock.on_wall
+    assert 0 <= clock.now - p.stamp_ns(steps) <= PERIOD_NS
+
+
+def test_started_paused_the_clock_is_published_from_the_start():
+    p, clock = pacer(1.0)
+    p.hold()                                      # start_paused
+    assert p.publishes_clock and p.epoch_ns == START_NS - START_NS % DT_NS
+    clock.advance(1_000_000_000)
+    p.start(EVERY)                                # resumed: the stamps rejoin the wall clock
+    assert p.clock.on_wall and 0 <= clock.now - p.stamp_ns(EVERY) < DT_NS
+
+
+def test_a_rate_change_at_factor_1_keeps_the_wall_clock_and_no_clock():
+    p, clock = pacer(1.0)
+    p.start(0)
+    steps = run(p, clock, 100)
+    p.reconfigure(1.0, 2 * EVERY, p.max_lag_ns)   # publish rate halved: no departure
+    p.start(steps)
+    assert not p.publishes_clock and p.clock.on_wall
+
+
+def test_simulated_time_from_0_never_follows_the_wall_clock():
+    p, clock = pacer(2.0)
+    p.start(0)
+    steps = run(p, clock, 100)
+    steps = run_at(p, clock, 1.0, 100, steps)
+    assert p.epoch_ns == 0 and not p.clock.on_wall and p.publishes_clock
+    assert p.stamp_ns(steps) == steps * DT_NS
+
+
+def test_a_slip_ahead_of_the_wall_clock_does_not_move_the_stamps():
+    p, clock = pacer(1.0, max_lag_ns=20e6)
+    p.start(0)
+    steps = run_at(p, clock, 2.0, 1000, 0)
+    steps = run_at(p, clock, 1.0, 10, steps)
+    epoch = p.epoch_ns
+    clock.advance(50 * PERIOD_NS)                 # a stall: dropped, stamps go on
+    assert p.due(steps) == 1 and p.slips == 1 and p.epoch_ns == epoch

@@ -120,3 +120,30 @@ def test_a_bag_without_deck_pose_or_a_bad_path_is_a_usage_error(tmp_path, capsys
     assert main(['plot', str(tmp_path / 'nope'), '--out', str(tmp_path / 'f')]) == 2
     assert 'does not exist' in capsys.readouterr().err
     assert main(['plot', str(tmp_path / 'empty'), '--R', '-1', '--out', 'x']) == 2
+
+
+def test_a_map_title_too_wide_for_the_figure_goes_on_lines_that_fit():
+    """fig7b_n10's title ran off the right edge: sentences go on lines of their own, broken
+    after commas outside $math$, each line within the figure; a short title stays as it is."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    from abb_ros.plots.maps import _fitting_title
+
+    fig, ax = plt.subplots(figsize=(6.0, 5.4))
+    try:
+        long = (r'Fig. 7(b) with n = 10. In-plane stability: $\zeta$ = 0.025 (metal washers), '
+                r'$\bar{\epsilon}$ = 0.0167, n = 10, $\bar{D}$ = 0.474, $\bar{m}$ = 0.006')
+        _fitting_title(fig, ax, long)
+        lines = ax.get_title().split('\n')
+        assert lines[0] == 'Fig. 7(b) with n = 10.' and len(lines) >= 3
+        assert ' '.join(lines) == long
+        renderer = fig.canvas.get_renderer()
+        for line in lines:
+            ax.set_title(line, fontsize=10)
+            assert ax.title.get_window_extent(renderer).width <= fig.get_figwidth() * fig.dpi
+        _fitting_title(fig, ax, 'Fig. 7(b). Short')
+        assert ax.get_title() == 'Fig. 7(b). Short'
+    finally:
+        plt.close(fig)

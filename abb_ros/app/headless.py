@@ -91,7 +91,7 @@ def run_scenario(  # noqa: C901
     same ``seed`` as the IMU, so a node with the same settings publishes the same readings.
 
     bag : abb_ros.io.bag_writer.BagWriter, optional
-        Receives every message (with ``/clock``, as the node does when it owns time).
+        Receives every message (with ``/clock``, as the node does on simulated time).
     progress : callable(float), optional
         Called with the simulated seconds done after each chunk (for a progress bar).
     """

@@ -21,8 +21,9 @@ def add_arguments(parser):
     """Add the options of ``abb-sim run`` to ``parser``."""
     parser.add_argument('--config', help='ROS 2 parameter file with drive.* parameters '
                         '(default: Table 1, config/cdrom_table1.yaml)')
+    from abb_ros.io.scenario import list_scenarios
     parser.add_argument('--scenario', default=DEFAULT_SCENARIO,
-                        help='p1, p2, p3, p4, p3_n10, p3_n10_scattered, spinup_p1_p3 or a YAML '
+                        help=f'{", ".join(list_scenarios())} (config/scenarios) or a YAML '
                         'file (default: %(default)s)')
     parser.add_argument('--set', action='append', default=[], metavar='KEY=VALUE',
                         help='SI (k, c, eps, m, n, omega, ...) or Eq. (39) name (wbar, zeta, '

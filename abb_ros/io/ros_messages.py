@@ -100,7 +100,7 @@ def sample_contents(sample: Sample, dt_ns: int, imu_config: ImuConfig, epoch_ns:
                     with_clock: bool = False) -> tuple[int, list[tuple[str, object]]]:
     """Return (stamp [ns], [(topic, content)]) of one :class:`Sample`, in publishing order.
 
-    ``/clock`` first (when the simulator owns time; content None), then the state topics,
+    ``/clock`` first (when the simulator publishes it; content None), then the state topics,
     then ``spindle/speed`` (when the sample has a speed reading), then ``deck/imu``.
     ``joint_states`` content is (n, position, velocity, effort), effort [] in speed mode,
     else [motor torque, 0 (balls)...] [N m].

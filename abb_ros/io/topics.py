@@ -28,7 +28,7 @@ STATE = 'state'
 IMU = 'imu'
 """Rate role: published at the IMU's own rate (``imu.rate_hz``)."""
 CLOCK = 'clock'
-"""Rate role: published with every sample when the simulator owns time."""
+"""Rate role: published with every sample once the simulator publishes /clock."""
 EVENT = 'event'
 """Rate role: published when something changes (verdicts, faults) or at a low fixed rate."""
 SPEED = 'speed'

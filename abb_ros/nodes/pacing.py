@@ -3,15 +3,15 @@
 The simulator integrates in publish periods of ``publish_every`` steps of ``dt_ns``. A
 :class:`Pacer` turns a steady clock into a number of periods due at each timer tick, at
 ``real_time_factor`` (simulated seconds per wall second; 0: as fast as possible, nothing is
-paced). It also owns the time base of the stamps: ``epoch_ns + steps * dt_ns``. With
-real_time_factor 1 at start-up the epoch is the wall clock at start (rounded to a step), so
-stamps follow wall time; otherwise the epoch is 0 and stamps are simulated time (the node
-then owns time and publishes ``/clock``).
+paced). The stamps ``epoch_ns + steps * dt_ns``, and whether ``/clock`` carries them, are its
+:class:`abb_ros.nodes.sim_clock.SimClock` (:attr:`Pacer.clock`), told by :meth:`Pacer.start`
+and :meth:`Pacer.hold` when the plant runs and when it stops.
 
 Under load (docs/time_under_load.md) each tick measures how late its first stamp is: behind
-the wall clock with wall-time stamps, else behind the pacing schedule. Above
+the wall clock while the stamps follow it, else behind the pacing schedule. Above
 ``max_lag_ns`` the missed periods are not caught up but dropped (a slip): the schedule
-restarts from now, and wall-time stamps jump forward by the dropped time, as after a pause.
+restarts from now, and stamps on the wall clock jump forward by the dropped time, as after a
+pause.
 
 The clocks are functions returning integer nanoseconds, so that the pacing is tested with a
 fake clock (test/test_pacing.py); no rclpy here.
@@ -22,6 +22,8 @@ from __future__ import annotations
 import time
 from dataclasses import dataclass
 from typing import Callable
+
+from abb_ros.nodes.sim_clock import SimClock
 
 __all__ = ['Pacer', 'PacingWindow']
 
@@ -67,12 +69,7 @@ class Pacer:
         self.real_time_factor = real_time_factor
         self.max_lag_ns = max_lag_ns
         self._steady_ns = steady_ns
-        self._wall_ns = wall_ns
-        self.wall_time_base = real_time_factor == 1.0
-        self.epoch_ns = 0
-        if self.wall_time_base:
-            now = wall_ns()
-            self.epoch_ns = now - now % dt_ns
+        self.clock = SimClock(dt_ns, real_time_factor, wall_ns)
         self.overruns = 0          # periods integrated late, caught up in a later tick
         self.slips = 0
         self.slipped_ns = 0        # wall time dropped by slips [ns]
@@ -92,9 +89,14 @@ class Pacer:
         self.max_lag_ns = max_lag_ns
 
     @property
-    def owns_time(self) -> bool:
-        """Whether stamps are simulated time (then the node publishes /clock)."""
-        return not (self.wall_time_base and self.real_time_factor == 1.0)
+    def epoch_ns(self) -> int:
+        """Stamp of step 0 [ns]."""
+        return self.clock.epoch_ns
+
+    @property
+    def publishes_clock(self) -> bool:
+        """Whether the node publishes ``/clock`` (with every sample, and while held)."""
+        return self.clock.publishes_clock
 
     @property
     def tick_period_s(self) -> float:
@@ -103,19 +105,25 @@ class Pacer:
 
     def stamp_ns(self, steps: int) -> int:
         """Stamp of the state after ``steps`` steps [ns]."""
-        return self.epoch_ns + steps * self.dt_ns
+        return self.clock.stamp_ns(steps)
 
     def start(self, steps: int) -> None:
         """(Re)start pacing now at ``steps`` (start, resume, rate change, reset).
 
-        Wall-time stamps jump forward to the wall clock (never back), as after a pause.
+        The time base follows :class:`SimClock`'s rule: at factor 1 on the wall clock, stamps
+        behind it jump forward to it (never back), as after a pause.
         """
-        if not self.owns_time:
-            lag = self._wall_ns() - self.stamp_ns(steps)
-            if lag > 0:
-                self.epoch_ns += lag - lag % self.dt_ns
+        self.clock.run(steps, self.real_time_factor, self.publish_every * self.dt_ns)
         if self.real_time_factor > 0:
             self._anchor_at(steps)
+
+    def hold(self) -> bool:
+        """Hold the time: the plant stops (pause, fault) until :meth:`start`.
+
+        ``/clock`` is published from now on. Return whether it starts now (it was silent
+        until then).
+        """
+        return self.clock.hold()
 
     def _anchor_at(self, steps: int) -> None:
         """Pace from now at ``steps``.
@@ -155,26 +163,25 @@ class Pacer:
     def _lag_ns(self, step: int, due: int) -> int:
         """How late the stamp of ``step`` is published now [ns of wall time].
 
-        Behind the wall clock with wall-time stamps, else behind the pacing schedule
+        Behind the wall clock while the stamps follow it, else behind the pacing schedule
         (``due``).
         """
-        if not self.owns_time:
-            return self._wall_ns() - self.stamp_ns(step)
+        if self.clock.on_wall:
+            return self.clock.wall_lag_ns(step)
         return int((due - step) * self.dt_ns / self.real_time_factor)
 
     def _slip(self, steps: int, periods: int) -> None:
         """Drop ``periods`` publish periods the plant could not keep up with.
 
-        The pacing restarts from now; wall-time stamps jump forward by them (as after a
-        pause).
+        The pacing restarts from now; stamps on the wall clock jump forward by them (as after
+        a pause).
         """
         every = self.publish_every
         self.slips += 1
         self._window_slips += 1
         dropped_ns = periods * every * self.dt_ns
         self.slipped_ns += int(dropped_ns / self.real_time_factor)
-        if not self.owns_time:
-            self.epoch_ns += dropped_ns
+        self.clock.slip(dropped_ns)
         self._anchor_at((steps // every + 1) * every)
 
     def start_window(self, steps: int) -> None:

@@ -140,7 +140,7 @@ class GraphRecording:
         self._publisher_counts: dict[str, int] = {}
         self._depth = depth
         self._own_only = own_only
-        self._taps = Taps(node)
+        self._taps = Taps(node, role=param.rpartition('.')[0].replace('.', '_'))
 
     def discover(self) -> None:
         """Subscribe to the wanted topics that publishers now offer."""

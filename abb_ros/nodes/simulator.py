@@ -6,12 +6,14 @@ A thin rclpy adapter: :class:`abb_ros.model.dynamics.integrate.Simulation` integ
 message is built). Topics, parameters and services: docs/ros_api.md.
 
 Time (:class:`abb_ros.nodes.pacing.Pacer`): stamps are ``epoch + steps * dt`` in integer
-nanoseconds, wall time with real_time_factor 1 at start-up, else simulated time (the node
-then publishes ``/clock``). A steady-clock timer paces integration: each tick integrates every
-publish period that is due by then (catching up when late, counted as overruns; dropped as a
-slip beyond ``max_stamp_lag``, docs/time_under_load.md); with real_time_factor 0 each tick
-integrates as many periods as fit in ``BATCH_WALL_S`` and the executor serves topics and
-services in between. The /diagnostics status: :mod:`abb_ros.nodes.simulator_diagnostics`.
+nanoseconds, the wall clock while ``/clock`` is silent; from the first time simulated time
+departs from the wall clock (a real_time_factor other than 1, a pause, a step, a fault) the
+node publishes ``/clock`` with every sample, for good (:mod:`abb_ros.nodes.sim_clock` states
+the rule). A steady-clock timer paces integration: each tick integrates every publish period
+that is due by then (catching up when late, counted as overruns; dropped as a slip beyond
+``max_stamp_lag``, docs/time_under_load.md); with real_time_factor 0 each tick integrates as
+many periods as fit in ``BATCH_WALL_S`` and the executor serves topics and services in
+between. The /diagnostics status: :mod:`abb_ros.nodes.simulator_diagnostics`.
 
 ``record.path`` or ``~/start_recording`` / ``~/stop_recording`` write the published bytes to
 a bag in process (:class:`abb_ros.nodes.recording.Recording`; log time = stamp, as the
@@ -33,7 +35,7 @@ from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 
 from abb_ros.io import cdr, ros_messages
-from abb_ros.io.topics import CURRENT_CMD, DIAGNOSTICS, SPEED_CMD
+from abb_ros.io.topics import CLOCK_TOPIC, CURRENT_CMD, DIAGNOSTICS, SPEED_CMD
 from abb_ros.model.dynamics.initial import initial_state
 from abb_ros.model.dynamics.integrate import Simulation, StateError
 from abb_ros.model.parameters.params import ParamError
@@ -81,6 +83,8 @@ class SimulatorNode(Node):
         self.pending_drive = self.drive
         self.fault = ''
         self.paused = s.start_paused
+        if self.paused:
+            self.pacer.hold()
         self.commands = SpindleCommands(s.initial_speed)
         self.counters = self.commands.counters
         self.scheduling = FifoScheduling()   # of the thread that integrates (its timer's)
@@ -165,6 +169,9 @@ class SimulatorNode(Node):
             self._timer = None
         self._want_scheduling()
         if self.paused or self.fault:
+            if self.pacer.hold():   # /clock starts now, at the held time
+                stamp_ns = self.stamp_ns()
+                self.send(CLOCK_TOPIC, cdr.clock(*divmod(stamp_ns, 1_000_000_000)), stamp_ns)
             return
         self.pacer.start(self.sim.steps)
         if self.pacer.real_time_factor == 0.0:
@@ -228,7 +235,7 @@ class SimulatorNode(Node):
             return
         pacer = self.pacer
         stamp_ns, encoded = cdr.sample_cdr(sample, pacer.dt_ns, self.imu.config,
-                                           pacer.epoch_ns, pacer.owns_time)
+                                           pacer.epoch_ns, pacer.publishes_clock)
         for topic, data in encoded:
             self.send(topic, data, stamp_ns)
         self.hil.on_sample(sample)

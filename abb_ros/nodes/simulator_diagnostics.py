@@ -108,7 +108,7 @@ def simulation_status(node, window: PacingWindow) -> tuple[bytes, str, dict]:
                   real_time_factor_since_start=window.since_start,
                   target_real_time_factor=settings.real_time_factor, stamp_lag=window.stamp_lag,
                   stamp_lag_max=pacer.lag_max_ns * 1e-9, max_stamp_lag=max_stamp_lag,
-                  scheduling=node.scheduling.state,
+                  time_base=pacer.clock.time_base, scheduling=node.scheduling.state,
                   overruns=pacer.overruns, slips=pacer.slips, **node.counters,
                   slipped_time=pacer.slipped_ns * 1e-9,
                   steps=sim.steps, sim_time=sim.t, rbar=sim.rbar, omega=sim.omega,

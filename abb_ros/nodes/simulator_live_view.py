@@ -6,8 +6,11 @@ stamped as in its bag, and the other nodes' topics ``live_view.topics`` (the ana
 ``stability/margin`` of the shipped layout...), taken from the middleware as the in-process
 recording takes ``record.topics`` (:class:`abb_ros.nodes.recording.GraphRecording`), stamped
 with their receive time; a topic this node also publishes then comes through the middleware
-with the others' messages. With simulated time (real_time_factor other than 1 at start-up) the
-server has the ``time`` capability and the viewer's time follows ``/clock``.
+with the others' messages. ``/clock`` is advertised only while the node publishes it: from
+start-up when it does then (real_time_factor other than 1, or ``start_paused``), else from its
+first message (:mod:`abb_ros.nodes.sim_clock`); a server started with ``/clock`` has the
+``time`` capability and the viewer's time follows it (the capabilities are fixed when the
+server starts).
 
 What the viewer can do (the Foxglove WebSocket protocol's capabilities):
 
@@ -91,12 +94,17 @@ class SimulatorLiveView:
         handlers = {f'{base}/{name}': (_srv_type(cls), self._service(cls, callback))
                     for name, (cls, callback) in services.items()}
         self.parameters = ViewerParameters(node)
-        self.view = LiveView(host, port, server_time=node.pacer.owns_time, services=handlers,
-                             on_client_message=self._client_message, parameters=self,
-                             check_client_message=self.check_client_message,
+        self.view = LiveView(host, port, server_time=node.pacer.publishes_clock,
+                             services=handlers, on_client_message=self._client_message,
+                             parameters=self, check_client_message=self.check_client_message,
                              allowed_origins=allowed_origins)
+        clock = node.resolve_topic_name(topics.CLOCK_TOPIC)
+        self._unadvertised = ({} if node.pacer.publishes_clock or clock not in served
+                              else {clock: served[clock]})
+        """Topics advertised at their first message: ``/clock`` while it is silent."""
         for name, type_name in served.items():
-            self.view.add_topic(name, type_name)
+            if name not in self._unadvertised:
+                self.view.add_topic(name, type_name)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
         self._timers = [node.create_timer(COMMAND_PERIOD_S, self._carry_out, clock=steady)]
         self.graph = None
@@ -115,6 +123,8 @@ class SimulatorLiveView:
         """
         if self.graph is not None and self.graph.subscriptions.get(name) is not None:
             return
+        if name in self._unadvertised:
+            self.view.add_topic(name, self._unadvertised.pop(name))
         self.view.write(name, data, stamp_ns)
 
     # ---- from the server's thread ---------------------------------------------------------

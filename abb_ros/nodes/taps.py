@@ -14,18 +14,38 @@ from rclpy.node import Node
 
 from abb_ros.nodes.rclpy_access import take_message
 
+__all__ = ['Taps', 'helper_name']
+
 
 def _never_called(_data) -> None:
     raise AssertionError('a tap subscription is taken by Taps.take, not called back')
 
 
-class Taps:
-    """Hidden node ``_<owner>_taps`` beside ``owner`` (same context and namespace)."""
+def helper_name(owner: Node, role: str = '') -> str:
+    """Return the hidden helper node's name: ``_<owner>_taps``, ``_<owner>_<role>_taps``.
 
-    def __init__(self, owner: Node):
-        self.node = Node(f'_{owner.get_name()}_taps', namespace=owner.get_namespace(),
-                         context=owner.context, start_parameter_services=False,
-                         enable_rosout=False)
+    Derived from the owner's name in force (after ``-r __node:=NAME``), so a helper is unique
+    wherever its owner is, and one per role.
+    """
+    return f'_{owner.get_name()}_{role}_taps' if role else f'_{owner.get_name()}_taps'
+
+
+class Taps:
+    """Hidden node :func:`helper_name` beside ``owner`` (same context and namespace).
+
+    The command line's ``-r __node:=NAME`` and ``-r __ns:=NS`` (what ``ros2 launch`` passes
+    for a node's ``name`` and ``namespace``) apply to every node of the process; the helper's
+    own remaps of its name and namespace take precedence over them (rcl reads a node's own
+    arguments before the global ones), so it never takes its owner's name. Topic remaps of
+    the command line still apply to its subscriptions, as to its owner's.
+    """
+
+    def __init__(self, owner: Node, role: str = ''):
+        name, namespace = helper_name(owner, role), owner.get_namespace()
+        self.node = Node(name, namespace=namespace, context=owner.context,
+                         cli_args=['--ros-args', '-r', f'__node:={name}',
+                                   '-r', f'__ns:={namespace}'],
+                         start_parameter_services=False, enable_rosout=False)
 
     def subscribe(self, msg_type, topic: str, qos):
         """Subscribe raw to ``topic``: its CDR bytes are read with :meth:`take`."""

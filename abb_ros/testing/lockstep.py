@@ -2,7 +2,7 @@
 
 :class:`LockstepPlant` runs the real simulator node (:class:`abb_ros.nodes.simulator.
 SimulatorNode`) in this process with its own rclpy Context, started paused with
-real_time_factor 0 (it owns time: stamps start at 0 and it publishes ``/clock``). Nodes under
+real_time_factor 0 (simulated time: stamps start at 0 and it publishes ``/clock``). Nodes under
 test join the same Context (``add_node``) or run in other processes; everything talks over DDS.
 :meth:`LockstepPlant.advance` advances the plant exactly N publish periods, each one:
 
