@@ -94,7 +94,8 @@ class SimulatorLiveView:
         self.view = LiveView(host, port, server_time=node.pacer.owns_time, services=handlers,
                              on_client_message=self._client_message, parameters=self,
                              check_client_message=self.check_client_message,
-                             allowed_origins=allowed_origins)
+                             allowed_origins=allowed_origins,
+                             log=node.get_logger().warning)
         for name, type_name in served.items():
             self.view.add_topic(name, type_name)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
