@@ -75,8 +75,9 @@ DEFAULT_ALLOWED_ORIGINS = ('https://app.foxglove.dev', 'file://', 'http://localh
 ENCODING = 'cdr'
 SCHEMA_ENCODING = 'ros2msg'
 SERVER_NAME = 'abb_ros'
-BACKLOG = 1024
-"""Messages queued per client before the oldest are dropped (as foxglove-sdk's default)."""
+BACKLOG = 5000
+"""Messages queued per client before the oldest are dropped: 1 s of the node's 1 kHz topics
+(foxglove-sdk keeps 1024, which a viewer starved of the CPU for 0.2 s overruns)."""
 MAX_MESSAGE_BYTES = 16 * 1024 * 1024
 """The largest frame a client may send [bytes]."""
 START_TIMEOUT_S = 10.0
