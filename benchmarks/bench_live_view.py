@@ -36,7 +36,8 @@ from bench_simulator_node import N_BALLS, Probe, start_node, stop_node  # noqa: 
 
 from abb_ros.io import cdr  # noqa: E402
 from abb_ros.io.live_view import LiveView  # noqa: E402
-from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation, SpindleMotor  # noqa: E402
+from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation
+from abb_ros.model.dynamics.spindle import SpindleMotor  # noqa: E402
 from abb_ros.model.parameters.params import DriveParams  # noqa: E402
 from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuModel  # noqa: E402
 from abb_ros.model.sensors.sampling import PlantSampler  # noqa: E402

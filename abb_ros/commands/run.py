@@ -72,7 +72,7 @@ def _spindle(spindle, node: dict):
     A constant-speed spindle becomes the motor of the simulator node, with its defaults for
     the other.
     """
-    from abb_ros.model.dynamics.integrate import SpindleMotor, TorqueMotor
+    from abb_ros.model.dynamics.spindle import SpindleMotor, TorqueMotor
     from abb_ros.model.parameters.params import ParamError
     from abb_ros.model.parameters.plant_spec import PLANT
     changes = {k[len('spindle.'):]: v for k, v in node.items() if k.startswith('spindle.')}

@@ -34,7 +34,8 @@ from std_srvs.srv import SetBool, Trigger
 
 from abb_ros.io import cdr, ros_messages
 from abb_ros.io.topics import CURRENT_CMD, DIAGNOSTICS, SPEED_CMD
-from abb_ros.model.dynamics.integrate import Simulation, StateError, initial_state
+from abb_ros.model.dynamics.initial import initial_state
+from abb_ros.model.dynamics.integrate import Simulation, StateError
 from abb_ros.model.parameters.params import ParamError
 from abb_ros.model.sensors.imu import ImuModel
 from abb_ros.model.sensors.sampling import PlantSampler

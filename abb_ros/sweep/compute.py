@@ -130,7 +130,8 @@ def _stability(spec, params, groups) -> dict:
 
 def _runs(spec, params, groups) -> dict:
     from abb_ros.model.dynamics.batch import FAIL_TIME, PEAK_RBAR, TIME_ABOVE, BatchRun
-    from abb_ros.model.dynamics.integrate import StateError, initial_state
+    from abb_ros.model.dynamics.initial import initial_state
+    from abb_ros.model.dynamics.integrate import StateError
     scen = spec.scenario
     dt = spec.run['dt']
     limit = spec.run['rbar_limit']
