@@ -379,10 +379,12 @@ def _service_id(seen: dict, name: str) -> int:
 # ---- abb-sim run ------------------------------------------------------------------------------
 
 def test_abb_sim_run_serves_the_headless_run_at_real_time(tmp_path):
+    """The run lasts 8 s of wall time: node and the client start in a few seconds on a loaded
+    machine, and the client must still see three messages of every topic."""
     from abb_ros.app.headless import STATE_TOPIC_TYPES
 
     run = subprocess.Popen(
-        [sys.executable, '-m', 'abb_ros.cli', 'run', '--scenario', 'p1', '--duration', '4',
+        [sys.executable, '-m', 'abb_ros.cli', 'run', '--scenario', 'p1', '--duration', '8',
          '--live-view', '127.0.0.1:0', '--no-progress', '--out', str(tmp_path / 'bag')],
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:

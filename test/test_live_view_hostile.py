@@ -113,14 +113,18 @@ def test_a_foreign_browser_origin_gets_403_and_the_viewers_origins_connect(view)
         assert seen['messages']['/spindle/speed'], origin
 
 
-def test_allowed_origins_are_the_servers_choice():
-    live = LiveView(port=0, allowed_origins=['https://lab.example'])
+def test_allowed_origins_are_the_servers_choice_and_a_refusal_is_logged_once():
+    lines = []
+    live = LiveView(port=0, allowed_origins=['https://lab.example'], log=lines.append)
     try:
         assert handshake(live.url, origin='https://lab.example') == 101
+        assert handshake(live.url, origin='https://app.foxglove.dev') == 403
         assert handshake(live.url, origin='https://app.foxglove.dev') == 403
         assert handshake(live.url) == 101   # no Origin: not a browser
     finally:
         live.close()
+    assert lines == ["live view: refused a handshake from 127.0.0.1: its Origin "
+                     "'https://app.foxglove.dev' is not allowed (logged once)"]
 
 
 def test_malformed_traffic_gets_a_status_to_its_client_and_the_server_goes_on(view):

@@ -60,7 +60,8 @@ def _live_view(address: str | None):
     from abb_ros.commands.api import UsageError
     from abb_ros.io.live_view import LiveView, LiveViewError, parse_address
     try:
-        live = LiveView(*parse_address(address), server_time=True)
+        live = LiveView(*parse_address(address), server_time=True,
+                        log=lambda line: print(line, file=sys.stderr, flush=True))
     except (ValueError, LiveViewError) as exc:
         raise UsageError(f'--live-view {address}: {exc}') from None
     print(f'live view on {live.url} (Foxglove app: Open connection, Foxglove WebSocket)',

@@ -75,8 +75,9 @@ DEFAULT_ALLOWED_ORIGINS = ('https://app.foxglove.dev', 'file://', 'http://localh
 ENCODING = 'cdr'
 SCHEMA_ENCODING = 'ros2msg'
 SERVER_NAME = 'abb_ros'
-BACKLOG = 1024
-"""Messages queued per client before the oldest are dropped (as foxglove-sdk's default)."""
+BACKLOG = 5000
+"""Messages queued per client before the oldest are dropped: 1 s of the node's 1 kHz topics
+(foxglove-sdk keeps 1024, which a viewer starved of the CPU for 0.2 s overruns)."""
 MAX_MESSAGE_BYTES = 16 * 1024 * 1024
 """The largest frame a client may send [bytes]."""
 START_TIMEOUT_S = 10.0
@@ -157,12 +158,14 @@ class LiveView:
         it); None takes every message in encoding ``cdr``.
     allowed_origins : sequence of str
         Browser origins admitted (shell patterns); handshakes without Origin always are.
+    log : callable or None
+        Called with a line for each kind of refused handshake (from the server's thread).
     """
 
     def __init__(self, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT,
                  server_time: bool = False, services=None, on_client_message=None,
                  parameters=None, check_client_message=None,
-                 allowed_origins=DEFAULT_ALLOWED_ORIGINS):
+                 allowed_origins=DEFAULT_ALLOWED_ORIGINS, log=None):
         from tornado import netutil
         self._channels: dict[str, _Channel] = {}
         self._by_id: dict[int, _Channel] = {}
@@ -172,6 +175,8 @@ class LiveView:
         self.check_client_message = check_client_message
         self.parameters = parameters
         self.allowed_origins = tuple(allowed_origins)
+        self._log = log
+        self._refusals_logged: set[tuple[int, str]] = set()
         self.services = {}
         for k, (name, (type_name, handler)) in enumerate((services or {}).items(), start=1):
             self.services[k] = (name, type_name, handler)
@@ -220,7 +225,8 @@ class LiveView:
         from abb_ros.io.live_view_connection import Connection
         asyncio.set_event_loop(self._loop)
         app = Application([(r'/.*', Connection, dict(view=self))],
-                          websocket_max_message_size=MAX_MESSAGE_BYTES)
+                          websocket_max_message_size=MAX_MESSAGE_BYTES,
+                          log_function=self._log_request)
         self._server = HTTPServer(app)
         self._server.add_sockets(sockets)
         started.set()
@@ -228,6 +234,20 @@ class LiveView:
             self._loop.run_forever()
         finally:
             self._loop.close()
+
+    def _log_request(self, handler) -> None:
+        """Log a refused handshake once per status and Origin (else nothing)."""
+        status = handler.get_status()
+        if status < 400 or self._log is None:
+            return
+        origin = handler.request.headers.get('Origin', '')
+        if (status, origin) in self._refusals_logged:
+            return
+        self._refusals_logged.add((status, origin))
+        why = {400: 'it offered no Foxglove subprotocol',
+               403: f'its Origin {origin!r} is not allowed'}.get(status, f'HTTP {status}')
+        self._log(f'live view: refused a handshake from {handler.request.remote_ip}: {why} '
+                  '(logged once)')
 
     def _on_loop(self, fn, *args) -> None:
         """Run ``fn(*args)`` on the server's thread (from any thread)."""

@@ -97,7 +97,8 @@ class SimulatorLiveView:
         self.view = LiveView(host, port, server_time=node.pacer.publishes_clock,
                              services=handlers, on_client_message=self._client_message,
                              parameters=self, check_client_message=self.check_client_message,
-                             allowed_origins=allowed_origins)
+                             allowed_origins=allowed_origins,
+                             log=node.get_logger().warning)
         clock = node.resolve_topic_name(topics.CLOCK_TOPIC)
         self._unadvertised = ({} if node.pacer.publishes_clock or clock not in served
                               else {clock: served[clock]})
