@@ -7,8 +7,10 @@ import pytest
 
 from abb_ros.app.headless import run_scenario
 from abb_ros.io.scenario import load_scenario
-from abb_ros.model import integrate as I
-from abb_ros.model.params import ParamError
+from abb_ros.model.dynamics import integrate as I
+from abb_ros.model.dynamics.initial import initial_state
+from abb_ros.model.dynamics.reference import reference_solution
+from abb_ros.model.parameters.params import ParamError
 from abb_ros.sweep.compute import compute_partition
 from abb_ros.sweep.spec import draw_samples, parse_spec
 
@@ -20,7 +22,7 @@ def _run(name, seconds, integrator, every=10, **settings):
     sc = load_scenario(name)
     if settings:
         sc = sc.with_settings(settings)
-    y0 = I.initial_state(sc.params, sc.omega, phi0=sc.phi0, deck0=sc.deck0)
+    y0 = initial_state(sc.params, sc.omega, phi0=sc.phi0, deck0=sc.deck0)
     sim = I.Simulation(sc.params, sc.omega, spindle=sc.spindle, y0=y0, integrator=integrator)
     ys = sim.trajectory(int(round(seconds / sim.dt)), every)
     return sc, y0, sim, ys
@@ -37,7 +39,7 @@ def test_publish_samples_match_a_tight_dop853_reference_over_the_whole_run(name)
     """
     sc, y0, sim, ys = _run(name, 2.0, 'adaptive')
     t = np.arange(1, len(ys) + 1) * 1e-3
-    ref = I.reference_solution(sc.params, y0, (0.0, 2.0), spindle=sc.spindle, rtol=1e-11,
+    ref = reference_solution(sc.params, y0, (0.0, 2.0), spindle=sc.spindle, rtol=1e-11,
                                atol=1e-14, t_eval=t).y.T
     N = sim.N
     assert np.abs(ys[:, 1:4] - ref[:, 1:4]).max() / X0 < 5e-7

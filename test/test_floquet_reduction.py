@@ -5,11 +5,11 @@ import math
 import numpy as np
 import pytest
 
-from abb_ros.model import floquet as F
-from abb_ros.model import floquet_reduction as reduction
-from abb_ros.model.family import sample_members
-from abb_ros.model.linear import PeriodicSystem, in_plane_harmonics, stack_params
-from abb_ros.model.params import DriveParams, apply_settings
+from abb_ros.model.parameters.params import DriveParams, apply_settings
+from abb_ros.model.stability import floquet as F
+from abb_ros.model.stability import floquet_reduction as reduction
+from abb_ros.model.stability.family import sample_members
+from abb_ros.model.stability.linear import PeriodicSystem, in_plane_harmonics, stack_params
 
 TABLE1 = DriveParams()
 
