@@ -1,8 +1,9 @@
 """Speed of the batched Floquet maps against a per-point scipy solve_ivp (DOP853) monodromy.
 
-Run: ``.venv/bin/python benchmarks/bench_floquet.py [--res 200]``. Prints:
+Run: ``.venv/bin/python benchmarks/bench_floquet.py [--res 100,200]``. Prints:
 
-1. wall time of a res x res in-plane wbar-mbar map for each ball count of ``--balls``
+1. wall time of a res x res (each of ``--res``) in-plane wbar-mbar map for each ball count
+   of ``--balls``
    (default 2 and 10; zeta = 0.025, Fig. 7b ranges; for n >= 3 with the balanced family's
    neutral multipliers removed, floquet.py), everything included (parameter conversion,
    equilibria, harmonics, kernel, eigenvalues)
@@ -61,7 +62,7 @@ def _reduced_vs_whole(base, xs, ys, n):
 
 def main():
     ap = argparse.ArgumentParser()
-    ap.add_argument('--res', type=int, default=200)
+    ap.add_argument('--res', default='200', help='grid sizes of the maps, comma separated')
     ap.add_argument('--sample', type=int, default=12)
     ap.add_argument('--balls', default='2,10', help='ball counts of the maps, comma separated')
     args = ap.parse_args()
@@ -74,23 +75,27 @@ def main():
     F.sweep_speed(base, [300.0])
     print(f'first call (numba load or compile): {time.perf_counter() - t0:.2f} s')
 
-    xs = np.linspace(0.2, 3.5, args.res)
-    ys = np.linspace(0.001, 0.12, args.res)
-    per_point = first = None
-    for n in (int(v) for v in args.balls.split(',')):
-        t0 = time.perf_counter()
-        smap = F.stability_map(base, 'wbar', xs, 'mbar', ys, {'zeta': 0.025, 'n': n})
-        wall = time.perf_counter() - t0
-        npts = smap.lam.size
-        n_eq = int((smap.status != F.NO_EQUILIBRIUM).sum())
-        if per_point is None:
-            per_point, first = wall / n_eq, (n, wall)
-        print(f'{args.res}x{args.res} in-plane wbar-mbar map, n = {n}: {wall:.2f} s wall '
-              f'({npts} points, {n_eq} with a balanced equilibrium, '
-              f'{wall / n_eq * 1e6:.0f} us/point, {wall / first[1]:.2f}x the n = {first[0]} '
-              f'map), load {os.getloadavg()[0]:.2f}')
-        if n > 3:
-            _reduced_vs_whole(base, xs, ys, n)
+    per_point = None
+    for res in (int(v) for v in args.res.split(',')):
+        xs = np.linspace(0.2, 3.5, res)
+        ys = np.linspace(0.001, 0.12, res)
+        first = None
+        for n in (int(v) for v in args.balls.split(',')):
+            t0 = time.perf_counter()
+            smap = F.stability_map(base, 'wbar', xs, 'mbar', ys, {'zeta': 0.025, 'n': n})
+            wall = time.perf_counter() - t0
+            npts = smap.lam.size
+            n_eq = int((smap.status != F.NO_EQUILIBRIUM).sum())
+            if first is None:
+                first = (n, wall)
+            if first[0] == n:      # the first n's map of the last grid, for the ratio below
+                per_point = wall / n_eq
+            print(f'{res}x{res} in-plane wbar-mbar map, n = {n}: {wall:.2f} s wall '
+                  f'({npts} points, {n_eq} with a balanced equilibrium, '
+                  f'{wall / n_eq * 1e6:.0f} us/point, {wall / first[1]:.2f}x the n = '
+                  f'{first[0]} map), load {os.getloadavg()[0]:.2f}')
+            if n > 3:
+                _reduced_vs_whole(base, xs, ys, n)
 
     # accuracy-matched DOP853 baseline
     pts = _sample(args.sample)
