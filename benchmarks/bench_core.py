@@ -7,7 +7,13 @@ Prints, for n = 2 and n = 10 at P3 (metal washers, wbar = 2.7):
   side (the compiled one, so the comparison is of integrators, not of Python vs numba), and
   the loosest DOP853 tolerance that is at least as accurate as RK4, with the speed ratio;
 - the errors of each against a tight reference (DOP853, rtol 1e-12);
-- for scale, DOP853 with the right-hand side in plain Python (the kernels' uncompiled twin).
+- for scale, DOP853 with the right-hand side in plain Python (the kernels' uncompiled twin);
+- the adaptive Dormand-Prince 5(4) integrator (``integrator='adaptive'``, sampled at the same
+  1 kHz stamps by its dense output) beside RK4: on the same run with its error and
+  right-hand-side count, and on 10 s of P3 (the target: 2.5x RK4's speed for n = 2, 2x for
+  n = 10);
+- sweep runs per core: 1 s P3 runs of drives with eps, k, c spread, by the batched RK4 kernel
+  (``batch.BatchRun``) and by the adaptive integrator (``batch.AdaptiveRuns``), one thread.
 solve_ivp costs ~10 us of Python per right-hand-side call whatever the model, and DOP853 needs
 about half the evaluations of RK4 at 10 kHz, so against the compiled right-hand side the ratio
 is bounded near 20x for n = 2; the plain-Python ratio is what replacing a scipy model buys.
@@ -17,11 +23,12 @@ Run: .venv/bin/python benchmarks/bench_core.py [--seconds 2]
 """
 
 import argparse
+import os
 import time
 
 import numpy as np
 
-from abb_ros.model.dynamics import kernels
+from abb_ros.model.dynamics import batch, kernels
 from abb_ros.model.dynamics.initial import initial_state
 from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation
 from abb_ros.model.dynamics.reference import reference_solution
@@ -79,6 +86,22 @@ def bench(n, seconds):
           f'N = {N} coordinates)')
     print(f'  RK4 compiled, default step : {t_rk4:8.4f} s wall   real-time factor '
           f'{seconds / t_rk4:8.1f}x   error {e_rk4:.1e}')
+    def adaptive(span=nsteps):
+        sim = Simulation(params, omega, DEFAULT_DT, spindle=ConstantSpeed(), y0=y0,
+                         integrator='adaptive')
+        return sim.trajectory(span, every).T, sim.adaptive_counts['nfev']
+
+    adaptive(every)  # compile
+    t_ad, (y_ad, nfev_ad) = _best_of(adaptive)
+    print(f'  adaptive DP5(4) compiled   : {t_ad:8.4f} s wall   real-time factor '
+          f'{seconds / t_ad:8.1f}x   error {err(y_ad):.1e}   nfev {nfev_ad} (RK4 {4 * nsteps})'
+          f'   {t_rk4 / t_ad:5.1f}x RK4\'s speed   load {os.getloadavg()[0]:.2f}')
+    long = int(round(10.0 / DEFAULT_DT))
+    t_rk4_10, _ = _best_of(lambda: Simulation(params, omega, DEFAULT_DT, spindle=ConstantSpeed(),
+                                              y0=y0).trajectory(long, every), repeats=2)
+    t_ad_10, _ = _best_of(lambda: adaptive(long), repeats=2)
+    print(f'  10 s of P3                 : RK4 {t_rk4_10:.4f} s, adaptive {t_ad_10:.4f} s wall:'
+          f' adaptive {t_rk4_10 / t_ad_10:5.1f}x RK4\'s speed   load {os.getloadavg()[0]:.2f}')
     print(f'  solve_ivp DOP853 rtol 1e-9 : {t_dop9:8.4f} s wall   real-time factor '
           f'{seconds / t_dop9:8.1f}x   error {err(r9.y):.1e}   nfev {r9.nfev}'
           f'   RK4 is {t_dop9 / t_rk4:6.1f}x faster')
@@ -96,12 +119,42 @@ def bench(n, seconds):
           f'{t_py * 10 / t_rk4:7.0f}x faster')
 
 
+def sweep_runs(count=24, seconds=1.0):
+    """Time 1 s P3 runs of spread drives by the batched RK4 kernel and by the adaptive one."""
+    p3, omega = apply_settings(DriveParams(), {'mbar': 0.03, 'c': METAL_C, 'wbar': 2.7})
+    rng = np.random.default_rng(0)
+    plist = [p3.replace(eps=p3.eps * rng.uniform(0.4, 1.6), k=p3.k * rng.uniform(0.9, 1.1),
+                        c=p3.c * rng.uniform(0.6, 1.4)) for _ in range(count)]
+    y0 = np.array([initial_state(p, omega) for p in plist])
+    nsteps = int(round(seconds / DEFAULT_DT))
+
+    def rk4(k=count, steps=nsteps):
+        S = np.array([ConstantSpeed().pack(omega)] * k)
+        batch.BatchRun(plist[:k], y0[:k], S, DEFAULT_DT, 1e-3).advance(steps)
+
+    def adaptive(k=count, steps=nsteps):
+        batch.AdaptiveRuns(plist[:k], y0[:k], ConstantSpeed(), omega, DEFAULT_DT,
+                           1e-3).advance(steps)
+
+    rk4(1, 10)
+    adaptive(1, 10)
+    t_rk4, _ = _best_of(rk4, repeats=2)
+    t_ad, _ = _best_of(adaptive, repeats=2)
+    print(f'sweep runs, one thread ({count} drives, {seconds:g} s of P3 each, metrics at '
+          f'every step of {DEFAULT_DT * 1e6:g} us)')
+    print(f'  batched RK4 (BatchRun)     : {count / t_rk4:8.1f} runs/s   ({t_rk4:.2f} s)')
+    print(f'  adaptive (AdaptiveRuns)    : {count / t_ad:8.1f} runs/s   ({t_ad:.2f} s)   '
+          f'{t_rk4 / t_ad:5.1f}x per core   load {os.getloadavg()[0]:.2f}')
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--seconds', type=float, default=2.0)
     args = parser.parse_args()
+    print(f'{os.cpu_count()} cores, load {os.getloadavg()[0]:.2f} at start')
     for n in (2, 10):
         bench(n, args.seconds)
+    sweep_runs()
 
 
 if __name__ == '__main__':

@@ -55,7 +55,7 @@ class Benchmark:
 
 BENCHMARKS: dict[str, Benchmark] = {
     'bench_core': Benchmark('bench_core', ('--seconds', '2')),
-    'bench_floquet': Benchmark('bench_floquet', ('--res', '200')),
+    'bench_floquet': Benchmark('bench_floquet', ('--res', '100,200')),
     'bench_headless': Benchmark('bench_headless', ('--duration', '10')),
     'bench_bag_writer': Benchmark('bench_bag_writer'),
     'bench_simulator_node': Benchmark('bench_simulator_node',

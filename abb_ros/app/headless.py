@@ -19,7 +19,12 @@ import numpy as np
 from abb_ros.io import topics
 from abb_ros.io.scenario import Scenario
 from abb_ros.model.dynamics.initial import initial_state
-from abb_ros.model.dynamics.integrate import DEFAULT_DT, MAX_RUN_STEPS, Simulation
+from abb_ros.model.dynamics.integrate import (
+    DEFAULT_DT,
+    MAX_RUN_STEPS,
+    Simulation,
+    fixed_step_reason,
+)
 from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuConfig, ImuModel
 from abb_ros.model.sensors.sampling import PlantSampler
 from abb_ros.model.sensors.speed_sensor import SpeedSensor, SpeedSensorConfig
@@ -47,6 +52,8 @@ class RunResult:
     max_substeps: int = 1       # most sub-steps in one step
     rolling_switches: int = 0   # rolling regime switches located inside steps
     contact_step_note: str = ''  # integrate.contact_step_note of the run
+    integrator: str = 'rk4'     # the integrator that ran (integrate.INTEGRATORS)
+    integrator_note: str = ''   # why adaptive fell back to the fixed step, or ''
 
     @property
     def real_time_factor(self) -> float:
@@ -84,8 +91,13 @@ def _steps_per(period: float, dt: float, what: str) -> int:
 def run_scenario(  # noqa: C901
         scenario: Scenario, dt: float = DEFAULT_DT, publish_dt: float = PUBLISH_DT,
         imu_config: ImuConfig | None = None, seed: int = 0, bag=None,
-        progress=None, speed_config: SpeedSensorConfig | None = None) -> RunResult:
+        progress=None, speed_config: SpeedSensorConfig | None = None,
+        integrator: str = 'rk4') -> RunResult:
     """Integrate ``scenario`` for its duration.
+
+    ``integrator``: ``rk4`` (the fixed step of dt, as the live node) or ``adaptive``
+    (:data:`abb_ros.model.integrate.INTEGRATORS`: the states at the same publish stamps from
+    its dense output, the IMU and FG read from those states).
 
     The FG speed sensor (``spindle/speed``) has ``speed_config`` (default the node's) and the
     same ``seed`` as the IMU, so a node with the same settings publishes the same readings.
@@ -101,7 +113,8 @@ def run_scenario(  # noqa: C901
     check_duration(scenario.duration, publish_dt, dt)
     p = scenario.params
     y0 = initial_state(p, scenario.omega, phi0=scenario.phi0, deck0=scenario.deck0)
-    sim = Simulation(p, scenario.omega, dt, spindle=scenario.spindle, y0=y0)
+    sim = Simulation(p, scenario.omega, dt, spindle=scenario.spindle, y0=y0,
+                     integrator=integrator)
     publish_every = _steps_per(publish_dt, dt, 'publish_dt')
     imu_every = _steps_per(1.0 / imu_config.rate, dt, 'imu rate')
     sampler = PlantSampler(sim, ImuModel(imu_config, seed), publish_every, imu_every,
@@ -164,4 +177,12 @@ def run_scenario(  # noqa: C901
     wall = time.perf_counter() - start
     return RunResult(scenario, np.array(times), states, wall, written, compile_time,
                      sim.refined_steps, sim.max_substeps, sim.rolling_switches,
-                     sim.contact_step_note)
+                     sim.contact_step_note, sim.integrator_used, _note(sim))
+
+
+def _note(sim) -> str:
+    """Return why an adaptive run took the fixed step, or ''."""
+    if sim.integrator == sim.integrator_used:
+        return ''
+    return f'adaptive integrator fell back to the fixed RK4 step: {fixed_step_reason(sim.params)}'
+

@@ -110,7 +110,10 @@ def summary(scenario, result) -> dict:
         'wall_time_s': round(result.wall_time, 4),
         'real_time_factor': round(result.real_time_factor, 2),
         'compile_time_s': round(result.compile_time, 3),
+        'integrator': result.integrator,
     }
+    if result.integrator_note:
+        out['integrator_note'] = result.integrator_note
     if p.beyond_paper:
         out['beyond_paper'] = list(p.beyond_paper)
     if result.contact_step_note:

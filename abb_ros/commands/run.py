@@ -32,6 +32,12 @@ def add_arguments(parser):
                         'publish_rate_hz; spindle.max_accel/tau select the motor model); '
                         'repeatable (docs/parameters.md)')
     parser.add_argument('--duration', type=float, help='simulated seconds (default: scenario)')
+    parser.add_argument('--integrator', choices=('rk4', 'adaptive'), default='rk4',
+                        help='rk4: the fixed step of the live node (a bag equals the node\'s '
+                        'byte for byte); adaptive: Dormand-Prince 5(4) with error control, '
+                        'sampled at the same stamps, several times faster; it takes the '
+                        'fixed step for drives with ball contact or rolling resistance '
+                        '(default: %(default)s)')
     parser.add_argument('--out', help='write a rosbag2 MCAP directory here')
     parser.add_argument('--overwrite', action='store_true', help='replace an existing --out')
     parser.add_argument('--no-abb', action='store_true', help='the drive without balls (n = 0)')
@@ -167,7 +173,7 @@ def _integrate(args, scenario, options, bag, live, staged):
     try:
         with signals_deferred():    # a signal stops the run between chunks (stop_point)
             return run_scenario(scenario, bag=sink, progress=stop_point(
-                bar.update if bar else None), **options)
+                bar.update if bar else None), integrator=args.integrator, **options)
     except StateError as exc:
         if bag is not None:
             bag.mark_incomplete(str(exc))

@@ -50,6 +50,7 @@ def warm_up() -> dict[str, float]:
     fg = SpeedSensor()
     for step in range(2):
         fg.update(step * 1e-3, step * 1e-3 * omega, omega)
+    Simulation(params, omega, DEFAULT_DT, integrator='adaptive').trajectory(2, 1)
     took['integration'] = time.perf_counter() - start
     start = time.perf_counter()
     table = speed_bands.speed_table(params, 1500.0, WARMUP_TABLE_POINTS)

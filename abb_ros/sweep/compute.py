@@ -10,8 +10,11 @@ sample. Drives are grouped by ball count n (a kernel batch shares n):
   :func:`abb_ros.model.stability.floquet.multipliers_batch` over all (drive, speed) pairs at once
   (its one-thread build, ``floquet.SERIAL``: a worker is one process with one thread);
 - ``run``: the nonlinear equations integrated from the scenario's initial state with its
-  speed profile by :class:`abb_ros.model.dynamics.batch.BatchRun`, which reduces each trajectory to
-  its metrics inside the kernel.
+  speed profile by :class:`abb_ros.model.dynamics.batch.BatchRun`, which reduces each
+  trajectory to its metrics inside the kernel (``compute.run.integrator: rk4``), or by
+  :class:`abb_ros.model.dynamics.batch.AdaptiveRuns`, the adaptive integrator's runs one
+  after the other, their metrics read from its dense output at every step of dt
+  (``adaptive``).
 
 A drive's result depends only on its own parameters (every kernel treats the points of a
 batch independently), so the result of a sample is the same whatever partition it is in and
@@ -129,7 +132,13 @@ def _stability(spec, params, groups) -> dict:
 
 
 def _runs(spec, params, groups) -> dict:
-    from abb_ros.model.dynamics.batch import FAIL_TIME, PEAK_RBAR, TIME_ABOVE, BatchRun
+    from abb_ros.model.dynamics.batch import (
+        FAIL_TIME,
+        PEAK_RBAR,
+        TIME_ABOVE,
+        AdaptiveRuns,
+        BatchRun,
+    )
     from abb_ros.model.dynamics.initial import initial_state
     from abb_ros.model.dynamics.integrate import StateError
     scen = spec.scenario
@@ -151,7 +160,10 @@ def _runs(spec, params, groups) -> dict:
         phi0 = scen.phi0 if scen.phi0 is not None and len(scen.phi0) == n else None
         y0 = np.array([initial_state(p, scen.omega, phi0, scen.deck0) for p in plist])
         S = np.array([scen.spindle.pack(scen.omega)] * idx.size)
-        br = BatchRun(plist, y0, S, dt, limit)
+        if spec.run.get('integrator', 'rk4') == 'adaptive':
+            br = AdaptiveRuns(plist, y0, scen.spindle, scen.omega, dt, limit)
+        else:
+            br = BatchRun(plist, y0, S, dt, limit)
         for step, omega in cmd_steps:
             br.advance(step - br.steps)
             br.set_omega_cmd(omega)

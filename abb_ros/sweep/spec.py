@@ -17,7 +17,7 @@ A spec is a YAML mapping (docs/sweep.md has the full reference)::
     operating_wbar: 2.7     # default: the scenario's last commanded speed
     compute:
       stability: {wbar: [2.7]}    # or omega: [...], or range: {wbar: [lo, hi], points: k}
-      run: {duration: 1.0, rbar_limit: 1.0e-3}
+      run: {duration: 1.0, rbar_limit: 1.0e-3}   # integrator: rk4 (default) | adaptive
 
 Speeds given as wbar are converted with the *nominal* drive's omega0 (scenario + base), so
 every drive of the batch turns at the same physical speed, as the drives of a production lot
@@ -89,7 +89,7 @@ _SAMPLING_KEYS = {'method', 'seed'}
 _COMPUTE_KEYS = {'stability', 'run'}
 _STABILITY_KEYS = {'wbar', 'omega', 'range'}
 _RANGE_KEYS = {'wbar', 'omega', 'points'}
-_RUN_KEYS = {'duration', 'rbar_limit', 'dt'}
+_RUN_KEYS = {'duration', 'rbar_limit', 'dt', 'integrator'}
 DEFAULT_PARTITION = 256
 DEFAULT_RBAR_LIMIT = 1.0e-3
 
@@ -140,7 +140,7 @@ class SweepSpec:
     partition_size: int
     operating_omega: float     # [rad/s]
     speeds: np.ndarray | None  # stability speeds [rad/s] (operating speed included), or None
-    run: dict | None           # {'duration', 'rbar_limit', 'dt'} or None
+    run: dict | None           # {'duration', 'rbar_limit', 'dt', 'integrator'} or None
 
     @property
     def grid(self) -> dict:
@@ -287,7 +287,8 @@ def _run(run_doc, scenario) -> dict:
                               0.0, True, MAX_DURATION),
            'rbar_limit': number('compute.run.rbar_limit',
                                 r.get('rbar_limit', DEFAULT_RBAR_LIMIT), 0.0, True),
-           'dt': number('compute.run.dt', r.get('dt', 1e-4), 0.0, True, 1e-2)}
+           'dt': number('compute.run.dt', r.get('dt', 1e-4), 0.0, True, 1e-2),
+           'integrator': _integrator(r.get('integrator', 'rk4'))}
     _check_run_steps(run)
     return run
 
@@ -419,3 +420,11 @@ def _check_normal(where, out, dist):
     if out['std'] < 1e-9 * max(abs(out['mean']), width):
         raise ParamError(f'{where}.std', dist['std'], f'at least {1e-9 * width:g}',
                          'a spread below the round-off of the mean draws one value')
+
+
+def _integrator(value) -> str:
+    """Return compute.run.integrator, one of integrate.INTEGRATORS."""
+    from abb_ros.model.dynamics.integrate import INTEGRATORS
+    if value not in INTEGRATORS:
+        raise ParamError('compute.run.integrator', value, ' or '.join(INTEGRATORS))
+    return value

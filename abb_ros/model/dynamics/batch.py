@@ -39,7 +39,7 @@ from abb_ros.model.dynamics.state import DECK, PHI
 from abb_ros.model.jit import KernelSet
 
 __all__ = ['METRICS', 'PEAK_RBAR', 'TIME_ABOVE', 'LAST_ABOVE', 'new_metrics', 'JIT', 'PY',
-           'BatchRun', 'FAIL_TIME']
+           'BatchRun', 'FAIL_TIME', 'AdaptiveRuns']
 
 METRICS = ('peak_rbar', 'time_above', 'last_above', 'fail_time')
 PEAK_RBAR, TIME_ABOVE, LAST_ABOVE, FAIL_TIME = 0, 1, 2, 3
@@ -166,3 +166,64 @@ class BatchRun:
         out = np.where(np.isfinite(last), last, 0.0)
         bad = (self.rbar > self.rbar_limit) | (self.status != kernels.OK)
         return np.where(bad, np.nan, out)
+
+
+class AdaptiveRuns(BatchRun):
+    """The runs of a :class:`BatchRun`, each integrated by the adaptive integrator in turn.
+
+    Each run is a :class:`~abb_ros.model.dynamics.integrate.Simulation` with
+    ``integrator='adaptive'`` (the fixed step for a drive with contact or rolling resistance),
+    sampled by its dense output at every step of dt, from which the metrics are taken as
+    :func:`rk4_metrics_batch` takes them after every step. ``spindle``: the spindle profile object,
+    ``omega`` [rad/s] the initial command. Same interface as :class:`BatchRun`.
+    """
+
+    CHUNK = 10_000
+    """Steps sampled per call (the samples of one call are held at once)."""
+
+    def __init__(self, params_list, y0, spindle, omega, dt, rbar_limit):
+        from abb_ros.model.dynamics.integrate import Simulation
+        S = np.array([spindle.pack(omega)] * len(params_list))
+        super().__init__(params_list, y0, S, dt, rbar_limit)
+        self.sims = [Simulation(p, omega, dt, spindle=spindle, y0=y, integrator='adaptive')
+                     for p, y in zip(params_list, self.Y)]
+        self._out = np.empty((min(self.CHUNK, 1), self.Y.shape[1]))
+
+    def advance(self, nsteps: int) -> None:
+        """Advance every good run by nsteps steps, updating its metrics at each."""
+        from abb_ros.model.dynamics.integrate import StateError
+        nsteps = int(nsteps)
+        if self._out.shape[0] < min(nsteps, self.CHUNK):
+            self._out = np.empty((min(nsteps, self.CHUNK), self.Y.shape[1]))
+        for b, sim in enumerate(self.sims):
+            done = 0
+            while self.status[b] == OK and done < nsteps:
+                chunk = min(self.CHUNK, nsteps - done)
+                start = sim.steps
+                try:
+                    sim.trajectory(chunk, 1, self._out)
+                except StateError as exc:
+                    self.status[b] = exc.status
+                    self.metrics[b, FAIL_TIME] = exc.t
+                self._update(b, self._out[:sim.steps - start], start)
+                done += chunk
+            self.Y[b] = sim.y
+        self.steps += nsteps
+
+    def _update(self, b, ys, start):
+        """Take the metrics of run b over the states ys after the steps start + 1, ... ."""
+        if not len(ys):
+            return
+        r = np.sqrt(ys[:, DECK] ** 2 + ys[:, DECK + 1] ** 2 + ys[:, DECK + 2] ** 2) / self.R[b]
+        m = self.metrics[b]
+        m[PEAK_RBAR] = max(m[PEAK_RBAR], float(r.max()))
+        above = np.flatnonzero(r > self.rbar_limit)
+        if above.size:
+            m[TIME_ABOVE] += above.size * self.dt
+            m[LAST_ABOVE] = (start + above[-1] + 1) * self.dt
+
+    def set_omega_cmd(self, omega_cmd) -> None:
+        """Set the commanded spindle speed [rad/s] of every run (a motor profile)."""
+        super().set_omega_cmd(omega_cmd)
+        for sim in self.sims:
+            sim.set_speed_command(float(omega_cmd))

@@ -24,8 +24,8 @@ import numpy as np
 
 from abb_ros.model.dynamics.state import wrap_angle
 
-__all__ = ['RANK_TOL', 'eq26_jacobian', 'tangent_frame', 'neutral_count', 'nearest_member',
-           'sample_members', 'min_spacing', 'NEWTON_ITERATIONS']
+__all__ = ['RANK_TOL', 'eq26_jacobian', 'tangent_frame', 'null_frame', 'neutral_count',
+           'nearest_member', 'sample_members', 'min_spacing', 'NEWTON_ITERATIONS']
 
 RANK_TOL = 1e-9
 """A singular value of J below RANK_TOL x the largest one counts as zero. J's singular values
@@ -51,11 +51,17 @@ def tangent_frame(phi):
     space null(J) and whose first n - k columns span its complement (the row space of J);
     k = n - rank J, shape phi.shape[:-1].
     """
-    phi = np.asarray(phi, dtype=float)
-    n = phi.shape[-1]
-    J = eq26_jacobian(phi)
+    return null_frame(eq26_jacobian(phi))
+
+
+def null_frame(J):
+    """Return (U, k) for a Jacobian J, shape (..., 2, n): U's last k columns span null(J).
+
+    U, shape (..., n, n), is orthogonal; k = n - rank J, the rank counted with RANK_TOL.
+    """
+    n = J.shape[-1]
     _, s, vh = np.linalg.svd(J, full_matrices=True)
-    big = s.max(axis=-1, keepdims=True) if n else np.zeros(phi.shape[:-1] + (1,))
+    big = s.max(axis=-1, keepdims=True) if n else np.zeros(J.shape[:-2] + (1,))
     rank = (s > RANK_TOL * np.maximum(big, 1.0)).sum(axis=-1)
     return np.swapaxes(vh, -1, -2), n - rank
 

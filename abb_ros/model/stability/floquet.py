@@ -36,6 +36,7 @@ import numpy as np
 
 from abb_ros.model.jit import Kernels, KernelSet, prange
 from abb_ros.model.parameters.params import ParamError
+from abb_ros.model.stability import floquet_reduction as reduction
 from abb_ros.model.stability.equilibrium import (
     EQ26_TOL,
     balanced_equilibrium,
@@ -343,12 +344,13 @@ CHUNK = 2000
 """Points per kernel call (progress is reported per chunk)."""
 
 
-def _rate_estimate(Mh, Ch, Kh, omega):
+def _rate_estimate(Mh, Ch, Kh, omega, decay_floor=0.0):
     """Estimate the fastest rate [1/rad of tau] of each point, from the constant harmonic, plus 1.
 
     sqrt of the largest eigenvalue of M0^-1 K0 / omega^2 (oscillation) plus the largest one of
-    M0^-1 C0 / omega (decay); the +1 covers the phase advance of the rotating terms. A point
-    whose matrices overflow (a speed near zero) has rate inf.
+    M0^-1 C0 / omega (decay, at least ``decay_floor``: the decay of the directions a reduced
+    system leaves out); the +1 covers the phase advance of the rotating terms. A point whose
+    matrices overflow (a speed near zero) has rate inf.
     """
     Minv = np.linalg.inv(Mh[:, 0])
     w = omega[:, None, None]
@@ -358,28 +360,52 @@ def _rate_estimate(Mh, Ch, Kh, omega):
     ok = np.isfinite(K).all(axis=(1, 2)) & np.isfinite(C).all(axis=(1, 2))
     if ok.any():
         osc = np.abs(np.linalg.eigvals(K[ok])).max(axis=-1)
-        dec = np.abs(np.linalg.eigvals(C[ok])).max(axis=-1)
+        dec = np.maximum(np.abs(np.linalg.eigvals(C[ok])).max(axis=-1),
+                         np.broadcast_to(decay_floor, rate.shape)[ok])
         rate[ok] = np.sqrt(osc) + dec + 1.0
     return rate
 
 
-def _built(p, builder, omegas, phi, sel):
-    """Return the harmonics and the fastest rate (:func:`_rate_estimate`) of the points ``sel``."""
+@dataclass
+class _Chunk:
+    """The harmonics of a chunk of points and their fastest rates.
+
+    ``Q`` (B, n, 3): the ball basis of the reduced in-plane system
+    (:mod:`abb_ros.model.floquet_reduction`), None when the system is the whole one; ``decay``
+    (B,): then the decoupled directions' decay per radian of tau.
+    """
+
+    Mh: np.ndarray
+    Ch: np.ndarray
+    Kh: np.ndarray
+    rate: np.ndarray
+    Q: np.ndarray | None = None
+    decay: np.ndarray | None = None
+
+
+def _built(p, builder, omegas, phi, sel, reduce=True):
+    """Return the :class:`_Chunk` of the points ``sel`` (reduced in-plane where n > 3)."""
     sub = type(p)(**{f: v[sel] if isinstance(v, np.ndarray) else v for f, v in vars(p).items()})
     Mh, Ch, Kh = builder(sub, omegas[sel], phi[sel])
-    return Mh, Ch, Kh, _rate_estimate(Mh, Ch, Kh, omegas[sel])
+    if not (reduce and builder is in_plane_harmonics and reduction.reduces(phi.shape[1])):
+        return _Chunk(Mh, Ch, Kh, _rate_estimate(Mh, Ch, Kh, omegas[sel]))
+    Q = reduction.ball_basis(phi[sel])
+    Mh, Ch, Kh = reduction.project(Mh, Ch, Kh, Q)
+    decay = reduction.complement_decay(sub, omegas[sel])
+    return _Chunk(Mh, Ch, Kh, _rate_estimate(Mh, Ch, Kh, omegas[sel], decay), Q, decay)
 
 
-def _check_steps(p, builder, omegas, phi, tau_end, chunks):
+def _check_steps(p, builder, omegas, phi, tau_end, chunks, reduce=True):
     """Refuse, before any integration, a batch with a point needing over MAX_STEPS steps.
 
-    Returns the harmonics and rates of a single chunk (so they are built once), else [].
+    Returns the :class:`_Chunk` of a single chunk in a list (so it is built once), else [].
     """
     worst, where, kept = 0.0, 0.0, []
     for sel in chunks:
-        Mh, Ch, Kh, rate = _built(p, builder, omegas, phi, sel)
+        chunk = _built(p, builder, omegas, phi, sel, reduce)
+        rate = chunk.rate
         if len(chunks) == 1:
-            kept = [(Mh, Ch, Kh, rate)]
+            kept = [chunk]
         i = int(np.argmax(rate))
         if STEPS_PER_RADIAN * rate[i] * tau_end > worst:
             worst, where = STEPS_PER_RADIAN * float(rate[i]) * tau_end, float(omegas[sel][i])
@@ -429,14 +455,30 @@ class MultiplierBatch:
     invariance: np.ndarray
 
 
+def _neutral_frame(chunk, phi, plane):
+    """Return (U, k): the basis of the family's neutral directions and their count per point.
+
+    The reduced frame where the chunk is reduced (``chunk.Q``), the family's tangent frame in
+    plane with more than one ball, else none (U None, k 0).
+    """
+    if chunk.Q is not None:
+        return reduction.reduced_frame(phi, chunk.Q)
+    if plane == 'in' and phi.shape[1] > 1:
+        return tangent_frame(phi)
+    return None, np.zeros(phi.shape[0], dtype=np.int64)
+
+
 def multipliers_batch(params_list, omegas, plane='in', phi_star=None, progress=None,
-                      kern=None) -> MultiplierBatch:
+                      kern=None, reduce=True) -> MultiplierBatch:
     """Compute the largest |transverse Floquet multiplier| at the balanced equilibria of a batch.
 
     params_list : sequence of DriveParams with the same n; omegas : (B,) [rad/s] > 0;
     phi_star : optional (B, n) or (n,) [rad] members of the family, else the symmetric fan
     (equilibrium.py). ``progress(k)`` is called with the number of points done after each
     chunk. Raises :class:`FamilyInvarianceError` when a point fails the self-check.
+    ``reduce``: integrate the in-plane system of n > 3 balls reduced to six coordinates
+    (:mod:`abb_ros.model.floquet_reduction`; the same multipliers to round-off); False
+    integrates all 3 + n.
     """
     builder, tau_end = PLANES[plane]
     omegas = np.asarray(omegas, dtype=float)
@@ -454,21 +496,23 @@ def multipliers_batch(params_list, omegas, plane='in', phi_star=None, progress=N
     p = stack_params(params_list)
     idx = np.flatnonzero(exists)
     chunks = [idx[start:start + CHUNK] for start in range(0, idx.size, CHUNK)]
-    built = _check_steps(p, builder, omegas, phi, tau_end, chunks)
+    built = _check_steps(p, builder, omegas, phi, tau_end, chunks, reduce)
     for sel in chunks:
-        Mh, Ch, Kh, rate = built.pop(0) if built else _built(p, builder, omegas, phi, sel)
-        steps = steps_for(rate, tau_end)
-        Phi = monodromy_batch(Mh, Ch, Kh, omegas[sel], tau_end, steps, kern)
-        if plane == 'in' and phi.shape[1] > 1:
-            U, k = tangent_frame(phi[sel])
-        else:
-            U, k = None, np.zeros(sel.size, dtype=np.int64)
+        chunk = built.pop(0) if built else _built(p, builder, omegas, phi, sel, reduce)
+        steps = steps_for(chunk.rate, tau_end)
+        Phi = monodromy_batch(chunk.Mh, chunk.Ch, chunk.Kh, omegas[sel], tau_end, steps, kern)
+        U, k = _neutral_frame(chunk, phi[sel], plane)
         plain = k == 0
         lam[sel[plain]] = max_multiplier(Phi[plain])
         for count in np.unique(k[k > 0]):
             group = np.flatnonzero(k == count)
             lam[sel[group]], invariance[sel[group]] = transverse_max_multiplier(
                 Phi[group], U[group], int(count))
+        if chunk.Q is not None:
+            decoupled = phi.shape[1] - chunk.Q.shape[-1]
+            k = k + decoupled
+            lam[sel] = np.maximum(lam[sel], reduction.complement_multiplier(
+                chunk.decay, tau_end, steps))
         neutral[sel] = k
         if progress is not None:
             progress(sel.size)

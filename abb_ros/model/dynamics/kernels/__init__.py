@@ -23,12 +23,17 @@ Modules, by what they model:
 - :mod:`~abb_ros.model.dynamics.kernels.multirate`,
   :mod:`~abb_ros.model.dynamics.kernels.multirate_fast`: the multirate contact step;
 - :mod:`~abb_ros.model.dynamics.kernels.stepper`: one step, many steps (``advance``,
-  ``trajectory``).
+  ``trajectory``);
+- :mod:`~abb_ros.model.dynamics.kernels.adaptive`: the adaptive Dormand-Prince 5(4)
+  integrator with dense output (``adaptive_trajectory``).
 """
 
 from __future__ import annotations
 
-from abb_ros.model.dynamics.kernels import stepper  # noqa: F401 (imports, so registers, every kernel)
+from abb_ros.model.dynamics.kernels import (  # noqa: F401 (imports, so registers, every kernel)
+    adaptive,
+    stepper,
+)
 from abb_ros.model.dynamics.kernels.ball_size import SPIN_INERTIA
 from abb_ros.model.dynamics.kernels.contact_steps import (
     CONTACT_IMPACT_SPEED,
