@@ -117,6 +117,20 @@ class Pacer:
         if self.real_time_factor > 0:
             self._anchor_at(steps)
 
+    def rewind(self, steps: int) -> bool:
+        """Take the step count back from ``steps`` to 0 (a reset of the simulated time).
+
+        Stamps on a simulated time base go back to ``epoch_ns`` (0) with it (True); stamps
+        on the wall clock cannot go back, so the epoch moves on by ``steps`` and they carry on
+        (False). The caller restarts the pacing (:meth:`start`).
+        """
+        wall0, steps0, running = self._window
+        self._window = (wall0, steps0 - steps, running)
+        if self.wall_time_base:
+            self.epoch_ns += steps * self.dt_ns
+            return False
+        return True
+
     def _anchor_at(self, steps: int) -> None:
         """Pace from now at ``steps``.
 
