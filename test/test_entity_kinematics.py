@@ -14,10 +14,10 @@ import math
 import numpy as np
 import pytest
 
-from abb_ros.model import entity_kinematics as ek
-from abb_ros.model.integrate import Simulation
-from abb_ros.model.params import DriveParams
-from abb_ros.model.sensors import JIT as SENSORS
+from abb_ros.model.dynamics.integrate import Simulation
+from abb_ros.model.parameters.params import DriveParams
+from abb_ros.model.sensors import entity_kinematics as ek
+from abb_ros.model.sensors.imu import JIT as SENSORS
 
 TABLE1 = DriveParams()
 H = 1e-5

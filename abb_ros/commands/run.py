@@ -15,7 +15,7 @@ import sys
 
 import numpy as np
 
-from abb_ros.model.params import DIMENSIONLESS_NAMES, PARAM_SPECS
+from abb_ros.model.parameters.params import DIMENSIONLESS_NAMES, PARAM_SPECS
 
 DRIVE_SETTINGS = ('omega',) + DIMENSIONLESS_NAMES + tuple(PARAM_SPECS)
 """--set names that go to the scenario's drive (the others are node parameters)."""
@@ -52,7 +52,7 @@ def add_arguments(parser):
 
 def _run_options(node: dict) -> dict:
     """run_scenario's keyword arguments for the node parameters given with --set."""
-    from abb_ros.model.plant_spec import check_rates, imu_config
+    from abb_ros.model.parameters.plant_spec import check_rates, imu_config
     check_rates(node)
     options = {}
     if 'integration_rate_hz' in node:
@@ -72,9 +72,9 @@ def _spindle(spindle, node: dict):
     A constant-speed spindle becomes the motor of the simulator node, with its defaults for
     the other.
     """
-    from abb_ros.model.integrate import SpindleMotor, TorqueMotor
-    from abb_ros.model.params import ParamError
-    from abb_ros.model.plant_spec import PLANT
+    from abb_ros.model.dynamics.spindle import SpindleMotor, TorqueMotor
+    from abb_ros.model.parameters.params import ParamError
+    from abb_ros.model.parameters.plant_spec import PLANT
     changes = {k[len('spindle.'):]: v for k, v in node.items() if k.startswith('spindle.')}
     if not changes:
         return spindle
@@ -141,9 +141,9 @@ def run(args) -> dict:
     )
     from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
     from abb_ros.io.scenario import load_scenario
-    from abb_ros.model.integrate import StateError
-    from abb_ros.model.params import ParamError
-    from abb_ros.model.state import StateLayout, wrap_degrees
+    from abb_ros.model.dynamics.integrate import StateError
+    from abb_ros.model.dynamics.state import StateLayout, wrap_degrees
+    from abb_ros.model.parameters.params import ParamError
 
     base = drive_params(args.config) if args.config else None
     try:

@@ -14,7 +14,7 @@ import math
 import re
 import time
 
-from abb_ros.model import entity_kinematics as ek
+from abb_ros.model.sensors import entity_kinematics as ek
 
 __all__ = ['serve', 'SERVICES', 'ACTION', 'FEATURES', 'FEEDBACK_PERIOD_S']
 

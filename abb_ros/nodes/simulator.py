@@ -1,7 +1,7 @@
 """``ros2 run abb_ros simulator``: the drive as a fixed-rate plant over ROS 2 (node abb_simulator).
 
-A thin rclpy adapter: :class:`abb_ros.model.integrate.Simulation` integrates, a
-:class:`abb_ros.model.sampling.PlantSampler` decides when the state and the IMU are due,
+A thin rclpy adapter: :class:`abb_ros.model.dynamics.integrate.Simulation` integrates, a
+:class:`abb_ros.model.sensors.sampling.PlantSampler` decides when the state and the IMU are due,
 :mod:`abb_ros.io.cdr` encodes the messages (the headless ``abb-sim run``'s encoder: no rclpy
 message is built). Topics, parameters and services: docs/ros_api.md.
 
@@ -34,11 +34,12 @@ from std_srvs.srv import SetBool, Trigger
 
 from abb_ros.io import cdr, ros_messages
 from abb_ros.io.topics import CURRENT_CMD, DIAGNOSTICS, SPEED_CMD
-from abb_ros.model import entity_kinematics
-from abb_ros.model.integrate import Simulation, StateError, initial_state
-from abb_ros.model.params import ParamError
-from abb_ros.model.sampling import PlantSampler
-from abb_ros.model.sensors import ImuModel
+from abb_ros.model.dynamics.initial import initial_state
+from abb_ros.model.dynamics.integrate import Simulation, StateError
+from abb_ros.model.parameters.params import ParamError
+from abb_ros.model.sensors import entity_kinematics
+from abb_ros.model.sensors.imu import ImuModel
+from abb_ros.model.sensors.sampling import PlantSampler
 from abb_ros.nodes import ros_params, simulation_interfaces_server, simulator_live_view
 from abb_ros.nodes.entry_point import make_executor, run_node, spin
 from abb_ros.nodes.hil_io import HilIO
@@ -88,6 +89,7 @@ class SimulatorNode(Node):
         self.counters = self.commands.counters
         self.scheduling = FifoScheduling()   # of the thread that integrates (its timer's)
         self.published = dict.fromkeys(ros_messages.TOPIC_TYPES, 0)
+        self.live = None   # the live view, once started (below)
         self.recorder = InProcessRecording(self, PUBLISH_DEPTH, 'record.topics',
                                            RECORD_DISCOVERY_S)
         if s.spindle_mode == 'torque':
@@ -118,7 +120,6 @@ class SimulatorNode(Node):
             if error:
                 raise ParamError('record.path', path, 'a directory that does not exist yet, '
                                  'in a writable place', error)
-        self.live = None
         try:
             self.live = simulator_live_view.start(
                 self, {'pause': (SetBool, self._on_pause), 'step': (Trigger, self._on_step),
@@ -237,11 +238,16 @@ class SimulatorNode(Node):
         stamp_ns, encoded = cdr.sample_cdr(sample, pacer.dt_ns, self.imu.config,
                                            pacer.epoch_ns, pacer.owns_time)
         for topic, data in encoded:
-            self._send(topic, data, stamp_ns)
+            self.send(topic, data, stamp_ns)
         self.hil.on_sample(sample)
 
-    def _send(self, topic: str, data: bytes, stamp_ns: int) -> None:
-        """Publish the CDR bytes of one message (and record them when recording)."""
+    def send(self, topic: str, data: bytes, stamp_ns: int) -> None:
+        """Publish the CDR bytes of one message of ``topic`` (a key of the topic list).
+
+        The one path of every message the node publishes: the middleware, the
+        ``published <topic>`` counters of /diagnostics, the live view and the bag being
+        recorded get the same messages.
+        """
         try:
             self._pubs[topic].publish(data)
         except RCLError:
@@ -438,7 +444,7 @@ class SimulatorNode(Node):
         window = self.pacer.close_window(self.sim.steps, not (self.paused or self.fault))
         level, message, values = simulation_status(self, window)
         stamp_ns = self.stamp_ns()
-        self._send(DIAGNOSTICS, cdr.diagnostics(
+        self.send(DIAGNOSTICS, cdr.diagnostics(
             stamp_ns, f'{self.get_fully_qualified_name()}: simulation', level, message, values),
             stamp_ns)
         self.hil.publish_diagnostics()

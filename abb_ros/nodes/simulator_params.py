@@ -1,19 +1,27 @@
 """The simulator node's parameters: the plant's, and those only the node has.
 
 :data:`SIMULATOR_SPECS` is the node's list, in declaration order: the drive is declared
-first (:mod:`abb_ros.model.drive_spec`), then these. The plant's parameters (rates, spindle,
-seed, IMU, motor; :mod:`abb_ros.model.plant_spec`) are shared with ``abb-sim run``; pacing,
-the HIL I/O (FG speed sensor, faults, disturbances, markers), recording and the live view
-are the node's own.
+first (:mod:`abb_ros.model.parameters.drive_spec`), then these. The plant's parameters (rates,
+spindle, seed, IMU, motor; :mod:`abb_ros.model.parameters.plant_spec`) are shared with ``abb-sim
+run``; pacing, the HIL I/O (FG speed sensor, faults, disturbances, markers), recording and the live
+view are the node's own.
 """
 
 from __future__ import annotations
 
 import math
 
+from abb_ros.io.live_view import DEFAULT_ALLOWED_ORIGINS
 from abb_ros.io.topics import CURRENT_CMD, DIAGNOSTICS, SPEED_CMD, STABILITY_MARGIN
-from abb_ros.model.param_spec import BOOL, DOUBLE_ARRAY, INTEGER, STRING, STRING_ARRAY, ParamSpec
-from abb_ros.model.plant_spec import (
+from abb_ros.model.parameters.param_spec import (
+    BOOL,
+    DOUBLE_ARRAY,
+    INTEGER,
+    STRING,
+    STRING_ARRAY,
+    ParamSpec,
+)
+from abb_ros.model.parameters.plant_spec import (
     IMU_SPECS,
     MAX_SPINDLE_SPEED,
     MOTOR_SPECS,
@@ -119,6 +127,12 @@ _LIVE_VIEW = (
               'too, taken from the middleware once a publisher offers them (the analysis '
               "node's stability/margin of the Foxglove layout, /diagnostics, the spindle "
               'commands)', STRING_ARRAY, read_only=True, applies='at start-up', nodes=_SIM),
+    ParamSpec('live_view.allowed_origins', list(DEFAULT_ALLOWED_ORIGINS), '', 'browser origins '
+              'that may connect to the live view (shell patterns, * = any; a handshake with '
+              'another Origin gets HTTP 403, one without Origin, from a client that is not a '
+              'browser, is taken): the Foxglove web app, desktop apps (file://) and pages '
+              'served from this machine', STRING_ARRAY, read_only=True, applies='at start-up',
+              nodes=_SIM),
 )
 
 SPINDLE_MODE = ParamSpec(

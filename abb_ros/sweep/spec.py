@@ -25,7 +25,7 @@ do; a drive whose washers are stiffer runs at a lower wbar of its own.
 
 All samples are drawn up front from the seed (:func:`draw_samples`), before they are cut into
 partitions, so the samples and the results do not depend on how the work is partitioned or
-where it runs. Errors are :class:`~abb_ros.model.params.ParamError` naming the field
+where it runs. Errors are :class:`~abb_ros.model.parameters.params.ParamError` naming the field
 (``parameters.k.low``, ``compute.run.duration``, ...) and what is valid.
 """
 
@@ -42,8 +42,13 @@ import numpy as np
 
 from abb_ros.io.safe_yaml import YamlFileError, load_file
 from abb_ros.io.scenario import finite_number as _num
-from abb_ros.model.drive_spec import MAX_OMEGA
-from abb_ros.model.params import DIMENSIONLESS_NAMES, PARAM_SPECS, ParamError, apply_settings
+from abb_ros.model.parameters.drive_spec import MAX_OMEGA
+from abb_ros.model.parameters.params import (
+    DIMENSIONLESS_NAMES,
+    PARAM_SPECS,
+    ParamError,
+    apply_settings,
+)
 
 __all__ = ['MAX_SAMPLES', 'MAX_SPEC_BYTES', 'MAX_SPEEDS', 'SweepSpec', 'load_spec', 'parse_spec',
            'draw_samples', 'SAMPLEABLE', 'DISTRIBUTIONS', 'METHODS']
