@@ -144,3 +144,22 @@ def test_the_middleware_announces_the_standards_hash_for_every_message_type():
     finally:
         node.destroy_node()
         rclpy.shutdown(context=ctx)
+
+
+def test_a_second_set_up_run_keeps_the_built_package_without_rebuilding():
+    """ensure-venv built the package once (scripts/test runs it first); run again with nothing
+    changed it says nothing and leaves the stamp and the built library untouched."""
+    import subprocess
+    import sys
+
+    root = Path(__file__).resolve().parents[1]
+    venv = Path(sys.prefix)
+    stamp = venv / '.simulation_interfaces.sha256'
+    library = venv / 'lib' / 'libsimulation_interfaces__rosidl_typesupport_c.so'
+    assert stamp.is_file() and library.is_file()
+    before = (stamp.stat().st_mtime_ns, library.stat().st_mtime_ns, stamp.read_text())
+    run = subprocess.run([str(root / 'scripts' / 'ensure-venv')], capture_output=True,
+                         text=True, timeout=120)
+    assert run.returncode == 0, run.stderr
+    assert 'simulation_interfaces' not in run.stderr
+    assert (stamp.stat().st_mtime_ns, library.stat().st_mtime_ns, stamp.read_text()) == before
