@@ -125,6 +125,16 @@ class Pacer:
         """
         return self.clock.hold()
 
+    def rewind(self, steps: int) -> bool:
+        """Take the step count back from ``steps`` to 0 (a reset of the simulated time).
+
+        Return :meth:`SimClock.rewind`'s answer: whether the stamps went back with it. The
+        caller restarts the pacing (:meth:`start`).
+        """
+        wall0, steps0, running = self._window
+        self._window = (wall0, steps0 - steps, running)
+        return self.clock.rewind(steps)
+
     def _anchor_at(self, steps: int) -> None:
         """Pace from now at ``steps``.
 

@@ -96,6 +96,18 @@ class SimClock:
             self.epoch_ns += lag - lag % self.dt_ns
         self.on_wall = lag > -period_ns
 
+    def rewind(self, steps: int) -> bool:
+        """Take the step count back from ``steps`` to 0 (a reset of the simulated time).
+
+        On simulated time (started at a factor other than 1) the stamps go back to the epoch,
+        0, with it: the reset asks for it (True). On the wall-clock time base stamps never go
+        back (rule 3): the epoch moves on by ``steps`` and they carry on (False).
+        """
+        if self.wall_time_base:
+            self.epoch_ns += steps * self.dt_ns
+            return False
+        return True
+
     def slip(self, dropped_ns: int) -> None:
         """``dropped_ns`` of simulated time were dropped: stamps on the wall clock jump."""
         if self.on_wall:

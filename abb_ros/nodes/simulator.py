@@ -39,15 +39,17 @@ from abb_ros.io.topics import CLOCK_TOPIC, CURRENT_CMD, DIAGNOSTICS, SPEED_CMD
 from abb_ros.model.dynamics.initial import initial_state
 from abb_ros.model.dynamics.integrate import Simulation, StateError
 from abb_ros.model.parameters.params import ParamError
+from abb_ros.model.sensors import entity_kinematics
 from abb_ros.model.sensors.imu import ImuModel
 from abb_ros.model.sensors.sampling import PlantSampler
-from abb_ros.nodes import ros_params, simulator_live_view
+from abb_ros.nodes import ros_params, simulation_interfaces_server, simulator_live_view
 from abb_ros.nodes.entry_point import make_executor, run_node, spin
 from abb_ros.nodes.hil_io import HilIO
 from abb_ros.nodes.pacing import Pacer
 from abb_ros.nodes.rclpy_access import RCLError
 from abb_ros.nodes.realtime import FifoScheduling
 from abb_ros.nodes.recording import InProcessRecording, refuse_bad_topics, resolve_topics
+from abb_ros.nodes.sim_state import RunState, Transition
 from abb_ros.nodes.simulator_diagnostics import simulation_status
 from abb_ros.nodes.spindle_commands import SpindleCommands
 
@@ -74,6 +76,7 @@ class SimulatorNode(Node):
         self.drive, self.settings = ros_params.declare_all(self)
         s = self.settings
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
+        self.steady_clock = self._steady
         self.sim = Simulation(self.drive, s.initial_speed, s.dt, spindle=s.spindle())
         self.imu = ImuModel(s.imu, seed=s.seed)
         self.sampler = PlantSampler(self.sim, self.imu, s.publish_every, s.imu_every)
@@ -82,8 +85,9 @@ class SimulatorNode(Node):
                            self._max_stamp_lag_ns(), lambda: self._steady.now().nanoseconds)
         self.pending_drive = self.drive
         self.fault = ''
-        self.paused = s.start_paused
-        if self.paused:
+        self.run_state = RunState(s.start_paused)
+        self.exit_code = None   # set by SetSimulationState QUITTING: run_node's spin ends
+        if s.start_paused:
             self.pacer.hold()
         self.commands = SpindleCommands(s.initial_speed)
         self.counters = self.commands.counters
@@ -107,6 +111,7 @@ class SimulatorNode(Node):
         self.create_service(Trigger, '~/reset', self._on_reset)
         self.create_service(SetBool, '~/pause', self._on_pause)
         self.create_service(Trigger, '~/step', self._on_step)
+        self.sim_interfaces = simulation_interfaces_server.serve(self)
         self.recorder.serve('record.path', prepare=self._prepare_bag)
         self.add_on_set_parameters_callback(
             lambda ps: refuse_bad_topics(self, ps, 'record.topics')
@@ -142,6 +147,11 @@ class SimulatorNode(Node):
         self._timer = None
         self._publish(self.sampler.sample_now())
         self._restart_pacing()
+
+    @property
+    def paused(self) -> bool:
+        """Whether the plant is frozen (PAUSED or STOPPED)."""
+        return self.run_state.paused
 
     @property
     def speed_cmd(self) -> float:
@@ -281,6 +291,8 @@ class SimulatorNode(Node):
     def destroy_node(self):
         """Finish a bag being written, then destroy the node."""
         self.close()
+        if getattr(self, 'sim_interfaces', None) is not None:
+            self.sim_interfaces.destroy()
         return super().destroy_node()
 
     # ---- inputs --------------------------------------------------------------------------
@@ -333,24 +345,82 @@ class SimulatorNode(Node):
                                                        old.publish_rate_hz):
             self._restart_pacing()
 
-    # ---- services ------------------------------------------------------------------------
-    def _on_reset(self, _request, response):
+    # ---- run state, stepping, reset (std_srvs services and simulation_interfaces) -------
+    def set_run_state(self, target: int) -> Transition:
+        """SetSimulationState: move to ``target`` as :class:`RunState` allows."""
+        transition = self.run_state.request(target)
+        if transition.ok:
+            if transition.reset:
+                self.reset_simulation(time=True, state=True)
+            self._restart_pacing()
+            self.publish_diagnostics()
+            if transition.quit:
+                self.get_logger().info('STATE_QUITTING requested: shutting down')
+                self.exit_code = 0
+        return transition
+
+    def step_periods(self, count: int) -> int:
+        """Integrate and publish ``count`` publish periods; return how many (a fault stops)."""
+        self._apply_parameters()
+        self.run_state.stepped()
+        done = 0
+        while done < count and not self.fault and self._integrate_period():
+            done += 1
+        return done
+
+    def reset_simulation(self, time: bool, state: bool) -> None:
+        """Reset the state and/or the time (ResetSimulation's SCOPE_STATE and SCOPE_TIME).
+
+        The state: the initial state, commands, IMU and HIL re-seeded, fault cleared, pending
+        parameters applied. The time: the step count back to 0. A reset of the time with
+        simulated-time stamps publishes the start sample at once (as at start-up): the stamps
+        and /clock go back to 0. Wall-clock stamps cannot go back: they carry on (the
+        simulated time inside, which a spindle profile follows, restarts). A reset of the
+        state alone publishes nothing: this step's stamp went out already (with the old
+        state), the next period carries the restored state, so stamps stay strictly
+        increasing.
+        """
         self._params_changed = True
         self._apply_parameters()
         s = self.settings
-        self.drive = self.pending_drive
-        self.sim.reset(y0=initial_state(self.drive, s.initial_speed), params=self.drive)
-        self.commands.reset(s.initial_speed)
-        self._set_spindle(s)
-        self.imu.seed = s.seed
-        self.imu.reset()
-        self.hil.reset(s.seed)
-        cleared = self.fault
-        self.fault = ''
-        # Nothing is published now: this step's stamp went out already (with the old state);
-        # the next period carries the restored state, so stamps stay strictly increasing.
+        if state:
+            self.drive = self.pending_drive
+            self.sim.reset(y0=initial_state(self.drive, s.initial_speed), params=self.drive)
+            self.commands.reset(s.initial_speed)
+            self._set_spindle(s)
+            self.imu.seed = s.seed
+            self.imu.reset()
+            self.fault = ''
+        if state or time:
+            self.hil.reset(s.seed)   # the FG's edges are timed on the simulated clock
+        if time:
+            went_back = self.pacer.rewind(self.sim.steps)
+            self.sim.steps = 0
+            if went_back:
+                self._publish(self.sampler.sample_now())
         self._restart_pacing()
         self.publish_diagnostics()
+
+    def entity_kinematics(self) -> dict[str, entity_kinematics.Kinematics]:
+        """Ground truth of the deck, the rotor and the balls now (base frame)."""
+        return entity_kinematics.kinematics(self.sim.y, self.sim.accelerations(),
+                                            self.sim.params)
+
+    def set_entity(self, name: str, state) -> None:
+        """SetEntityState of the deck or a ball (raises EntityError with the reason)."""
+        position, orientation, velocity, angular = simulation_interfaces_server.state_vectors(
+            state)
+        if name == entity_kinematics.DECK:
+            y = entity_kinematics.with_deck(self.sim.y, self.sim.params, position, orientation,
+                                            velocity, angular)
+        else:
+            i = entity_kinematics.entity_names(self.drive.n).index(name) - 2
+            y = entity_kinematics.with_ball(self.sim.y, self.sim.params, i, position, velocity)
+        self.sim.y[:] = y
+
+    def _on_reset(self, _request, response):
+        cleared = self.fault
+        self.reset_simulation(time=False, state=True)
         response.success = True
         response.message = (f'reset to the initial state at t = {self.stamp_ns() * 1e-9:.6f} s'
                             + (f' (cleared: {cleared})' if cleared else ''))
@@ -358,7 +428,7 @@ class SimulatorNode(Node):
 
     def _on_pause(self, request, response):
         if request.data != self.paused:
-            self.paused = request.data
+            self.run_state.pause(request.data)
             self._restart_pacing()
             self.publish_diagnostics()
         response.success = True
@@ -372,8 +442,7 @@ class SimulatorNode(Node):
         if self.fault:
             response.success, response.message = False, f'{self.fault}; call ~/reset'
             return response
-        self._apply_parameters()
-        response.success = self._integrate_period()
+        response.success = self.step_periods(1) == 1
         response.message = (f't = {self.stamp_ns() * 1e-9:.9f} s' if response.success
                             else self.fault)
         return response

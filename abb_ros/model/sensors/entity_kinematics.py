@@ -1,0 +1,217 @@
+"""Ground-truth kinematics of the drive's bodies in the base frame, and states set from them.
+
+The bodies (the simulator serves them as simulation_interfaces entities): the deck (its centre
+C, the point of ``deck/pose``), the rotor (spinning by theta about the deck's z axis through
+C) and each ball (a point on the race of radius R at angle psi_i = theta + phi_i from the
+deck's x axis, in the deck's xy plane through C: the kernel's convention).
+
+All in the base frame (the inertial XYZ of the paper), SI units. With R the deck-to-base
+rotation (Eqs. 1-2), w and w' the deck's angular velocity Eq. (10) and its derivative in deck
+axes, e_z the deck's z axis and r_i = R_race (cos psi_i, sin psi_i, 0) (deck axes):
+
+- deck: position C = (X, Y, Z), orientation R, velocity C', angular velocity R w,
+  acceleration C'', angular acceleration R w' (d/dt (R w) = R (w' + w x w) = R w');
+- rotor: position C, orientation R Rz(theta), angular velocity R (w + theta' e_z), angular
+  acceleration R (w' + theta'' e_z + w x theta' e_z);
+- ball i: position C + R r_i; velocity C' + R (w x r_i + psi_i' e_z x r_i); acceleration
+  C'' + R (w' x r_i + w x (w x r_i) + 2 w x (psi_i' e_z x r_i) + psi_i'' e_z x r_i
+  - psi_i'^2 r_i); orientation and angular velocity those of its radial frame R Rz(psi_i)
+  (x outward, z along the spin axis): the balls are point masses of the model, their own
+  spin is no state.
+
+Setting (:func:`with_ball`, :func:`with_deck`) works the other way round: a ball's position
+gives phi_i (it must lie on its race), its velocity phi_i' (it must be along the race); the
+deck's pose and twist give (X, Y, Z, alpha, beta, gamma) and their rates.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from abb_ros.model.dynamics.state import StateLayout, wrap_angle
+from abb_ros.model.parameters.params import DriveParams
+from abb_ros.model.sensors.imu import (
+    deck_angular_acceleration,
+    deck_velocity,
+    euler_quaternion,
+    euler_rotation,
+)
+
+__all__ = ['DECK', 'ROTOR', 'ball_name', 'entity_names', 'Kinematics', 'kinematics',
+           'EntityError', 'with_ball', 'with_deck', 'ON_RACE_TOL']
+
+DECK = 'deck'
+ROTOR = 'rotor'
+ON_RACE_TOL = 1e-6
+"""How far a ball set by position may be off its race [m] (radially and out of plane), and
+how fast across it [m/s]: a micrometre, far below the race radius and above float noise."""
+
+
+def ball_name(i: int) -> str:
+    """Entity name of ball ``i`` (0-based): ``ball_1`` for i = 0, as in joint_states."""
+    return f'ball_{i + 1}'
+
+
+def entity_names(n: int) -> list[str]:
+    """Return the names of the drive's entities: deck, rotor, ball_1..ball_n."""
+    return [DECK, ROTOR] + [ball_name(i) for i in range(n)]
+
+
+class EntityError(ValueError):
+    """A state that the named entity cannot take (the reason is the message)."""
+
+
+@dataclass(frozen=True)
+class Kinematics:
+    """Pose, twist and acceleration of one body in the base frame (SI)."""
+
+    position: tuple[float, float, float]
+    orientation: tuple[float, float, float, float]
+    """Quaternion (x, y, z, w)."""
+    linear_velocity: tuple[float, float, float]
+    angular_velocity: tuple[float, float, float]
+    linear_acceleration: tuple[float, float, float]
+    angular_acceleration: tuple[float, float, float]
+
+
+def _quaternion(rotation: np.ndarray) -> tuple[float, float, float, float]:
+    """Return the unit quaternion (x, y, z, w) of a rotation matrix (w >= 0)."""
+    m = rotation
+    w = math.sqrt(max(0.0, 1.0 + m[0, 0] + m[1, 1] + m[2, 2])) / 2
+    x = math.copysign(math.sqrt(max(0.0, 1.0 + m[0, 0] - m[1, 1] - m[2, 2])) / 2,
+                      m[2, 1] - m[1, 2])
+    y = math.copysign(math.sqrt(max(0.0, 1.0 - m[0, 0] + m[1, 1] - m[2, 2])) / 2,
+                      m[0, 2] - m[2, 0])
+    z = math.copysign(math.sqrt(max(0.0, 1.0 - m[0, 0] - m[1, 1] + m[2, 2])) / 2,
+                      m[1, 0] - m[0, 1])
+    return (x, y, z, w)
+
+
+def _rz(angle: float) -> np.ndarray:
+    c, s = math.cos(angle), math.sin(angle)
+    return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+
+
+def _t(v) -> tuple[float, float, float]:
+    return tuple(float(x) for x in v)
+
+
+def _t4(v) -> tuple[float, float, float, float]:
+    """Return the quaternion of deck/pose itself (same arithmetic, same bits)."""
+    return tuple(float(x) for x in v)
+
+
+def kinematics(y: np.ndarray, qdd: np.ndarray, params: DriveParams) -> dict[str, Kinematics]:
+    """Return every entity's :class:`Kinematics` at state ``y`` with accelerations ``qdd``.
+
+    ``qdd`` is q'' at ``y`` (``Simulation.accelerations()``); keys in :func:`entity_names`
+    order.
+    """
+    s = StateLayout.of(params.n)
+    q, qd = y[s.q], y[s.qd]
+    X, angles = s.translation(y), s.deck(y)[3:]
+    Xd, rates = s.deck_rates(y)[:3], s.deck_rates(y)[3:]
+    Xdd, angle_acc = qdd[1:4], qdd[4:7]
+    rotation = euler_rotation(*angles)
+    _, w_deck = deck_velocity(q, qd)
+    wd_deck = deck_angular_acceleration(*angles, *rates, *angle_acc)
+    theta, omega, theta_dd = float(q[0]), float(qd[0]), float(qdd[0])
+    ez = np.array([0.0, 0.0, 1.0])
+    out = {DECK: Kinematics(_t(X), _t4(euler_quaternion(*angles)), _t(Xd), _t(rotation @ w_deck),
+                            _t(Xdd), _t(rotation @ wd_deck))}
+    w_rotor = w_deck + omega * ez
+    out[ROTOR] = Kinematics(
+        _t(X), _quaternion(rotation @ _rz(theta)), _t(Xd), _t(rotation @ w_rotor), _t(Xdd),
+        _t(rotation @ (wd_deck + theta_dd * ez + np.cross(w_deck, omega * ez))))
+    phi, phi_d, phi_dd = s.phi(y), s.phi_rates(y), qdd[7:]
+    for i in range(params.n):
+        psi = theta + float(phi[i])
+        psi_d, psi_dd = omega + float(phi_d[i]), theta_dd + float(phi_dd[i])
+        r = params.R * np.array([math.cos(psi), math.sin(psi), 0.0])
+        r_rel_v = psi_d * np.cross(ez, r)
+        v = Xd + rotation @ (np.cross(w_deck, r) + r_rel_v)
+        a = Xdd + rotation @ (np.cross(wd_deck, r) + np.cross(w_deck, np.cross(w_deck, r))
+                              + 2 * np.cross(w_deck, r_rel_v) + psi_dd * np.cross(ez, r)
+                              - psi_d ** 2 * r)
+        frame = rotation @ _rz(psi)
+        w_ball = w_deck + psi_d * ez
+        out[ball_name(i)] = Kinematics(
+            _t(X + rotation @ r), _quaternion(frame), _t(v), _t(rotation @ w_ball), _t(a),
+            _t(rotation @ (wd_deck + psi_dd * ez + np.cross(w_deck, psi_d * ez))))
+    return out
+
+
+def with_ball(y: np.ndarray, params: DriveParams, i: int, position, velocity) -> np.ndarray:
+    """Return ``y`` with ball ``i`` at base-frame ``position`` moving at ``velocity``.
+
+    The point must be on the ball's race (within :data:`ON_RACE_TOL`) and the velocity along
+    it relative to the deck; otherwise :class:`EntityError` says which.
+    """
+    s = StateLayout.of(params.n)
+    q, qd = y[s.q], y[s.qd]
+    rotation = euler_rotation(*s.deck(y)[3:])
+    r = rotation.T @ (np.asarray(position, dtype=float) - s.translation(y))
+    radius = math.hypot(r[0], r[1])
+    if abs(radius - params.R) > ON_RACE_TOL or abs(r[2]) > ON_RACE_TOL:
+        raise EntityError(
+            f'{ball_name(i)} must lie on its race: {radius:.9g} m from the spin axis '
+            f'(R = {params.R:.9g} m) and {r[2]:.3g} m off the race plane (tolerance '
+            f'{ON_RACE_TOL:g} m)')
+    psi = math.atan2(r[1], r[0])
+    _, w_deck = deck_velocity(q, qd)
+    v_rel = (rotation.T @ (np.asarray(velocity, dtype=float) - s.deck_rates(y)[:3])
+             - np.cross(w_deck, r))
+    tangent = np.array([-math.sin(psi), math.cos(psi), 0.0])
+    across = v_rel - float(tangent @ v_rel) * tangent
+    if float(np.linalg.norm(across)) > ON_RACE_TOL:
+        raise EntityError(f'{ball_name(i)} can only move along its race: the velocity has '
+                          f'{float(np.linalg.norm(across)):.3g} m/s across it')
+    out = y.copy()
+    theta, omega = float(q[0]), float(qd[0])
+    old = float(s.phi(out)[i])   # the nearest angle to the old one: no turns added
+    s.phi(out)[i] = old + float(wrap_angle(psi - theta - old))
+    s.phi_rates(out)[i] = float(tangent @ v_rel) / params.R - omega
+    return out
+
+
+def with_deck(y: np.ndarray, params: DriveParams, position, orientation, velocity,
+              angular_velocity) -> np.ndarray:
+    """Return ``y`` with the deck at a new pose and twist (base frame).
+
+    The deck's centre C at ``position`` in ``orientation`` (x, y, z, w), moving at
+    ``velocity`` and turning at ``angular_velocity``.
+
+    The angles (alpha, beta, gamma) of R = Rz(gamma) Rx(alpha) Ry(beta) and their rates
+    follow from the quaternion and Eq. (10); a quaternion far from unit length, or an
+    orientation at the Euler sequence's singularity (alpha = +-90 deg), is refused.
+    """
+    quat = np.asarray(orientation, dtype=float)
+    norm = float(np.linalg.norm(quat))
+    if not math.isfinite(norm) or abs(norm - 1.0) > 1e-6:
+        raise EntityError(f'deck orientation must be a unit quaternion (|q| = {norm:.9g})')
+    x, yq, z, w = quat / norm
+    m = np.array([[1 - 2 * (yq * yq + z * z), 2 * (x * yq - z * w), 2 * (x * z + yq * w)],
+                  [2 * (x * yq + z * w), 1 - 2 * (x * x + z * z), 2 * (yq * z - x * w)],
+                  [2 * (x * z - yq * w), 2 * (yq * z + x * w), 1 - 2 * (x * x + yq * yq)]])
+    # R = Rz(g) Rx(a) Ry(b): R[2,1] = sin a, R[2,0] = -cos a sin b, R[2,2] = cos a cos b,
+    # R[0,1] = -cos a sin g, R[1,1] = cos a cos g.
+    alpha = math.asin(max(-1.0, min(1.0, m[2, 1])))
+    if math.cos(alpha) < 1e-6:
+        raise EntityError('deck orientation at alpha = +-90 deg, where the angles of Eqs. '
+                          '(1)-(2) are undefined')
+    beta = math.atan2(-m[2, 0], m[2, 2])
+    gamma = math.atan2(-m[0, 1], m[1, 1])
+    w_deck = m.T @ np.asarray(angular_velocity, dtype=float)
+    # Eq. (10) inverted: w = (a' cb - g' ca sb, b' + g' sa, a' sb + g' ca cb).
+    ca, sa, cb, sb = math.cos(alpha), math.sin(alpha), math.cos(beta), math.sin(beta)
+    dalpha = w_deck[0] * cb + w_deck[2] * sb
+    dgamma = (w_deck[2] * cb - w_deck[0] * sb) / ca
+    dbeta = w_deck[1] - dgamma * sa
+    s = StateLayout.of(params.n)
+    out = y.copy()
+    s.deck(out)[:] = [*np.asarray(position, dtype=float), alpha, beta, gamma]
+    s.deck_rates(out)[:] = [*np.asarray(velocity, dtype=float), dalpha, dbeta, dgamma]
+    return out
