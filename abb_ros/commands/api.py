@@ -21,7 +21,11 @@ from abb_ros.model.plant_spec import cli_names, spec_for_command
 __all__ = ['UsageError', 'CommandFailed', 'Terminated', 'stop_signals', 'signals_deferred',
            'stop_point',
            'parse_settings', 'parse_spec_value', 'drive_params', 'check_output', 'output_files',
-           'stage_directory', 'commit_directory']
+           'stage_directory', 'commit_directory', 'DRIVE_SETTINGS', 'run_scenario_from_args',
+           'dask_client']
+
+DRIVE_SETTINGS = ('omega',) + DIMENSIONLESS_NAMES + tuple(PARAM_SPECS)
+"""--set names that go to the scenario's drive (the others are node parameters)."""
 
 
 class UsageError(Exception):
@@ -231,3 +235,140 @@ def commit_directory(path, staged) -> None:
             os.replace(staged, path)
             shutil.rmtree(old, ignore_errors=True)
         shutil.rmtree(staged.parent, ignore_errors=True)
+
+
+def _run_options(node: dict) -> dict:
+    """run_scenario's keyword arguments for the node parameters given with --set."""
+    from abb_ros.model.plant_spec import check_rates, imu_config
+    check_rates(node)
+    options = {}
+    if 'integration_rate_hz' in node:
+        options['dt'] = 1.0 / node['integration_rate_hz']
+    if 'publish_rate_hz' in node:
+        options['publish_dt'] = 1.0 / node['publish_rate_hz']
+    if any(k.startswith('imu.') for k in node):
+        options['imu_config'] = imu_config(node)
+    if 'seed' in node:
+        options['seed'] = node['seed']
+    return options
+
+
+def _spindle(spindle, node: dict):
+    """Apply spindle.max_accel / spindle.tau to the scenario's spindle.
+
+    A constant-speed spindle becomes the motor of the simulator node, with its defaults for
+    the other.
+    """
+    import dataclasses
+
+    from abb_ros.model.integrate import SpindleMotor, TorqueMotor
+    from abb_ros.model.plant_spec import PLANT
+    changes = {k[len('spindle.'):]: v for k, v in node.items() if k.startswith('spindle.')}
+    if not changes:
+        return spindle
+    if isinstance(spindle, TorqueMotor):
+        name = sorted(changes)[0]
+        raise ParamError(f'spindle.{name}', changes[name], 'none: the scenario drives the '
+                         'spindle by torque (spindle: model: torque)')
+    if not isinstance(spindle, SpindleMotor):
+        spindle = SpindleMotor(PLANT['spindle.max_accel'].default, PLANT['spindle.tau'].default)
+    return dataclasses.replace(spindle, **changes)
+
+
+def run_scenario_from_args(name: str, config, set_items, no_abb: bool = False,
+                           duration: float | None = None):
+    """Return the scenario of ``--scenario``/``--config``/``--set`` and run_scenario's options.
+
+    As ``abb-sim run`` takes them: drive settings (SI, Eq. 39, omega) change the scenario's
+    drive, ``spindle.*`` its spindle, the node parameters that apply headless its options
+    (``dt``, ``publish_dt``, ``imu_config``, ``seed``); ``duration`` [s] (None: the
+    scenario's) replaces its duration. Errors are one line naming the option.
+    """
+    import math
+
+    from abb_ros.app.headless import PUBLISH_DT, check_duration
+    from abb_ros.io.scenario import load_scenario
+    base = drive_params(config) if config else None
+    try:
+        scenario = load_scenario(name, base=base)
+    except ParamError as exc:
+        if exc.name == 'scenario':     # names the file already
+            raise
+        raise UsageError(f'--scenario {name}: {exc}') from None
+    settings = parse_settings(set_items, 'run')
+    if no_abb:
+        settings['n'] = 0
+    node = {k: settings.pop(k) for k in list(settings) if k not in DRIVE_SETTINGS}
+    if 'spindle.initial_speed' in node:
+        settings['omega'] = node.pop('spindle.initial_speed')
+    if settings:
+        scenario = scenario.with_settings(settings)
+    scenario.spindle = _spindle(scenario.spindle, node)
+    options = _run_options(node)   # checked before any file is made
+    if duration is not None:
+        if not (math.isfinite(duration) and duration > 0):
+            raise ParamError('duration', duration, '(0, inf) s')
+        scenario.duration = float(duration)
+    try:
+        check_duration(scenario.duration, options.get('publish_dt', PUBLISH_DT), options.get('dt'))
+    except ParamError as exc:
+        if duration is not None:
+            raise
+        raise UsageError(f'--scenario {name}: {exc}') from None
+    return scenario, options
+
+
+@contextlib.contextmanager
+def dask_client(command: str, scheduler=None, workers=None, serial: bool = False,
+                check_only: bool = False):
+    """Yield a distributed.Client (None with ``serial``), closed (and its cluster) at the end.
+
+    ``scheduler`` tcp://HOST:PORT connects to a running cluster; otherwise a LocalCluster of
+    ``workers`` processes (default the CPU count) is started on 127.0.0.1. The options are
+    checked first (UsageError, exit 2); with ``check_only`` nothing else is done (None).
+    """
+    import sys
+    if workers is not None and scheduler:
+        raise UsageError('--workers applies to the local cluster only; leave it out with '
+                         '--scheduler')
+    if serial and (scheduler or workers is not None):
+        raise UsageError('--serial runs in this process: leave out --scheduler and --workers')
+    if workers is not None and not 1 <= workers <= 256:
+        raise UsageError(f'--workers {workers}: valid range is 1..256')
+    if serial or check_only:
+        yield None
+        return
+    from distributed import Client
+
+    from abb_ros.sweep.runner import has_bokeh, local_cluster
+    cluster = client = None
+    try:
+        if scheduler:
+            try:
+                client = Client(scheduler, timeout='20s')
+            except (OSError, TimeoutError, ValueError) as exc:
+                raise UsageError(f'--scheduler {scheduler}: cannot connect ({exc})') from None
+        else:
+            cluster = local_cluster(workers or os.cpu_count() or 1, dashboard=True)
+            client = Client(cluster)
+        if has_bokeh() and _has_dashboard(client):
+            print(f'abb-sim {command}: Dask dashboard at {client.dashboard_link}',
+                  file=sys.stderr)
+        yield client
+    finally:
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _has_dashboard(client) -> bool:
+    """Return whether the scheduler serves the Dask dashboard.
+
+    A scheduler serves the dashboard on its HTTP server only with bokeh installed; for a
+    remote scheduler this machine's bokeh is the best guess there is.
+    """
+    try:
+        return 'dashboard' in client.scheduler_info().get('services', {})
+    except Exception:  # noqa: BLE001 - an old scheduler without the field: say nothing
+        return False

@@ -7,18 +7,10 @@ keeps the bag written so far, marked incomplete in its metadata.yaml (exit code 
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import errno
 import os
 import shutil
 import sys
-
-import numpy as np
-
-from abb_ros.model.params import DIMENSIONLESS_NAMES, PARAM_SPECS
-
-DRIVE_SETTINGS = ('omega',) + DIMENSIONLESS_NAMES + tuple(PARAM_SPECS)
-"""--set names that go to the scenario's drive (the others are node parameters)."""
 
 DEFAULT_SCENARIO = 'p3'
 
@@ -48,43 +40,6 @@ def add_arguments(parser):
     parser.add_argument('--real-time', action=argparse.BooleanOptionalAction,
                         help='pace the run at the wall clock, 1 simulated second per second '
                         '(default: with --live-view; else as fast as possible)')
-
-
-def _run_options(node: dict) -> dict:
-    """run_scenario's keyword arguments for the node parameters given with --set."""
-    from abb_ros.model.plant_spec import check_rates, imu_config
-    check_rates(node)
-    options = {}
-    if 'integration_rate_hz' in node:
-        options['dt'] = 1.0 / node['integration_rate_hz']
-    if 'publish_rate_hz' in node:
-        options['publish_dt'] = 1.0 / node['publish_rate_hz']
-    if any(k.startswith('imu.') for k in node):
-        options['imu_config'] = imu_config(node)
-    if 'seed' in node:
-        options['seed'] = node['seed']
-    return options
-
-
-def _spindle(spindle, node: dict):
-    """Apply spindle.max_accel / spindle.tau to the scenario's spindle.
-
-    A constant-speed spindle becomes the motor of the simulator node, with its defaults for
-    the other.
-    """
-    from abb_ros.model.integrate import SpindleMotor, TorqueMotor
-    from abb_ros.model.params import ParamError
-    from abb_ros.model.plant_spec import PLANT
-    changes = {k[len('spindle.'):]: v for k, v in node.items() if k.startswith('spindle.')}
-    if not changes:
-        return spindle
-    if isinstance(spindle, TorqueMotor):
-        name = sorted(changes)[0]
-        raise ParamError(f'spindle.{name}', changes[name], 'none: the scenario drives the '
-                         'spindle by torque (spindle: model: torque)')
-    if not isinstance(spindle, SpindleMotor):
-        spindle = SpindleMotor(PLANT['spindle.max_accel'].default, PLANT['spindle.tau'].default)
-    return dataclasses.replace(spindle, **changes)
 
 
 def _why(exc: OSError) -> str:
@@ -127,51 +82,23 @@ def _finish(bag, path, staged) -> None:
 
 def run(args) -> dict:
     """Run the scenario headless (a bag with ``--out``) and return the summary."""
-    from abb_ros.app.headless import check_duration, run_scenario
+    from abb_ros.app.headless import run_scenario
     from abb_ros.app.run_sinks import Sinks
     from abb_ros.commands.api import (
         CommandFailed,
         UsageError,
         commit_directory,
-        drive_params,
-        parse_settings,
+        run_scenario_from_args,
         signals_deferred,
         stage_directory,
         stop_point,
     )
     from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
-    from abb_ros.io.scenario import load_scenario
     from abb_ros.model.integrate import StateError
-    from abb_ros.model.params import ParamError
     from abb_ros.model.state import StateLayout, wrap_degrees
 
-    base = drive_params(args.config) if args.config else None
-    try:
-        scenario = load_scenario(args.scenario, base=base)
-    except ParamError as exc:
-        if exc.name == 'scenario':     # names the file already
-            raise
-        raise UsageError(f'--scenario {args.scenario}: {exc}') from None
-    settings = parse_settings(args.set, 'run')
-    if args.no_abb:
-        settings['n'] = 0
-    node = {k: settings.pop(k) for k in list(settings) if k not in DRIVE_SETTINGS}
-    if 'spindle.initial_speed' in node:
-        settings['omega'] = node.pop('spindle.initial_speed')
-    if settings:
-        scenario = scenario.with_settings(settings)
-    scenario.spindle = _spindle(scenario.spindle, node)
-    options = _run_options(node)   # checked before any file is made
-    if args.duration is not None:
-        if not (np.isfinite(args.duration) and args.duration > 0):
-            raise ParamError('duration', args.duration, '(0, inf) s')
-        scenario.duration = float(args.duration)
-    try:
-        check_duration(scenario.duration, dt=options.get('dt'))
-    except ParamError as exc:
-        if args.duration is not None:
-            raise
-        raise UsageError(f'--scenario {args.scenario}: {exc}') from None
+    scenario, options = run_scenario_from_args(args.scenario, args.config, args.set,
+                                               args.no_abb, args.duration)
     bag = out = None
     if args.out:
         out = stage_directory('--out', args.out, args.overwrite)

@@ -9,7 +9,6 @@ finishes an interrupted sweep without recomputing the partitions already written
 
 from __future__ import annotations
 
-import os
 import sys
 
 from abb_ros.commands.api import UsageError
@@ -32,16 +31,12 @@ def add_arguments(parser) -> None:
 
 def run(args) -> dict:
     """Run the spec's sweep on a Dask cluster into the output directory; return the summary."""
-    from abb_ros.sweep.runner import SweepError, check_out_dir, local_cluster, run_sweep
+    from abb_ros.commands.api import dask_client
+    from abb_ros.sweep.runner import SweepError, check_out_dir, run_sweep
     from abb_ros.sweep.spec import load_spec
 
-    if args.workers is not None and args.scheduler:
-        raise UsageError('--workers applies to the local cluster only; leave it out with '
-                         '--scheduler')
-    if args.serial and (args.scheduler or args.workers is not None):
-        raise UsageError('--serial runs in this process: leave out --scheduler and --workers')
-    if args.workers is not None and not 1 <= args.workers <= 256:
-        raise UsageError(f'--workers {args.workers}: valid range is 1..256')
+    with dask_client('sweep', args.scheduler, args.workers, args.serial, check_only=True):
+        pass
     spec = load_spec(args.spec)
     try:
         check_out_dir(spec, args.out, args.resume)   # before a cluster is started
@@ -52,49 +47,18 @@ def run(args) -> dict:
         from tqdm import tqdm
         bar = tqdm(total=spec.total, unit='drive', file=sys.stderr, desc=f'sweep {spec.name}',
                    smoothing=0.1)
-    cluster = client = None
     try:
-        if not args.serial:
-            from distributed import Client
-            if args.scheduler:
-                try:
-                    client = Client(args.scheduler, timeout='20s')
-                except (OSError, TimeoutError, ValueError) as exc:
-                    raise UsageError(f'--scheduler {args.scheduler}: cannot connect ({exc})') \
-                        from None
-            else:
-                cluster = local_cluster(args.workers or os.cpu_count() or 1, dashboard=True)
-                client = Client(cluster)
-            if _has_dashboard(client):
-                print(f'abb-sim sweep: Dask dashboard at {client.dashboard_link}',
-                      file=sys.stderr)
-        try:
-            result = run_sweep(spec, args.out, client, resume=args.resume,
-                               progress=bar.update if bar else None)
-        except SweepError as exc:
-            raise UsageError(str(exc)) from None
-        workers = len(client.scheduler_info()['workers']) if client is not None else 0
+        with dask_client('sweep', args.scheduler, args.workers, args.serial) as client:
+            try:
+                result = run_sweep(spec, args.out, client, resume=args.resume,
+                                   progress=bar.update if bar else None)
+            except SweepError as exc:
+                raise UsageError(str(exc)) from None
+            workers = len(client.scheduler_info()['workers']) if client is not None else 0
     finally:
         if bar is not None:
             bar.close()
-        if client is not None:
-            client.close()
-        if cluster is not None:
-            cluster.close()
     return _summary(spec, result, args, workers)
-
-
-def _has_dashboard(client) -> bool:
-    """Return whether the scheduler serves the Dask dashboard.
-
-    A scheduler serves the dashboard on its HTTP server only with bokeh installed; for a
-    remote scheduler this machine's bokeh is the best guess there is.
-    """
-    from abb_ros.sweep.runner import has_bokeh
-    try:
-        return has_bokeh() and 'dashboard' in client.scheduler_info().get('services', {})
-    except Exception:  # noqa: BLE001 - an old scheduler without the field: say nothing
-        return False
 
 
 def _summary(spec, result, args, workers) -> dict:
