@@ -1,15 +1,10 @@
 """The numbers of a basin study: P(balance) with its Wilson interval, the classes, Floquet.
 
 The balanced fraction is k / N over the starts that were run (``overlap`` starts left out),
-with the 95 % Wilson score interval (Wilson 1927; Agresti & Coull 1998)::
-
-    centre = (k + z^2/2) / (N + z^2),  half = z sqrt(k (N - k) / N + z^2/4) / (N + z^2),
-
-z = 1.959963984540054 (the 0.975 quantile of the normal distribution). It stays within
-[0, 1] and keeps close to its nominal coverage down to a few runs and at fractions of 0 and
-1, where the Wald interval collapses. Beside it, the local verdict: the Floquet multipliers of
-the balanced equilibrium (symmetric fan, Eq. 26; for n >= 3 transverse to the family) at the
-operating speed, :func:`abb_ros.model.floquet.point_stability`.
+with the 95 % Wilson score interval (:func:`abb_ros.sweep.proportions.wilson`). Beside it, the
+local verdict: the Floquet multipliers of the balanced equilibrium (symmetric fan, Eq. 26; for
+n >= 3 transverse to the family) at the operating speed,
+:func:`abb_ros.model.floquet.point_stability`.
 """
 
 from __future__ import annotations
@@ -20,21 +15,9 @@ import numpy as np
 
 from abb_ros.basin.compute import OVERLAP
 from abb_ros.basin.outcomes import CLASSES
+from abb_ros.sweep.proportions import wilson
 
-__all__ = ['Z95', 'wilson', 'operating_omega', 'floquet_verdict', 'fraction_summary']
-
-Z95 = 1.959963984540054
-"""The 0.975 quantile of the standard normal distribution (two-sided 95 %)."""
-
-
-def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float]:
-    """Return the Wilson score interval (low, high) of k successes in n trials (n >= 1)."""
-    if n < 1:
-        return (math.nan, math.nan)
-    denom = n + z * z
-    centre = (k + z * z / 2.0) / denom
-    half = z * math.sqrt(k * (n - k) / n + z * z / 4.0) / denom
-    return (max(0.0, centre - half), min(1.0, centre + half))
+__all__ = ['operating_omega', 'floquet_verdict', 'fraction_summary']
 
 
 def operating_omega(scenario, omega_final=None):
