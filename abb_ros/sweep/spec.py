@@ -44,6 +44,7 @@ from abb_ros.io.safe_yaml import YamlFileError, load_file
 from abb_ros.io.scenario import finite_number as _num
 from abb_ros.model.drive_spec import MAX_OMEGA
 from abb_ros.model.params import DIMENSIONLESS_NAMES, PARAM_SPECS, ParamError, apply_settings
+from abb_ros.sweep.starts import START_PARAMETERS, check_start_value, check_starts, is_start
 
 __all__ = ['MAX_SAMPLES', 'MAX_SPEC_BYTES', 'MAX_SPEEDS', 'SweepSpec', 'load_spec', 'parse_spec',
            'draw_samples', 'SAMPLEABLE', 'DISTRIBUTIONS', 'METHODS']
@@ -63,9 +64,10 @@ MAX_SPEC_BYTES = 1 << 20
 MAX_DURATION = 1000.0
 """Longest run in ``compute.run.duration`` [s]."""
 
-SAMPLEABLE = tuple(PARAM_SPECS) + tuple(n for n in DIMENSIONLESS_NAMES if n != 'wbar')
+SAMPLEABLE = tuple(PARAM_SPECS) + tuple(n for n in DIMENSIONLESS_NAMES if n != 'wbar') \
+    + START_PARAMETERS
 """Parameters a spec may vary: the SI drive parameters and the Eq. (39) names but wbar (speeds
-belong to ``compute``)."""
+belong to ``compute``), and the start of the runs (:mod:`abb_ros.sweep.starts`)."""
 
 _SAME_FIELD = {'mbar': 'm', 'epsbar': 'eps', 'zeta': 'c', 'Dbar': 'D'}
 """Eq. (39) names and the SI field each sets: a spec may vary one of the two."""
@@ -201,8 +203,9 @@ def parse_spec(doc, base_dir=None) -> SweepSpec:
     if not isinstance(base, dict):
         raise ParamError('base', base, 'a mapping name: value of SI or Eq. (39) names')
     for key, value in base.items():
-        if key not in SAMPLEABLE:
-            raise ParamError(f'base.{key}', value, 'one of ' + ', '.join(SAMPLEABLE),
+        if key not in SAMPLEABLE or is_start(key):
+            drive = [k for k in SAMPLEABLE if not is_start(k)]
+            raise ParamError(f'base.{key}', value, 'one of ' + ', '.join(drive),
                              'unknown parameter')
     scenario = scenario.with_settings(base)
     nominal = scenario.params
@@ -271,6 +274,8 @@ def parse_spec(doc, base_dir=None) -> SweepSpec:
                'rbar_limit': _num('compute.run.rbar_limit', r.get('rbar_limit',
                                                                   DEFAULT_RBAR_LIMIT), 0.0, True),
                'dt': _num('compute.run.dt', r.get('dt', 1e-4), 0.0, True, 1e-2)}
+    n_dist = parameters.get('n')
+    check_starts(parameters, n_dist['values'] if n_dist else [nominal.n], run)
     doc.update(name=name, description=description, scenario=scen_name, base=base,
                parameters=parameters, samples=samples,
                sampling={'method': method, 'seed': seed}, partition_size=partition_size)
@@ -329,6 +334,8 @@ def _check_value(where, name, value, nominal):
     if isinstance(value, bool) or not isinstance(value, (int, float)) \
             or not math.isfinite(value):
         raise ParamError(where, value, 'a finite number')
+    if is_start(name):
+        return check_start_value(where, name, value)
     try:
         apply_settings(nominal, {name: value})
     except ParamError as exc:
