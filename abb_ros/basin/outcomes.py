@@ -42,9 +42,10 @@ CLASSES = ('balanced', 'settling', 'packed', 'friction_rest', 'unbalanced_rest',
 """Outcome classes, in the order they are checked (after 'failed')."""
 
 EQ26_NEAR = 0.05
-"""Largest Eq. (26) residual (imbalance left, in units of one ball's m R) of a balanced end:
-5 % of one ball's correction, the resolution a balancing-quality grade asks of a correction
-mass (and the order of rbar_limit: at P3 a residual of 0.05 leaves rbar ~ 1e-4)."""
+"""Largest Eq. (26) residual (imbalance left, in units of one ball's m R) of a balanced end.
+At P3 (M eps / (m R) = 0.556) it means the balls cancel at least 91 % of the disc's
+imbalance; steel balls stopped by rolling resistance at this residual leave rbar of about
+5e-4 (docs/basin.md), half the default rbar limit."""
 
 PACK_TOL_DEG = 1.0
 """Balls within this angle [deg] (beyond the contact separation with contact) touch or merge."""

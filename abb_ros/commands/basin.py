@@ -13,7 +13,6 @@ import sys
 
 def add_arguments(parser) -> None:
     """Add the options of `abb-sim basin` to ``parser``."""
-    from abb_ros.basin.outcomes import REST_TOL_DEG
     parser.add_argument('--scenario', default='p3',
                         help='a shipped scenario or a YAML file (default: %(default)s)')
     parser.add_argument('--config', help='ROS 2 parameter file with drive.* parameters')
@@ -31,9 +30,9 @@ def add_arguments(parser) -> None:
                         'default_rng, PCG64; default: %(default)s)')
     parser.add_argument('--rbar-limit', type=float, default=1e-3,
                         help='largest final rbar of a balanced end (default: %(default)g)')
-    parser.add_argument('--rest-tol', type=float, default=REST_TOL_DEG, metavar='DEG',
-                        help='largest motion of a ball at rest in the rest window '
-                        '(default: %(default)g deg)')
+    parser.add_argument('--rest-tol', type=float, metavar='DEG',
+                        help='largest motion of a ball at rest in the rest window (default: '
+                        'REST_TOL_DEG of abb_ros/basin/outcomes.py, docs/basin.md)')
     parser.add_argument('--partition-size', type=int, default=32,
                         help='starts per Dask task and per part file (default: %(default)s)')
     parser.add_argument('--out', required=True, help='output directory')
@@ -50,6 +49,7 @@ def add_arguments(parser) -> None:
 
 def run(args) -> dict:
     """Run the basin study into --out and return its summary."""
+    from abb_ros.basin.outcomes import REST_TOL_DEG
     from abb_ros.basin.spec import BasinSpec, parse_res
     from abb_ros.basin.study import check_out, run_basin
     from abb_ros.commands.api import UsageError, dask_client, run_scenario_from_args
@@ -60,7 +60,8 @@ def run(args) -> dict:
     scenario, options = run_scenario_from_args(args.scenario, args.config, args.set,
                                                duration=args.duration)
     options = {k: v for k, v in options.items() if k in ('dt', 'publish_dt')}
-    spec = BasinSpec(scenario, options, sorted(args.set), args.rbar_limit, args.rest_tol,
+    rest_tol = REST_TOL_DEG if args.rest_tol is None else args.rest_tol
+    spec = BasinSpec(scenario, options, sorted(args.set), args.rbar_limit, rest_tol,
                      res=parse_res(args.res) if args.res else None, samples=args.samples,
                      seed=args.seed, partition_size=args.partition_size)
     try:
