@@ -3,9 +3,9 @@
 Each subcommand lives in ``abb_ros/commands/<name>.py`` and provides
 ``add_arguments(parser)`` and ``run(args) -> dict``. The dict is the summary: printed as
 one JSON object with ``--json``, as ``key: value`` lines otherwise. Bad input
-(:class:`~abb_ros.model.params.ParamError`, :class:`UsageError`) exits with code 2 and a
+(:class:`~abb_ros.model.parameters.params.ParamError`, :class:`UsageError`) exits with code 2 and a
 message naming the parameter and its valid range; a simulation whose state blows up
-(:class:`~abb_ros.model.integrate.StateError`), a command that cannot finish
+(:class:`~abb_ros.model.dynamics.integrate.StateError`), a command that cannot finish
 (:class:`CommandFailed`, e.g. a full disk) or any other refusal of the operating system
 (``OSError``) exits with code 1, and so does a computation whose numbers overflow (numpy's
 warnings are errors here, never text beside a result). SIGINT exits with code 130 and SIGTERM
@@ -66,13 +66,13 @@ def _state_error():
 
     The parser starts without numba: argument errors and --help come at once.
     """
-    module = sys.modules.get('abb_ros.model.integrate')
+    module = sys.modules.get('abb_ros.model.dynamics.integrate')
     return module.StateError if module is not None else _NotRaised
 
 
 def _family_error():
     """Return floquet.FamilyInvarianceError if a command imported the Floquet module."""
-    module = sys.modules.get('abb_ros.model.floquet')
+    module = sys.modules.get('abb_ros.model.stability.floquet')
     return module.FamilyInvarianceError if module is not None else _NotRaised
 
 
@@ -101,7 +101,7 @@ def main(argv=None) -> int:
 
 def _dispatch(argv, who: list) -> int:
     from abb_ros.commands.api import CommandFailed, UsageError
-    from abb_ros.model.params import ParamError
+    from abb_ros.model.parameters.params import ParamError
     parser = build_parser()
     try:
         args = parser.parse_args(argv)

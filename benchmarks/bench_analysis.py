@@ -26,9 +26,9 @@ from pathlib import Path
 import numpy as np
 
 from abb_ros.io.drive_file import write_drive_yaml
-from abb_ros.model.floquet import point_stability
-from abb_ros.model.params import DriveParams
-from abb_ros.model.speed_bands import assess, speed_table
+from abb_ros.model.parameters.params import DriveParams
+from abb_ros.model.stability.floquet import point_stability
+from abb_ros.model.stability.speed_bands import assess, speed_table
 from abb_ros.testing.latency import status_delays
 
 ROOT = Path(__file__).resolve().parents[1]

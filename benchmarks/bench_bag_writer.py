@@ -31,9 +31,9 @@ from abb_ros.app.headless import PUBLISH_DT
 from abb_ros.io import cdr, msgdefs
 from abb_ros.io.bag_writer import DEFAULT_CHUNK_SIZE, BagWriter
 from abb_ros.io.scenario import load_scenario
-from abb_ros.model.integrate import DEFAULT_DT, Simulation, initial_state
-from abb_ros.model.sampling import PlantSampler
-from abb_ros.model.sensors import TYPICAL_IMU, ImuModel
+from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation, initial_state
+from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuModel
+from abb_ros.model.sensors.sampling import PlantSampler
 
 TOPIC = '/joint_states'
 TYPE = 'sensor_msgs/msg/JointState'

@@ -31,8 +31,8 @@ import time
 import numpy as np
 
 from abb_ros.io.scenario import load_scenario
-from abb_ros.model.ball_materials import with_steel_balls
-from abb_ros.model.integrate import DEFAULT_DT, ConstantSpeed, Simulation, initial_state
+from abb_ros.model.dynamics.integrate import DEFAULT_DT, ConstantSpeed, Simulation, initial_state
+from abb_ros.model.parameters.ball_materials import with_steel_balls
 
 
 def _rtf(params, omega, phi0, seconds, settle=0.0, dt=DEFAULT_DT):

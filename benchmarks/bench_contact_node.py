@@ -28,9 +28,9 @@ import time
 
 from bench_simulator_node import STEPS_PER_MS, Probe, cpu_seconds, start_node, stop_node
 
-from abb_ros.model.ball_materials import with_steel_balls
-from abb_ros.model.integrate import DEFAULT_DT, Simulation
-from abb_ros.model.params import DriveParams
+from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation
+from abb_ros.model.parameters.ball_materials import with_steel_balls
+from abb_ros.model.parameters.params import DriveParams
 
 PAPER = DriveParams().replace(m=1.56e-4, D=1.0e-6, n=10, c=0.66)
 STEEL = with_steel_balls(PAPER)

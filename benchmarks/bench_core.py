@@ -2,7 +2,7 @@
 
 Prints, for n = 2 and n = 10 at P3 (metal washers, wbar = 2.7):
 - the real-time factor (simulated s per wall s) of the compiled fixed-step RK4 at the node's
-  default step (abb_ros.model.integrate.DEFAULT_DT), integration alone;
+  default step (abb_ros.model.dynamics.integrate.DEFAULT_DT), integration alone;
 - scipy solve_ivp (DOP853, rtol 1e-9, atol 1e-12 m-scale) on the same run, same right-hand
   side (the compiled one, so the comparison is of integrators, not of Python vs numba), and
   the loosest DOP853 tolerance that is at least as accurate as RK4, with the speed ratio;
@@ -21,15 +21,15 @@ import time
 
 import numpy as np
 
-from abb_ros.model import kernels
-from abb_ros.model.integrate import (
+from abb_ros.model.dynamics import kernels
+from abb_ros.model.dynamics.integrate import (
     DEFAULT_DT,
     ConstantSpeed,
     Simulation,
     initial_state,
     reference_solution,
 )
-from abb_ros.model.params import METAL_C, DriveParams, apply_settings
+from abb_ros.model.parameters.params import METAL_C, DriveParams, apply_settings
 
 
 def _best_of(fn, repeats=3):

@@ -20,9 +20,9 @@ import time
 
 import numpy as np
 
-from abb_ros.model import floquet as F
-from abb_ros.model.linear import in_plane
-from abb_ros.model.params import DriveParams, apply_settings
+from abb_ros.model.parameters.params import DriveParams, apply_settings
+from abb_ros.model.stability import floquet as F
+from abb_ros.model.stability.linear import in_plane
 
 TOLS = (1e-4, 1e-5, 1e-6, 1e-7, 1e-8)
 

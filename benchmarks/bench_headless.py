@@ -33,10 +33,10 @@ from abb_ros.io import cdr, ros_messages
 from abb_ros.io.bag_writer import BagWriter
 from abb_ros.io.msgdefs import message_class
 from abb_ros.io.scenario import load_scenario
-from abb_ros.model.integrate import DEFAULT_DT, Simulation, initial_state
-from abb_ros.model.sampling import PlantSampler
-from abb_ros.model.sensors import TYPICAL_IMU, ImuModel
-from abb_ros.model.speed_sensor import SpeedSensor
+from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation, initial_state
+from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuModel
+from abb_ros.model.sensors.sampling import PlantSampler
+from abb_ros.model.sensors.speed_sensor import SpeedSensor
 
 ROOT = Path(__file__).resolve().parents[1]
 

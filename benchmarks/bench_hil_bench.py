@@ -114,11 +114,11 @@ def run_floor(record: Path | None) -> int:
 
     from abb_ros.io import cdr, ros_messages
     from abb_ros.io.bag_writer import BagWriter
-    from abb_ros.model.integrate import Simulation
-    from abb_ros.model.params import DriveParams
-    from abb_ros.model.sampling import PlantSampler
-    from abb_ros.model.sensors import TYPICAL_IMU, ImuModel
-    from abb_ros.model.speed_sensor import SpeedSensor
+    from abb_ros.model.dynamics.integrate import Simulation
+    from abb_ros.model.parameters.params import DriveParams
+    from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuModel
+    from abb_ros.model.sensors.sampling import PlantSampler
+    from abb_ros.model.sensors.speed_sensor import SpeedSensor
     from abb_ros.nodes.entry_point import run_node
     from abb_ros.nodes.simulator import PUBLISH_DEPTH
 

@@ -27,11 +27,11 @@ import numpy as np
 from bench_simulator_node import cpu_seconds
 
 from abb_ros.io.markers import marker_array
-from abb_ros.model.integrate import initial_state
-from abb_ros.model.params import DriveParams
-from abb_ros.model.sensor_faults import ImuFaults, SpeedFaults
-from abb_ros.model.sensors import ImuReading
-from abb_ros.model.speed_sensor import SpeedSensor
+from abb_ros.model.dynamics.integrate import initial_state
+from abb_ros.model.parameters.params import DriveParams
+from abb_ros.model.sensors.faults import ImuFaults, SpeedFaults
+from abb_ros.model.sensors.imu import ImuReading
+from abb_ros.model.sensors.speed_sensor import SpeedSensor
 
 ROOT = Path(__file__).resolve().parents[1]
 WARM_UP_S = 8.0

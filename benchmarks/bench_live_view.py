@@ -31,10 +31,10 @@ from bench_simulator_node import N_BALLS, Probe, start_node, stop_node  # noqa: 
 
 from abb_ros.io import cdr  # noqa: E402
 from abb_ros.io.live_view import LiveView  # noqa: E402
-from abb_ros.model.integrate import DEFAULT_DT, Simulation, SpindleMotor  # noqa: E402
-from abb_ros.model.params import DriveParams  # noqa: E402
-from abb_ros.model.sampling import PlantSampler  # noqa: E402
-from abb_ros.model.sensors import TYPICAL_IMU, ImuModel  # noqa: E402
+from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation, SpindleMotor  # noqa: E402
+from abb_ros.model.parameters.params import DriveParams  # noqa: E402
+from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuModel  # noqa: E402
+from abb_ros.model.sensors.sampling import PlantSampler  # noqa: E402
 from abb_ros.testing.procstat import cpu_seconds  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]

@@ -33,10 +33,10 @@ from rclpy.qos import QoSProfile
 from sensor_msgs.msg import JointState
 
 from abb_ros.io import cdr
-from abb_ros.model.integrate import DEFAULT_DT, Simulation, SpindleMotor
-from abb_ros.model.params import DriveParams
-from abb_ros.model.sampling import PlantSampler
-from abb_ros.model.sensors import TYPICAL_IMU, ImuModel
+from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation, SpindleMotor
+from abb_ros.model.parameters.params import DriveParams
+from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuModel
+from abb_ros.model.sensors.sampling import PlantSampler
 from abb_ros.testing.procstat import cpu_seconds
 
 ROOT = Path(__file__).resolve().parents[1]

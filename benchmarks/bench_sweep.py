@@ -23,9 +23,10 @@ import time
 
 import numpy as np
 
-from abb_ros.model import batch, floquet, kernels
-from abb_ros.model.integrate import ConstantSpeed, initial_state
-from abb_ros.model.params import DriveParams, apply_settings
+from abb_ros.model.dynamics import batch, kernels
+from abb_ros.model.dynamics.integrate import ConstantSpeed, initial_state
+from abb_ros.model.parameters.params import DriveParams, apply_settings
+from abb_ros.model.stability import floquet
 from abb_ros.sweep.compute import warm_up
 from abb_ros.sweep.runner import local_cluster, run_sweep
 from abb_ros.sweep.spec import parse_spec

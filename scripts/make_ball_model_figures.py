@@ -8,8 +8,9 @@ The figures of docs/ball_size_contact_rolling.md and the numbers quoted there::
     .venv/bin/python scripts/make_ball_model_figures.py spinup    # spin-up trap (~10 min)
     .venv/bin/python scripts/make_ball_model_figures.py collision # energy ledger (~1 min)
 
-Balls: solid steel of the scenario's mass (abb_ros.model.ball_materials.with_steel_balls).
-Figures go to docs/figures/ball_model/; tables are printed (Markdown).
+Balls: solid steel of the scenario's mass
+(abb_ros.model.parameters.ball_materials.with_steel_balls). Figures go to docs/figures/ball_model/;
+tables are printed (Markdown).
 """
 
 from __future__ import annotations
@@ -24,11 +25,11 @@ import numpy as np
 
 from abb_ros.app.headless import run_scenario
 from abb_ros.io.scenario import load_scenario
-from abb_ros.model.ball_materials import with_steel_balls
-from abb_ros.model.equilibrium import phi_star_two_balls
+from abb_ros.model.parameters.ball_materials import with_steel_balls
+from abb_ros.model.stability.equilibrium import phi_star_two_balls
 
-FIG_DIR = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), 'docs',
-                       'figures', 'ball_model')
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+FIG_DIR = os.path.join(ROOT, 'docs', 'figures', 'ball_model')
 ROLLING_MU = (0.0, 1e-9, 1e-8, 1e-7, 1e-6, 3e-6, 1e-5)
 """Rolling-resistance coefficients of the P3 study [m]."""
 STARTS_DEG = ((60.0, -60.0), (150.0, -150.0), (100.0, -140.0))
@@ -198,8 +199,10 @@ def study_collision():
     The elastic one shows the momentum, the damped one with rolling resistance the energy
     ledger; both go to collision_energy.png.
     """
-    from abb_ros.model.ball_materials import clamped_race, collision_state, race_energy_ledger
-    from abb_ros.model.integrate import ConstantSpeed, Simulation
+    from abb_ros.model.dynamics.integrate import ConstantSpeed, Simulation
+    from abb_ros.model.parameters.ball_materials import clamped_race
+    sys.path.insert(0, os.path.join(ROOT, 'test'))
+    from race_ledger import collision_state, race_energy_ledger
     plt = _plt()
     fig, ax = plt.subplots(1, 2, figsize=(10, 3.8))
     dt = 1e-7

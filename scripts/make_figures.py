@@ -96,8 +96,9 @@ def _abb_sim(argv) -> dict:
 
 
 def load_map(path):
-    """Load a :class:`abb_ros.model.floquet.StabilityMap` from an NPZ file of ``abb-sim map``."""
-    from abb_ros.model.floquet import StabilityMap
+    """Load a :class:`abb_ros.model.stability.floquet.StabilityMap` from an NPZ file of ``abb-sim
+    map``."""
+    from abb_ros.model.stability.floquet import StabilityMap
     with np.load(path) as data:
         return StabilityMap(str(data['x_name']), str(data['y_name']), data['x_values'],
                             data['y_values'], data['lam_max'], data['status'],
@@ -127,8 +128,8 @@ def make_maps(names, res, replot) -> None:
 
 def make_speed_curves() -> None:
     """|lambda|max against wbar for two and ten balls of the same total mass (P3's drive)."""
-    from abb_ros.model.floquet import sweep_speed
-    from abb_ros.model.params import DriveParams, apply_settings
+    from abb_ros.model.parameters.params import DriveParams, apply_settings
+    from abb_ros.model.stability.floquet import sweep_speed
     from abb_ros.plots.maps import plot_speed_curves
     wbar = np.linspace(0.2, 3.5, 400)
     for name, counts in CURVES.items():

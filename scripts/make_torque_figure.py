@@ -12,9 +12,9 @@ from pathlib import Path
 import matplotlib
 import numpy as np
 
-from abb_ros.model.integrate import Simulation, TorqueMotor
-from abb_ros.model.linear import natural_frequencies
-from abb_ros.model.params import DriveParams
+from abb_ros.model.dynamics.integrate import Simulation, TorqueMotor
+from abb_ros.model.parameters.params import DriveParams
+from abb_ros.model.stability.linear import natural_frequencies
 
 matplotlib.use('Agg')
 import matplotlib.pyplot as plt  # noqa: E402

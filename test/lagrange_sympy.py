@@ -377,7 +377,7 @@ def _pack(params):
 def exact_residual(params, y, qdd, beyond=None):
     """Lagrange's Eq. (17) from the energies, exact, shape (6 + n,).
 
-    Same API as ``abb_ros.model.dynamics.lagrange_residual``: y = [q, q'] (2N,), qdd (N,)
+    Same API as ``abb_ros.model.dynamics.equations.lagrange_residual``: y = [q, q'] (2N,), qdd (N,)
     with theta'' at index 0; order [X, Y, Z, alpha, beta, gamma, phi_1..phi_n].
     """
     n = params.n

@@ -14,7 +14,7 @@ from diagnostic_msgs.msg import DiagnosticStatus
 from test_analysis_node import OMEGA0, Probe, _start, _wrapped_deg
 
 from abb_ros.io.drive_file import write_drive_yaml
-from abb_ros.model.params import DriveParams
+from abb_ros.model.parameters.params import DriveParams
 
 TEN_BALLS = DriveParams(c=0.66, n=10, m=0.03 * 0.026 * 2 / 10)
 """P3's drive (metal washers) with ten balls of the two balls' total mass."""

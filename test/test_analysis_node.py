@@ -30,7 +30,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
 from abb_ros.io.drive_file import write_drive_yaml
-from abb_ros.model.params import DriveParams
+from abb_ros.model.parameters.params import DriveParams
 from abb_ros.testing.latency import status_delays
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]

@@ -7,7 +7,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parents[1]
 PACKAGE = ROOT / 'abb_ros'
 DOC = ROOT / 'docs' / 'architecture.md'
-BOOKKEEPING_KERNELS = {'model/kernels/layout.py'}
+BOOKKEEPING_KERNELS = {'model/dynamics/kernels/layout.py'}
 """Kernel modules that hold no equation (packed inputs and scratch), so not in the table."""
 
 
@@ -49,7 +49,7 @@ def test_the_module_list_names_every_module_of_the_package():
 
 def test_the_equation_table_names_every_kernel_module():
     table = section(DOC.read_text(), 'Where the equations live')
-    kernels = {m for m in package_modules() if m.startswith('model/kernels/')}
+    kernels = {m for m in package_modules() if m.startswith('model/dynamics/kernels/')}
     missing = kernels - BOOKKEEPING_KERNELS - named_modules(table)
     assert not missing, f'the equation table does not name {sorted(missing)}'
 
@@ -62,3 +62,15 @@ def test_the_check_fails_on_a_missing_or_a_made_up_module(tmp_path):
     assert modules == {'model/state.py', 'model/floquet.py', 'cli.py'}
     text = '- `model/state.py` (the state layout), `cli.py`, `model/linear.py`'
     assert unnamed_and_unknown(text, modules) == ({'model/floquet.py'}, {'model/linear.py'})
+
+
+MODEL_TOP_LEVEL_LIMIT = 12
+"""Modules directly in ``model/``; more, and the concept they share wants a sub-package."""
+
+
+def test_the_model_keeps_its_modules_in_sub_packages_by_concept():
+    """A thirteenth module directly in model/ fails: new physics joins its concept's room."""
+    top = {m for m in package_modules() if m.startswith('model/') and m.count('/') == 1}
+    assert len(top) <= MODEL_TOP_LEVEL_LIMIT, (
+        f'model/ holds {len(top)} modules directly ({sorted(top)}); at most '
+        f'{MODEL_TOP_LEVEL_LIMIT}: put each in the sub-package of its concept')

@@ -3,10 +3,10 @@
 Eq. (26) fixes two combinations of n ball angles, so for n >= 3 the balanced equilibria form a
 family of dimension n - 2 (for n = 2 at eps = 0, the rotations), and the linearisation has a
 multiplier exactly 1 along each of its directions. The verdict must come from the transverse
-multipliers. The reference here is independent of abb_ros.model.linear and of the RK4
+multipliers. The reference here is independent of abb_ros.model.stability.linear and of the RK4
 monodromy: the in-plane Jacobian is taken by central differences of the *nonlinear* equations
-(abb_ros.model.dynamics, itself checked against the sympy derivation from the energies), the
-fundamental matrix is integrated by scipy's DOP853 at rtol 1e-10, and the tangent space is
+(abb_ros.model.dynamics.equations, itself checked against the sympy derivation from the energies),
+the fundamental matrix is integrated by scipy's DOP853 at rtol 1e-10, and the tangent space is
 scipy.linalg.null_space of Eq. (26)'s Jacobian. Tolerance 1e-6 on |lambda|: the RK4 monodromy
 is within 1e-6 of DOP853 (STEPS_PER_RADIAN's accuracy study), the central differences of a
 linear-in-perturbation system with steps 1e-7 add ~1e-9.
@@ -19,14 +19,14 @@ import pytest
 import scipy.linalg
 from scipy.integrate import solve_ivp
 
-from abb_ros.model import dynamics
-from abb_ros.model import floquet as F
-from abb_ros.model.equilibrium import balanced_equilibrium
-from abb_ros.model.family import nearest_member, neutral_count, sample_members
-from abb_ros.model.integrate import Simulation
+from abb_ros.model.dynamics import equations
+from abb_ros.model.dynamics.integrate import Simulation
+from abb_ros.model.dynamics.state import StateLayout
 from abb_ros.model.jit import Kernels
-from abb_ros.model.params import DriveParams, apply_settings
-from abb_ros.model.state import StateLayout
+from abb_ros.model.parameters.params import DriveParams, apply_settings
+from abb_ros.model.stability import floquet as F
+from abb_ros.model.stability.equilibrium import balanced_equilibrium
+from abb_ros.model.stability.family import nearest_member, neutral_count, sample_members
 
 
 def _drive(n, wbar, **extra):
@@ -64,8 +64,8 @@ def _reference_transverse(params, omega, phi_star, h=1e-6, samples=16):
                 zp, zm = z0.copy(), z0.copy()
                 zp[offset + k] += h
                 zm[offset + k] -= h
-                d = (dynamics.lagrange_residual(params, zp[:2 * N], zp[2 * N:])
-                     - dynamics.lagrange_residual(params, zm[:2 * N], zm[2 * N:])) / (2 * h)
+                d = (equations.lagrange_residual(params, zp[:2 * N], zp[2 * N:])
+                     - equations.lagrange_residual(params, zm[:2 * N], zm[2 * N:])) / (2 * h)
                 mats[which, s_, :, j] = d[rows]
     basis = np.stack([np.ones(samples)] + [f(o * taus) for o in (1, 2)
                                            for f in (np.cos, np.sin)], axis=1)
@@ -142,7 +142,7 @@ def test_neutral_count_is_n_minus_the_rank_of_the_eq26_jacobian():
 def test_two_balls_with_eccentricity_are_unchanged_bit_for_bit():
     params, omega = _drive(2, 2.7)
     exists, phi = F.equilibria([params])
-    from abb_ros.model.linear import in_plane_harmonics, stack_params
+    from abb_ros.model.stability.linear import in_plane_harmonics, stack_params
     Mh, Ch, Kh = in_plane_harmonics(stack_params([params]), np.array([omega]), phi)
     steps = F.steps_for(F._rate_estimate(Mh, Ch, Kh, np.array([omega])), 2 * math.pi)
     old = F.max_multiplier(F.monodromy_batch(Mh, Ch, Kh, np.array([omega]), 2 * math.pi, steps))
@@ -168,7 +168,7 @@ def test_every_sampled_member_is_balanced_and_has_its_own_multipliers():
     ratio = params.M * params.eps / (params.m * params.R)
     members = sample_members(ratio, 4, 6, first=balanced_equilibrium(params).phi_star)
     assert members.shape == (6, 4)
-    from abb_ros.model.equilibrium import eq26_residual
+    from abb_ros.model.stability.equilibrium import eq26_residual
     assert all(eq26_residual(params, phi) < 1e-12 for phi in members)
     fan = np.sort(members[0])
     assert all(np.abs(np.sort(phi) - fan).max() > math.radians(5) for phi in members[1:])

@@ -11,12 +11,17 @@ import math
 import numpy as np
 import pytest
 
-from abb_ros.model import floquet as F
-from abb_ros.model.ball_materials import with_steel_balls
-from abb_ros.model.equilibrium import balanced_equilibrium, ball_capacity, epsbar_lim, min_spacing
-from abb_ros.model.integrate import Simulation
-from abb_ros.model.params import DriveParams, ParamError, apply_settings
-from abb_ros.model.state import StateLayout
+from abb_ros.model.dynamics.integrate import Simulation
+from abb_ros.model.dynamics.state import StateLayout
+from abb_ros.model.parameters.ball_materials import with_steel_balls
+from abb_ros.model.parameters.params import DriveParams, ParamError, apply_settings
+from abb_ros.model.stability import floquet as F
+from abb_ros.model.stability.equilibrium import (
+    balanced_equilibrium,
+    ball_capacity,
+    epsbar_lim,
+    min_spacing,
+)
 
 
 def _steel(n):

@@ -15,9 +15,9 @@ from cdr_reference import cdr_bytes
 from diagnostic_msgs.msg import DiagnosticStatus
 
 from abb_ros.io import cdr, ros_messages
-from abb_ros.model.sampling import Sample
-from abb_ros.model.sensors import TYPICAL_IMU, ImuConfig, ImuReading
-from abb_ros.model.state import n_coords
+from abb_ros.model.dynamics.state import n_coords
+from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuConfig, ImuReading
+from abb_ros.model.sensors.sampling import Sample
 
 SAMPLES = 300
 
@@ -105,7 +105,7 @@ def test_layout_aligns_each_primitive_to_its_size_after_the_encapsulation_header
 
 @pytest.mark.parametrize('n', [0, 1, 3, 12])
 def test_a_batch_encodes_to_the_bytes_of_its_samples_one_by_one(n):
-    from abb_ros.model.sampling import SampleBatch
+    from abb_ros.model.sensors.sampling import SampleBatch
     rng = np.random.default_rng(n)
     rows = 40
     batch = SampleBatch(list(range(7, 7 + 10 * rows, 10)), n,
@@ -119,11 +119,11 @@ def test_a_batch_encodes_to_the_bytes_of_its_samples_one_by_one(n):
 
 
 def test_a_samplers_batch_holds_the_samples_of_its_periods_one_by_one():
-    from abb_ros.model.integrate import Simulation
-    from abb_ros.model.params import DriveParams
-    from abb_ros.model.sampling import PlantSampler
-    from abb_ros.model.sensors import ImuModel
-    from abb_ros.model.speed_sensor import SpeedSensor
+    from abb_ros.model.dynamics.integrate import Simulation
+    from abb_ros.model.parameters.params import DriveParams
+    from abb_ros.model.sensors.imu import ImuModel
+    from abb_ros.model.sensors.sampling import PlantSampler
+    from abb_ros.model.sensors.speed_sensor import SpeedSensor
 
     def sampler():
         sim = Simulation(DriveParams(n=2), 300.0, 1e-4)

@@ -87,5 +87,5 @@ def test_map_csv_and_out_of_plane(capsys, tmp_path):
 
 def test_map_offers_exactly_the_axes_the_stability_map_varies():
     from abb_ros.commands.map import DEFAULT_RANGES
-    from abb_ros.model.floquet import MAP_AXES
+    from abb_ros.model.stability.floquet import MAP_AXES
     assert tuple(DEFAULT_RANGES) == MAP_AXES

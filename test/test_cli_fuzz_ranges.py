@@ -14,7 +14,7 @@ import numpy as np
 import pytest
 
 from abb_ros.cli import main
-from abb_ros.model.params import DIMENSIONLESS_NAMES, PARAM_SPECS
+from abb_ros.model.parameters.params import DIMENSIONLESS_NAMES, PARAM_SPECS
 
 SPECIAL = (math.inf, -math.inf, math.nan, 0.0, -0.0, 5e-324, 2.2250738585072014e-308 / 3,
            1e-300, -1e-300, 1e300, -1e300, 1.7976931348623157e308)
@@ -31,7 +31,7 @@ def imported():
     for name in ('stability', 'freqs', 'map', 'run'):
         cli._load(name)
     import abb_ros.app.headless  # noqa: F401
-    import abb_ros.model.floquet  # noqa: F401
+    import abb_ros.model.stability.floquet  # noqa: F401
 
 
 def draws(seed, count):
@@ -108,7 +108,7 @@ def test_any_float_for_any_parameter_keeps_the_contract(tmp_path, capsys, monkey
 def test_any_run_duration_keeps_the_contract(tmp_path, capsys, monkeypatch, seed):
     """Durations that are accepted and long are checked, not run (they run for hours)."""
     from abb_ros.app.headless import check_duration
-    from abb_ros.model.params import ParamError
+    from abb_ros.model.parameters.params import ParamError
     monkeypatch.chdir(tmp_path)
     for value in (*SPECIAL, *draws(seed + 10, 24)):
         if 0.05 < value <= 1e4:

@@ -21,7 +21,7 @@ def imported():
     for name in cli.SUBCOMMANDS:
         cli._load(name)
     import abb_ros.app.headless  # noqa: F401
-    import abb_ros.model.floquet  # noqa: F401
+    import abb_ros.model.stability.floquet  # noqa: F401
 
 
 def refused(capsys, argv, code=2, seconds=5.0):

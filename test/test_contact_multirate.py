@@ -10,14 +10,15 @@ import functools
 
 import numpy as np
 import pytest
+from race_ledger import collision_state
 
 from abb_ros.io.scenario import load_scenario
-from abb_ros.model import kernels
-from abb_ros.model.ball_materials import clamped_race, collision_state, with_steel_balls
-from abb_ros.model.dynamics import solver_buffers
-from abb_ros.model.integrate import ConstantSpeed, Simulation, TorqueMotor, initial_state
-from abb_ros.model.kernels.layout import STAT_REFINED, W_STATS
-from abb_ros.model.params import DriveParams
+from abb_ros.model.dynamics import kernels
+from abb_ros.model.dynamics.equations import solver_buffers
+from abb_ros.model.dynamics.integrate import ConstantSpeed, Simulation, TorqueMotor, initial_state
+from abb_ros.model.dynamics.kernels.layout import STAT_REFINED, W_STATS
+from abb_ros.model.parameters.ball_materials import clamped_race, with_steel_balls
+from abb_ros.model.parameters.params import DriveParams
 
 K = kernels.JIT
 

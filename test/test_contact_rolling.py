@@ -11,12 +11,13 @@ import math
 
 import numpy as np
 import pytest
+from race_ledger import collision_state, race_energy_ledger
 
-from abb_ros.model import kernels
-from abb_ros.model.ball_materials import STEEL_E, clamped_race, collision_state, race_energy_ledger
-from abb_ros.model.dynamics import solver_buffers
-from abb_ros.model.integrate import ConstantSpeed, Ramp, Simulation, initial_state
-from abb_ros.model.params import DriveParams, ParamError
+from abb_ros.model.dynamics import kernels
+from abb_ros.model.dynamics.equations import solver_buffers
+from abb_ros.model.dynamics.integrate import ConstantSpeed, Ramp, Simulation, initial_state
+from abb_ros.model.parameters.ball_materials import STEEL_E, clamped_race
+from abb_ros.model.parameters.params import DriveParams, ParamError
 
 M_BALL = 0.78e-3
 """P1/P3 ball mass (mbar = 0.03) [kg]; steel radius 2.873 mm."""

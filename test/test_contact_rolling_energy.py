@@ -23,10 +23,10 @@ import numpy as np
 import pytest
 
 from abb_ros.io.scenario import load_scenario
-from abb_ros.model import kernels
-from abb_ros.model.ball_materials import with_steel_balls
-from abb_ros.model.dynamics import solver_buffers
-from abb_ros.model.integrate import ConstantSpeed, Simulation, initial_state
+from abb_ros.model.dynamics import kernels
+from abb_ros.model.dynamics.equations import solver_buffers
+from abb_ros.model.dynamics.integrate import ConstantSpeed, Simulation, initial_state
+from abb_ros.model.parameters.ball_materials import with_steel_balls
 
 SECONDS = 0.5
 START_DEG = (30.0, 53.0)

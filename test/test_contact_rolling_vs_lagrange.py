@@ -3,8 +3,8 @@
 test/lagrange_sympy.py adds to T, V, F (docs/ball_size_contact_rolling.md): the rolling balls' spin
 energy 1/2 J_b |omega_P + (theta' - R/r phi_i') e_z|^2, the Hertz potential 2/5 K delta^2.5 and
 the Hunt-Crossley dissipation 1/2 chi K delta^1.5 delta'^2 of every overlapping pair. The
-kernels (abb_ros.model.kernels: add_ball_rotation, contact_forces, and the 7/5 ball mass in
-accel) must equal the first-order expansion of Lagrange's equations of these energies to
+kernels (abb_ros.model.dynamics.kernels: add_ball_rotation, contact_forces, and the 7/5 ball mass
+in accel) must equal the first-order expansion of Lagrange's equations of these energies to
 round-off, at random states with theta'' != 0, exactly as the paper's terms do
 (test_equations_vs_lagrange.py).
 """
@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 from test_equations_vs_lagrange import ROUND_OFF, at_scale, random_state, scales
 
-from abb_ros.model import dynamics
-from abb_ros.model.params import DriveParams
+from abb_ros.model.dynamics import equations
+from abb_ros.model.parameters.params import DriveParams
 
 R_BALL = 2.87e-3
 """A steel ball (7850 kg/m^3) of the P1/P3 mass m = 0.03 M = 0.78 g: r = 2.87 mm."""
@@ -53,7 +53,7 @@ def test_beyond_paper_kernels_are_the_first_order_expansion_of_the_extended_ener
     for params, y, qdd, deck in beyond_states(n, contact, seed=12 + n):
         y, qdd = at_scale(y, qdd, deck, 0.05)
         sc = scales(params, y[7 + n])
-        err = dynamics.lagrange_residual(params, y, qdd) - L.first_order_residual(params, y, qdd)
+        err = equations.lagrange_residual(params, y, qdd) - L.first_order_residual(params, y, qdd)
         assert np.max(np.abs(err / sc)) < ROUND_OFF, err / sc
 
 
@@ -63,7 +63,7 @@ def test_contact_state_really_overlaps_and_pushes_the_balls_apart():
     The contact states of the test above exercise the contact force: Q_2 = -Q_1 > 0 and of the size
     K delta^1.5 R (not a vacuous comparison).
     """
-    from abb_ros.model import kernels
+    from abb_ros.model.dynamics import kernels
     params, y, _, _ = next(beyond_states(2, True, seed=1))
     P = kernels.pack_params(params)
     Qc = np.empty(2)

@@ -14,10 +14,10 @@ import numpy as np
 import pytest
 from test_contact_multirate import head_on
 
-from abb_ros.model import kernels
-from abb_ros.model.dynamics import solver_buffers
-from abb_ros.model.integrate import ConstantSpeed, Simulation, TorqueMotor
-from abb_ros.model.kernels.layout import STAT_REFINED, W_STATS
+from abb_ros.model.dynamics import kernels
+from abb_ros.model.dynamics.equations import solver_buffers
+from abb_ros.model.dynamics.integrate import ConstantSpeed, Simulation, TorqueMotor
+from abb_ros.model.dynamics.kernels.layout import STAT_REFINED, W_STATS
 
 SPEEDS = (0.001, 0.01, 0.05, 0.5)
 STEPS = (1e-5, 3e-5, 1e-4, 2e-4)
@@ -149,8 +149,8 @@ def test_a_step_outside_the_verified_range_is_said_not_refused():
     With contact on, a step outside 1e-5..2e-4 s runs and says so (summary and node /diagnostics
     use contact_step_note); without contact, or inside the range, nothing.
     """
-    from abb_ros.model.integrate import contact_step_note
-    from abb_ros.model.params import DriveParams
+    from abb_ros.model.dynamics.integrate import contact_step_note
+    from abb_ros.model.parameters.params import DriveParams
     touching = DriveParams(n=3, r_ball=0.0023, contact_E=2e11)
     assert contact_step_note(touching, 1e-4) == ''
     assert contact_step_note(touching, 1e-5) == '' and contact_step_note(touching, 2e-4) == ''

@@ -7,15 +7,15 @@ import pytest
 
 from abb_ros.io import ros_messages
 from abb_ros.io.scenario import load_scenario
-from abb_ros.model import kernels
-from abb_ros.model.disturbances import apply_shock, deck_twist_matrix, swap_disc
-from abb_ros.model.dynamics import n_coords
-from abb_ros.model.equilibrium import balanced_equilibrium
-from abb_ros.model.integrate import Simulation, initial_state
-from abb_ros.model.sampling import PlantSampler
-from abb_ros.model.sensor_faults import ImuFaults, SpeedFaults
-from abb_ros.model.sensors import TYPICAL_IMU, ImuModel
-from abb_ros.model.speed_sensor import SpeedSensor
+from abb_ros.model.dynamics import kernels
+from abb_ros.model.dynamics.equations import n_coords
+from abb_ros.model.dynamics.integrate import Simulation, initial_state
+from abb_ros.model.sensors.disturbances import apply_shock, deck_twist_matrix, swap_disc
+from abb_ros.model.sensors.faults import ImuFaults, SpeedFaults
+from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuModel
+from abb_ros.model.sensors.sampling import PlantSampler
+from abb_ros.model.sensors.speed_sensor import SpeedSensor
+from abb_ros.model.stability.equilibrium import balanced_equilibrium
 
 STEP = [1e-3, -2e-3, 5e-4, 0.02, -0.01, 0.03]   # m/s, rad/s
 

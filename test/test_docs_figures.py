@@ -57,7 +57,7 @@ def test_every_png_under_docs_figures_is_shown_in_a_markdown_file():
 
 
 def test_figure_titles_name_the_key_parameters_and_the_washers():
-    from abb_ros.model.params import DriveParams, apply_settings
+    from abb_ros.model.parameters.params import DriveParams, apply_settings
     from abb_ros.plots.labels import parameter_text
     p3, omega = apply_settings(DriveParams(), {'mbar': 0.03, 'c': 0.66, 'wbar': 2.7})
     text = parameter_text(p3, p3.wbar(omega))

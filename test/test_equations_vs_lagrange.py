@@ -1,4 +1,4 @@
-"""abb_ros.model.dynamics against Lagrange's equations derived from the energies (sympy).
+"""abb_ros.model.dynamics.equations against Lagrange's equations derived from the energies (sympy).
 
 Source: Kim, Lee & Chung, J. Sound Vib. 285 (2005) 547-569, Section 2. The reference is an
 independent sympy derivation (test/lagrange_sympy.py) of Eq. (17) from T (Eq. 11), V (Eq. 13)
@@ -16,8 +16,8 @@ import numpy as np
 import pytest
 import sympy as sp
 
-from abb_ros.model import dynamics
-from abb_ros.model.params import DriveParams, ParamError
+from abb_ros.model.dynamics import equations
+from abb_ros.model.parameters.params import DriveParams, ParamError
 
 WBAR_P3 = 2.7
 """Spindle speed of the paper's point P3 (Section 5), omega = 2.7 omega0 ~ 811 rad/s."""
@@ -172,7 +172,7 @@ def test_printed_eqs18_24_are_the_first_order_expansion_of_the_energies(n):
         assert np.max(np.abs(err / scales(params, y[7 + n]))) < ROUND_OFF
 
 
-# ---- abb_ros.model.dynamics against the energies ---------------------------------------------
+# ---- abb_ros.model.dynamics.equations against the energies ------------------------------------
 
 S0 = 1e-3
 """Deck scale of the order test: X ~ 1e-3 R = 15 um, alpha ~ 1 mrad."""
@@ -194,7 +194,8 @@ even part of the Z equation vanishes: the Z coordinate of every point is odd in 
 
 def _difference(params, y, qdd, deck, s, sc):
     ys, qdds = at_scale(y, qdd, deck, s)
-    return (dynamics.lagrange_residual(params, ys, qdds) - L.exact_residual(params, ys, qdds)) / sc
+    return (equations.lagrange_residual(params, ys, qdds)
+            - L.exact_residual(params, ys, qdds)) / sc
 
 
 def _parts(params, y, qdd, deck, s, sc):
@@ -207,7 +208,7 @@ def _parts(params, y, qdd, deck, s, sc):
 def test_lagrange_residual_differs_from_the_energies_only_at_second_order(n):
     """Check that lagrange residual differs from the energies only at second order.
 
-    dynamics.lagrange_residual = Lagrange's equations of Eqs. (11), (13), (16) + O(s^2), with
+    equations.lagrange_residual = Lagrange's equations of Eqs. (11), (13), (16) + O(s^2), with
     theta'' non-zero (the generalisation to a varying spindle speed).
     """
     for params, (y, qdd, deck) in states(n):
@@ -230,7 +231,7 @@ def test_lagrange_residual_has_exactly_the_first_order_theta_dd_terms(n):
     """
     for params, (y, qdd, deck) in states(n, seed=100):
         y, qdd = at_scale(y, qdd, deck, 0.05)
-        err = dynamics.lagrange_residual(params, y, qdd) - L.first_order_residual(params, y, qdd)
+        err = equations.lagrange_residual(params, y, qdd) - L.first_order_residual(params, y, qdd)
         assert np.max(np.abs(err / scales(params, y[7 + n]))) < ROUND_OFF
 
 
@@ -239,7 +240,7 @@ def test_at_constant_speed_lagrange_residual_is_printed_eqs18_24(n):
     """Theta'' = 0: lagrange_residual equals the transcription of Eqs. (18)-(24) to round-off."""
     for params, (y, qdd, deck) in states(n, theta_dd=False, seed=200):
         y, qdd = at_scale(y, qdd, deck, 0.05)
-        err = dynamics.lagrange_residual(params, y, qdd) - L.paper_residual(params, y, qdd)
+        err = equations.lagrange_residual(params, y, qdd) - L.paper_residual(params, y, qdd)
         assert np.max(np.abs(err / scales(params, y[7 + n]))) < ROUND_OFF
 
 

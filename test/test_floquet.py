@@ -5,9 +5,9 @@ import math
 import numpy as np
 import pytest
 
-from abb_ros.model import floquet as F
-from abb_ros.model.linear import PeriodicSystem, in_plane, out_of_plane
-from abb_ros.model.params import DriveParams, apply_settings
+from abb_ros.model.parameters.params import DriveParams, apply_settings
+from abb_ros.model.stability import floquet as F
+from abb_ros.model.stability.linear import PeriodicSystem, in_plane, out_of_plane
 
 TABLE1 = DriveParams()
 

@@ -20,9 +20,9 @@ from visualization_msgs.msg import Marker, MarkerArray
 
 from abb_ros.io import ros_messages
 from abb_ros.io.markers import ROTOR_HEIGHT, marker_poses
-from abb_ros.model.disturbances import apply_shock
-from abb_ros.model.equilibrium import balanced_equilibrium
-from abb_ros.model.integrate import Simulation
+from abb_ros.model.dynamics.integrate import Simulation
+from abb_ros.model.sensors.disturbances import apply_shock
+from abb_ros.model.stability.equilibrium import balanced_equilibrium
 
 pytestmark = pytest.mark.ros
 

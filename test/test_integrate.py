@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from abb_ros.model.integrate import (
+from abb_ros.model.dynamics.integrate import (
     DEFAULT_DT,
     ConstantSpeed,
     Ramp,
@@ -13,7 +13,7 @@ from abb_ros.model.integrate import (
     initial_state,
     reference_solution,
 )
-from abb_ros.model.params import METAL_C, DriveParams, ParamError, apply_settings
+from abb_ros.model.parameters.params import METAL_C, DriveParams, ParamError, apply_settings
 
 
 def _p3(n=2):

@@ -3,12 +3,13 @@
 import numpy as np
 import pytest
 
-from abb_ros.model import jit, kernels
-from abb_ros.model.dynamics import accelerations, lagrange_residual
-from abb_ros.model.integrate import SpindleMotor, initial_state
-from abb_ros.model.kernels.layout import STAT_SWITCHES, W_STATS
-from abb_ros.model.params import METAL_C, DriveParams, apply_settings
-from abb_ros.model.state import StateLayout
+from abb_ros.model import jit
+from abb_ros.model.dynamics import kernels
+from abb_ros.model.dynamics.equations import accelerations, lagrange_residual
+from abb_ros.model.dynamics.integrate import SpindleMotor, initial_state
+from abb_ros.model.dynamics.kernels.layout import STAT_SWITCHES, W_STATS
+from abb_ros.model.dynamics.state import StateLayout
+from abb_ros.model.parameters.params import METAL_C, DriveParams, apply_settings
 
 needs_numba = pytest.mark.skipif(not kernels.JIT.compiled, reason='numba not available')
 

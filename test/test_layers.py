@@ -107,7 +107,7 @@ def _decision(names: dict[str, str], module: str) -> str | None:
 def violations(rules: dict[str, LayerRule], path: str, source: str) -> list[str]:
     """Return one line per import of ``source`` that the table refuses.
 
-    ``path`` is the module's path inside the package, e.g. ``model/params.py``.
+    ``path`` is the module's path inside the package, e.g. ``model/parameters/params.py``.
     """
     parts = Path(path).with_suffix('').parts
     layer = parts[0]
@@ -221,7 +221,7 @@ def test_checker_fails_on_an_import_running_up_from_the_model(rules, source):
 
 @pytest.mark.parametrize('source', [
     'import math\nimport numpy as np\n',
-    'from abb_ros.model.params import DriveParams\n',
+    'from abb_ros.model.parameters.params import DriveParams\n',
     'from . import params\nfrom .state import rbar\n',
     'import scipy.linalg\n',
 ])

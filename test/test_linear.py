@@ -9,17 +9,17 @@ import math
 import numpy as np
 import pytest
 
-from abb_ros.model import dynamics
-from abb_ros.model.equilibrium import (
+from abb_ros.model.dynamics import equations
+from abb_ros.model.dynamics.state import DECK, StateLayout
+from abb_ros.model.parameters.params import DriveParams, ParamError, apply_settings
+from abb_ros.model.stability.equilibrium import (
     balanced_equilibrium,
     epsbar_lim,
     eq26_residual,
     mbar_lim,
     phi_star_two_balls,
 )
-from abb_ros.model.linear import in_plane, natural_frequencies, out_of_plane
-from abb_ros.model.params import DriveParams, ParamError, apply_settings
-from abb_ros.model.state import DECK, StateLayout
+from abb_ros.model.stability.linear import in_plane, natural_frequencies, out_of_plane
 
 TABLE1 = DriveParams()
 P3, OMEGA_P3 = apply_settings(TABLE1, {'zeta': 0.025, 'mbar': 0.03, 'wbar': 2.7})
@@ -179,7 +179,7 @@ def _fd_linearisation(params, omega, phi, t, h=1e-7):
                     y[s.N + DECK + j] += sgn * h
                 else:
                     qdd[DECK + j] += sgn * h
-                cols.append(dynamics.lagrange_residual(params, y, qdd))
+                cols.append(equations.lagrange_residual(params, y, qdd))
             J[:, j] = (cols[0] - cols[1]) / (2 * h)
         out.append(J)
     return out[2], out[1], out[0]   # M, C, K

@@ -325,7 +325,7 @@ def test_a_taken_port_fails_the_start_up_naming_the_parameter(tmp_path):
     import rclpy
     from rclpy.parameter import Parameter
 
-    from abb_ros.model.param_spec import ParamError
+    from abb_ros.model.parameters.param_spec import ParamError
     from abb_ros.nodes.simulator import SimulatorNode
 
     taken = LiveView(port=0)

@@ -36,7 +36,7 @@ from abb_ros.io import ros_messages
 from abb_ros.io.bag_reader import iter_raw
 from abb_ros.io.bag_writer import BagWriter
 from abb_ros.io.scenario import load_scenario
-from abb_ros.model.sensors import TYPICAL_IMU
+from abb_ros.model.sensors.imu import TYPICAL_IMU
 from abb_ros.nodes.simulator import make_executor
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]

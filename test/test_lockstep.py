@@ -29,7 +29,7 @@ def test_the_plugin_is_registered_for_pytest_through_the_pytest11_entry_point():
 
 
 def test_an_invalid_plant_parameter_raises_the_param_error_naming_it():
-    from abb_ros.model.params import ParamError
+    from abb_ros.model.parameters.params import ParamError
     with pytest.raises(ParamError, match="'publish_rate_hz' = 7 .*divisor of"):
         LockstepPlant({'publish_rate_hz': 7})
 

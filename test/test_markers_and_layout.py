@@ -18,9 +18,9 @@ from abb_ros.io.markers import (
     marker_poses,
 )
 from abb_ros.io.topics import MARKERS
-from abb_ros.model.integrate import initial_state
-from abb_ros.model.params import DriveParams
-from abb_ros.model.sensors import euler_quaternion, euler_rotation
+from abb_ros.model.dynamics.integrate import initial_state
+from abb_ros.model.parameters.params import DriveParams
+from abb_ros.model.sensors.imu import euler_quaternion, euler_rotation
 
 ROOT = Path(__file__).resolve().parents[1]
 LAYOUT = ROOT / 'config' / 'foxglove_layout.json'

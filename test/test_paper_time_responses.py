@@ -9,8 +9,8 @@ import pytest
 
 from abb_ros.app.headless import run_scenario
 from abb_ros.io.scenario import load_scenario
-from abb_ros.model.state import StateLayout
-from abb_ros.model.steady import locked_ball_angle
+from abb_ros.model.dynamics.state import StateLayout
+from abb_ros.model.stability.steady import locked_ball_angle
 
 
 def _run(name, **settings):
@@ -41,8 +41,8 @@ def p3_without_abb():
 
 def test_p1_balls_merge_on_the_imbalance_side_at_the_locked_angle():
     """Fig. 9: below omega0 the balls merge and rbar stays finite. They lock at the angle where
-    the mean tangential force vanishes (abb_ros.model.steady): -29.94 deg at P1, behind G.
-    The prediction drops terms of second order in the imbalance, and the ball angle carries a
+    the mean tangential force vanishes (abb_ros.model.stability.steady): -29.94 deg at P1, behind
+    G. The prediction drops terms of second order in the imbalance, and the ball angle carries a
     twice-per-revolution ripple of +-0.07 deg from the elliptic whirl: agreement to 0.3 deg."""
     scenario, result, rbar, phi = _run('p1')
     predicted = np.degrees(locked_ball_angle(scenario.params, scenario.omega))

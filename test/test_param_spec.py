@@ -10,10 +10,10 @@ import pytest
 import yaml
 
 from abb_ros.cli import main
-from abb_ros.model import plant_spec
-from abb_ros.model.drive_spec import DRIVE_SPECS
-from abb_ros.model.param_spec import ParamError
-from abb_ros.model.params import DriveParams
+from abb_ros.model.parameters import plant_spec
+from abb_ros.model.parameters.drive_spec import DRIVE_SPECS
+from abb_ros.model.parameters.param_spec import ParamError
+from abb_ros.model.parameters.params import DriveParams
 from abb_ros.nodes import parameter_table
 from abb_ros.nodes.parameter_table import SPECS, specs_for
 
@@ -56,13 +56,13 @@ def test_docs_parameter_table_is_generated_from_the_spec():
 
 def test_module_defaults_are_the_spec_defaults():
     from abb_ros.io.bag_writer import DEFAULT_CHUNK_SIZE
-    from abb_ros.model.integrate import DEFAULT_DT
-    from abb_ros.model.speed_bands import TABLE_POINTS
+    from abb_ros.model.dynamics.integrate import DEFAULT_DT
+    from abb_ros.model.stability.speed_bands import TABLE_POINTS
     assert DriveParams().as_dict() == {s.short: s.default for s in DRIVE_SPECS}
     assert DEFAULT_DT == 1.0 / specs_for('simulator')['integration_rate_hz'].default
     assert TABLE_POINTS == specs_for('analysis')['table_points'].default
     assert DEFAULT_CHUNK_SIZE == specs_for('recorder')['chunk_size'].default
-    from abb_ros.model.run_up import GUARD_WBAR
+    from abb_ros.nodes.run_up import GUARD_WBAR
     assert GUARD_WBAR == specs_for('spin_controller')['guard_wbar'].default
     assert TABLE_POINTS == specs_for('spin_controller')['table_points'].default
 

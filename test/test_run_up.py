@@ -6,10 +6,10 @@ import math
 import numpy as np
 import pytest
 
-from abb_ros.model.equilibrium import balanced_equilibrium
-from abb_ros.model.params import DriveParams
-from abb_ros.model.run_up import RunUp, hold_speed, in_band
-from abb_ros.model.speed_bands import Band
+from abb_ros.model.parameters.params import DriveParams
+from abb_ros.model.stability.equilibrium import balanced_equilibrium
+from abb_ros.model.stability.speed_bands import Band
+from abb_ros.nodes.run_up import RunUp, hold_speed, in_band
 from abb_ros.testing.assertions import (
     assert_balls_at_phi_star,
     peak,

@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from abb_ros.io.scenario import list_scenarios, load_scenario
-from abb_ros.model.params import METAL_C, RUBBER_C
+from abb_ros.model.parameters.params import METAL_C, RUBBER_C
 
 POINTS = {  # Section 5: (mbar, wbar, washer damping c)
     'p1': (0.03, 0.8, METAL_C), 'p2': (0.03, 2.18, METAL_C), 'p3': (0.03, 2.7, METAL_C),

@@ -1,4 +1,4 @@
-"""Deck kinematics (Eqs. 1, 2, 10) and the IMU model of abb_ros.model.sensors.
+"""Deck kinematics (Eqs. 1, 2, 10) and the IMU model of abb_ros.model.sensors.imu.
 
 Every kinematic identity is checked against an independent construction: the matrices of
 Eq. (2) multiplied out numerically, finite differences of positions along an analytic
@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from abb_ros.model.sensors import (
+from abb_ros.model.sensors.imu import (
     GRAVITY,
     ImuConfig,
     ImuModel,
@@ -187,13 +187,13 @@ def test_turn_on_bias_is_constant_without_walk_and_scaled_by_its_std():
 
 def test_the_compiled_imu_and_deck_kernels_equal_their_python_twins_bit_for_bit():
     """What ABB_ROS_NO_JIT runs (the kernels' Python source) is what the node runs."""
-    from abb_ros.model import sensors
+    from abb_ros.model.sensors import imu
     rng = np.random.default_rng(4)
     q, qd, qdd = rng.normal(0, 1e-2, 9), rng.normal(0, 1.0, 9), rng.normal(0, 10.0, 9)
     y = np.concatenate([q, qd])   # n = 2
     r, z, k = np.array([0.01, -0.02, 0.003]), rng.standard_normal(12), rng.random(4)
     outs = []
-    for kern in (sensors.JIT, sensors.PY):
+    for kern in (imu.JIT, imu.PY):
         bias, out, pose = np.full(6, 0.1), np.empty(6), np.empty(13)
         kern.imu_reading(q, qd, qdd, r, True, z, k, bias, out)
         kern.deck_pose_twist(y, 2, pose)
@@ -204,7 +204,7 @@ def test_the_compiled_imu_and_deck_kernels_equal_their_python_twins_bit_for_bit(
 def test_normals_taken_from_blocks_are_the_generators_own_draws_in_order():
     """NormalStream (IMU noise, FG jitter, speed noise): handing out a block k at a time, across
     block boundaries and for takes larger than a block, gives what drawing k at a time gives."""
-    from abb_ros.model.normals import NormalStream
+    from abb_ros.model.sensors.normals import NormalStream
     sizes = [12, 1, 0, 7, 30, 12, 5, 50, 3] * 10
     stream = NormalStream(np.random.default_rng(9), block=40)
     direct = np.random.default_rng(9)

@@ -29,7 +29,7 @@ from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 
-from abb_ros.model.params import DriveParams
+from abb_ros.model.parameters.params import DriveParams
 from abb_ros.nodes.simulator import SimulatorNode, make_executor
 
 pytestmark = pytest.mark.ros

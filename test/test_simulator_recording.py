@@ -31,7 +31,7 @@ from abb_ros.io import topics
 from abb_ros.io.bag_reader import is_finished, iter_raw
 from abb_ros.io.bag_writer import BagWriter
 from abb_ros.io.scenario import load_scenario
-from abb_ros.model.sensors import TYPICAL_IMU
+from abb_ros.model.sensors.imu import TYPICAL_IMU
 
 pytestmark = pytest.mark.ros
 

@@ -9,7 +9,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from test_simulator_node import QOS, Plant
 
-from abb_ros.model.integrate import TorqueMotor
+from abb_ros.model.dynamics.integrate import TorqueMotor
 
 pytestmark = pytest.mark.ros
 
@@ -55,7 +55,7 @@ def test_headless_cdr_of_joint_states_with_effort_is_what_rclpy_serialises():
     from rclpy.serialization import deserialize_message
 
     from abb_ros.io import cdr, ros_messages
-    from abb_ros.model.sampling import Sample
+    from abb_ros.model.sensors.sampling import Sample
     y = np.arange(18, dtype=float) / 7.0
     sample = Sample(steps=12345, n=2, y=y, imu=None, effort=3.5e-3)
     stamp_ns, contents = ros_messages.sample_contents(sample, 100_000, None)

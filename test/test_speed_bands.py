@@ -1,4 +1,5 @@
-"""abb_ros.model.speed_bands: |lambda|max against speed, unbalanced bands and the verdict.
+"""abb_ros.model.stability.speed_bands: |lambda|max against speed, unbalanced bands and the
+verdict.
 
 The drive is the paper's P1-P3 drive of Fig. 7(b) (metal washers c = 0.66 kg/s, mbar = 0.03,
 Table 1 otherwise); the claims are Section 5's: unbalanced below the translational natural
@@ -11,9 +12,9 @@ import math
 import numpy as np
 import pytest
 
-from abb_ros.model.floquet import point_stability
-from abb_ros.model.params import DriveParams, ParamError
-from abb_ros.model.speed_bands import (
+from abb_ros.model.parameters.params import DriveParams, ParamError
+from abb_ros.model.stability.floquet import point_stability
+from abb_ros.model.stability.speed_bands import (
     BAND_GUARD_WBAR,
     ERROR,
     MARGIN_WARN,

@@ -1,12 +1,12 @@
-"""The torque-mode speed loop (abb_ros/model/speed_loop.py) on a rigid rotor without ROS: it
+"""The torque-mode speed loop (abb_ros/nodes/speed_loop.py) on a rigid rotor without ROS: it
 tracks a ramp, never asks for more current than the drive delivers, and does not wind up."""
 
 import numpy as np
 import pytest
 
 from abb_ros.io.scenario import load_scenario
-from abb_ros.model.integrate import TorqueMotor
-from abb_ros.model.speed_loop import SpeedLoop, rotor_inertia
+from abb_ros.model.dynamics.integrate import TorqueMotor
+from abb_ros.nodes.speed_loop import SpeedLoop, rotor_inertia
 
 P3 = load_scenario('p3').params
 J = rotor_inertia(P3)

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from abb_ros.model.speed_sensor import SpeedSensor, SpeedSensorConfig, fg_speed
+from abb_ros.model.sensors.speed_sensor import SpeedSensor, SpeedSensorConfig, fg_speed
 
 PUBLISH_DT = 1e-3
 
@@ -117,7 +117,7 @@ def test_fg_speed_is_two_pi_over_pulses_times_period():
 def test_the_compiled_fg_edge_capture_equals_its_python_twin_bit_for_bit():
     """What ABB_ROS_NO_JIT runs (the kernel's Python source) is what the node runs: a run
     forwards then backwards through many edges."""
-    from abb_ros.model import speed_sensor as fg
+    from abb_ros.model.sensors import speed_sensor as fg
     normals = np.random.default_rng(2).standard_normal(1000)
     states = []
     for kern in (fg.JIT, fg.PY):
@@ -138,7 +138,7 @@ def test_the_compiled_fg_edge_capture_equals_its_python_twin_bit_for_bit():
 def edge_readings(sensor, omega, duration):
     """(edge index k, reading) at each sample where a new edge was captured, at a steady
     omega from theta = 0."""
-    from abb_ros.model import speed_sensor as fg
+    from abb_ros.model.sensors import speed_sensor as fg
     out, edges = [], sensor.edges
     offsets, pitch = sensor.pitch_offsets, sensor.config.pitch
     for i in range(int(round(duration / PUBLISH_DT)) + 1):
@@ -172,7 +172,7 @@ def test_the_pitch_pattern_has_zero_mean_the_rms_asked_for_and_comes_from_the_se
 
 
 def test_the_node_parameter_refuses_a_pitch_error_that_would_reorder_the_edges():
-    from abb_ros.model.params import ParamError
+    from abb_ros.model.parameters.params import ParamError
     from abb_ros.nodes.hil_settings import hil_settings
     from abb_ros.nodes.parameter_table import specs_for
     values = {name: spec.default for name, spec in specs_for('simulator').items()}
@@ -263,7 +263,7 @@ def test_a_zero_pitch_error_gives_the_readings_of_the_sensor_without_one():
 
 
 def test_the_compiled_fg_with_a_pitch_error_equals_its_python_twin_bit_for_bit():
-    from abb_ros.model import speed_sensor as fg
+    from abb_ros.model.sensors import speed_sensor as fg
     offsets = fg.pitch_pattern(SpeedSensorConfig(pitch_error=0.1), seed=2)
     normals = np.random.default_rng(2).standard_normal(1000)
     states, counts = [], []

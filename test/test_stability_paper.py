@@ -10,10 +10,10 @@ import math
 import numpy as np
 import pytest
 
-from abb_ros.model import floquet as F
-from abb_ros.model.integrate import ConstantSpeed, Simulation
-from abb_ros.model.params import DriveParams, apply_settings
-from abb_ros.model.state import n_coords
+from abb_ros.model.dynamics.integrate import ConstantSpeed, Simulation
+from abb_ros.model.dynamics.state import n_coords
+from abb_ros.model.parameters.params import DriveParams, apply_settings
+from abb_ros.model.stability import floquet as F
 
 TABLE1 = DriveParams()
 METAL, RUBBER = 0.025, 0.1          # zeta of metal and rubber washers (Section 4)

@@ -1,11 +1,19 @@
-"""The state layout (model/state.py): named slices, packing, batches, wrapped angles."""
+"""The state layout (model/dynamics/state.py): named slices, packing, batches, wrapped angles."""
 
 import math
 
 import numpy as np
 import pytest
 
-from abb_ros.model.state import DECK, PHI, THETA, StateLayout, n_coords, wrap_angle, wrap_degrees
+from abb_ros.model.dynamics.state import (
+    DECK,
+    PHI,
+    THETA,
+    StateLayout,
+    n_coords,
+    wrap_angle,
+    wrap_degrees,
+)
 
 
 @pytest.mark.parametrize('n', [0, 2, 10])

@@ -1,7 +1,8 @@
 """The paper's time responses with steel balls of finite size (contact, rolling).
 
-Balls: solid steel of the scenario's mass (abb_ros.model.ball_materials.with_steel_balls; r_ball =
-2.873 mm for m = 0.78 g), Hertzian contact, no contact damping unless said. Numbers quoted in
+Balls: solid steel of the scenario's mass
+(abb_ros.model.parameters.ball_materials.with_steel_balls; r_ball = 2.873 mm for m = 0.78 g),
+Hertzian contact, no contact damping unless said. Numbers quoted in
 docs/ball_size_contact_rolling.md come from scripts/make_ball_model_figures.py (same runs).
 """
 
@@ -13,8 +14,8 @@ import pytest
 
 from abb_ros.app.headless import run_scenario
 from abb_ros.io.scenario import load_scenario
-from abb_ros.model.ball_materials import with_steel_balls
-from abb_ros.model.equilibrium import phi_star_two_balls
+from abb_ros.model.parameters.ball_materials import with_steel_balls
+from abb_ros.model.stability.equilibrium import phi_star_two_balls
 
 
 def _run(name, duration=None, phi0_deg=None, **steel):

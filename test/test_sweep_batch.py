@@ -1,14 +1,14 @@
-"""Batched nonlinear runs (abb_ros/model/batch.py) and partitions computed in-process."""
+"""Batched nonlinear runs (abb_ros/model/dynamics/batch.py) and partitions computed in-process."""
 
 import dataclasses
 
 import numpy as np
 import pytest
 
-from abb_ros.model import batch, kernels
-from abb_ros.model.integrate import ConstantSpeed, SpindleMotor, initial_state
-from abb_ros.model.params import DriveParams, apply_settings
-from abb_ros.model.state import wrap_degrees
+from abb_ros.model.dynamics import batch, kernels
+from abb_ros.model.dynamics.integrate import ConstantSpeed, SpindleMotor, initial_state
+from abb_ros.model.dynamics.state import wrap_degrees
+from abb_ros.model.parameters.params import DriveParams, apply_settings
 from abb_ros.sweep.compute import compute_partition
 from abb_ros.sweep.spec import draw_samples, parse_spec
 
@@ -118,7 +118,7 @@ def test_a_partition_does_not_depend_on_how_the_samples_are_partitioned():
 
 
 def test_a_run_up_scenario_commands_the_motor_at_the_first_step_at_or_after_its_time(tmp_path):
-    from abb_ros.model.integrate import Simulation
+    from abb_ros.model.dynamics.integrate import Simulation
     path = tmp_path / 'runup.yaml'
     path.write_text('name: runup\nset: {mbar: 0.03, c: 0.66, wbar: 0.8}\nduration: 5.0\n'
                     'spindle: {model: motor, max_accel: 2000.0, tau: 0.05, '

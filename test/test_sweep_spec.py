@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from abb_ros.cli import main
-from abb_ros.model.params import ParamError
+from abb_ros.model.parameters.params import ParamError
 from abb_ros.sweep.spec import MAX_SAMPLES, draw_samples, load_spec, parse_spec
 
 GOOD = """\

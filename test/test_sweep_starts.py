@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 
 from abb_ros.app.headless import run_scenario
-from abb_ros.model.params import ParamError
+from abb_ros.model.parameters.params import ParamError
 from abb_ros.sweep.compute import compute_partition
 from abb_ros.sweep.proportions import wilson
 from abb_ros.sweep.report import make_report

@@ -14,8 +14,8 @@ import numpy as np
 import pytest
 from test_equations_vs_lagrange import ROUND_OFF, at_scale, scales, states
 
-from abb_ros.model import dynamics, kernels
-from abb_ros.model.integrate import TorqueMotor
+from abb_ros.model.dynamics import equations, kernels
+from abb_ros.model.dynamics.integrate import TorqueMotor
 
 S0 = 1e-3
 """Deck scale of the order test, as in test_equations_vs_lagrange."""
@@ -86,7 +86,7 @@ def test_torque_mode_accelerations_solve_every_first_order_equation(n):
         Q = kernels.PY.spindle_torque(w, S)
         for kern in (kernels.PY, kernels.JIT):
             kern.accel(0.0, y, n, kernels.pack_params(params), S, qdd,
-                       dynamics.solver_buffers(n))
+                       equations.solver_buffers(n))
             rows = L.first_order_residual(params, y, qdd) / scales(params, w)
             _, first = L.theta_residuals(params, y, qdd)
             assert np.max(np.abs(rows)) < ROUND_OFF, rows

@@ -21,9 +21,9 @@ import pytest
 import sympy as sp
 from scipy.integrate import solve_ivp
 
-from abb_ros.model import dynamics, kernels
-from abb_ros.model.integrate import TorqueMotor, initial_state
-from abb_ros.model.params import DriveParams
+from abb_ros.model.dynamics import equations, kernels
+from abb_ros.model.dynamics.integrate import TorqueMotor, initial_state
+from abb_ros.model.parameters.params import DriveParams
 
 
 @functools.lru_cache(maxsize=None)
@@ -40,7 +40,7 @@ def bookkeeping(params, motor, current, y0, duration):
     N = 7 + n
     P = kernels.pack_params(params)
     S = motor.pack(current)
-    bufs = dynamics.solver_buffers(n)
+    bufs = equations.solver_buffers(n)
     Tf, Vf, Ff = energy_functions(n)
     pp = L._pack(params)[:len(L.PARAM_NAMES)]   # the paper's energies (no beyond terms)
     qdd = np.empty(N)

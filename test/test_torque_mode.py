@@ -12,10 +12,10 @@ import numpy as np
 import pytest
 
 from abb_ros.io.scenario import CurrentCommand, load_scenario
-from abb_ros.model import kernels
-from abb_ros.model.integrate import ConstantSpeed, Simulation, TorqueMotor, initial_state
-from abb_ros.model.linear import natural_frequencies
-from abb_ros.model.params import DriveParams, ParamError
+from abb_ros.model.dynamics import kernels
+from abb_ros.model.dynamics.integrate import ConstantSpeed, Simulation, TorqueMotor, initial_state
+from abb_ros.model.parameters.params import DriveParams, ParamError
+from abb_ros.model.stability.linear import natural_frequencies
 
 DT = 1e-4
 

@@ -1,6 +1,6 @@
 """Headless runs: a scenario integrated as fast as possible, without DDS, optionally to a bag.
 
-The plant is stepped by the same :class:`~abb_ros.model.sampling.PlantSampler` as the live
+The plant is stepped by the same :class:`~abb_ros.model.sensors.sampling.PlantSampler` as the live
 simulator node and its messages hold the same contents (:mod:`abb_ros.io.ros_messages`),
 encoded straight to CDR by :mod:`abb_ros.io.cdr` (byte-identical to the serialised rclpy
 messages, without building them), so a headless bag and a live bag of the same scenario hold
@@ -18,10 +18,10 @@ import numpy as np
 
 from abb_ros.io import topics
 from abb_ros.io.scenario import Scenario
-from abb_ros.model.integrate import DEFAULT_DT, MAX_RUN_STEPS, Simulation, initial_state
-from abb_ros.model.sampling import PlantSampler
-from abb_ros.model.sensors import TYPICAL_IMU, ImuConfig, ImuModel
-from abb_ros.model.speed_sensor import SpeedSensor, SpeedSensorConfig
+from abb_ros.model.dynamics.integrate import DEFAULT_DT, MAX_RUN_STEPS, Simulation, initial_state
+from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuConfig, ImuModel
+from abb_ros.model.sensors.sampling import PlantSampler
+from abb_ros.model.sensors.speed_sensor import SpeedSensor, SpeedSensorConfig
 
 __all__ = ['RunResult', 'run_scenario', 'check_duration', 'STATE_TOPIC_TYPES']
 
@@ -60,7 +60,7 @@ def check_duration(duration: float, publish_dt: float = PUBLISH_DT, dt: float | 
 
     A run shorter than a publish period would publish nothing; ``dt`` None is DEFAULT_DT.
     """
-    from abb_ros.model.params import ParamError
+    from abb_ros.model.parameters.params import ParamError
     dt = DEFAULT_DT if dt is None else dt
     longest = MAX_RUN_STEPS * dt
     if not duration >= publish_dt * (1 - 1e-9):
@@ -74,7 +74,7 @@ def check_duration(duration: float, publish_dt: float = PUBLISH_DT, dt: float | 
 def _steps_per(period: float, dt: float, what: str) -> int:
     k = int(round(period / dt))
     if k < 1 or abs(k * dt - period) > 1e-9 * period:
-        from abb_ros.model.params import ParamError
+        from abb_ros.model.parameters.params import ParamError
         raise ParamError(what, period, f'a whole multiple of the step dt = {dt:g} s')
     return k
 

@@ -4,8 +4,9 @@
 in-process). Every start is run by :func:`abb_ros.app.headless.run_scenario`, the very run of
 ``abb-sim run`` (same integrator, same step, speed commands at the same publish instants), so
 a row reproduces ``abb-sim run`` from that start bit for bit; the samples it returns at the
-publish rate give the rest window of :func:`abb_ros.basin.outcomes.classify`. A start whose
-balls overlap (balls with contact) is not run (class ``overlap``, left out of the fraction);
+publish rate give the rest window of :func:`abb_ros.basin.outcomes.classify`. A
+start whose balls overlap (balls with contact) is not run (class ``overlap``, left out of the
+fraction);
 a run that blows up is class ``failed`` with its cause (and no final state). A start's
 result depends on nothing but the spec and the start, so it is the same in any partition, on
 any worker.
@@ -20,9 +21,9 @@ import numpy as np
 from abb_ros.app.headless import run_scenario
 from abb_ros.basin.outcomes import classify
 from abb_ros.basin.spec import start_columns
-from abb_ros.model.integrate import StateError
-from abb_ros.model.params import ParamError
-from abb_ros.model.state import StateLayout, wrap_degrees
+from abb_ros.model.dynamics.integrate import StateError
+from abb_ros.model.dynamics.state import StateLayout, wrap_degrees
+from abb_ros.model.parameters.params import ParamError
 
 __all__ = ['compute_partition', 'run_start', 'OVERLAP']
 

@@ -31,8 +31,8 @@ import math
 
 import numpy as np
 
-from abb_ros.model.equilibrium import eq26_residual
-from abb_ros.model.state import StateLayout
+from abb_ros.model.dynamics.state import StateLayout
+from abb_ros.model.stability.equilibrium import eq26_residual
 
 __all__ = ['CLASSES', 'EQ26_NEAR', 'PACK_TOL_DEG', 'REST_WINDOW', 'REST_WINDOW_MIN',
            'REST_TOL_DEG', 'classify', 'rest_window', 'packed']

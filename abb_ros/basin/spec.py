@@ -22,7 +22,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from abb_ros.model.params import ParamError
+from abb_ros.model.parameters.params import ParamError
 
 __all__ = ['BasinSpec', 'MAX_STARTS', 'MAX_PARTITION', 'parse_res', 'start_columns']
 

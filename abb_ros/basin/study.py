@@ -84,7 +84,7 @@ def summarise(spec, table) -> dict:
 
 
 def _default_dt() -> float:
-    from abb_ros.model.integrate import DEFAULT_DT
+    from abb_ros.model.dynamics.integrate import DEFAULT_DT
     return DEFAULT_DT
 
 

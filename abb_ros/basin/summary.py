@@ -4,7 +4,7 @@ The balanced fraction is k / N over the starts that were run (``overlap`` starts
 with the 95 % Wilson score interval (:func:`abb_ros.sweep.proportions.wilson`). Beside it, the
 local verdict: the Floquet multipliers of the balanced equilibrium (symmetric fan, Eq. 26; for
 n >= 3 transverse to the family) at the operating speed,
-:func:`abb_ros.model.floquet.point_stability`.
+:func:`abb_ros.model.stability.floquet.point_stability`.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ def operating_omega(scenario, omega_final=None):
     The last speed command (or the constant speed); for a spindle driven by torque, the median
     final speed of the runs ``omega_final`` (None when there is none).
     """
-    from abb_ros.model.integrate import TorqueMotor
+    from abb_ros.model.dynamics.integrate import TorqueMotor
     if isinstance(scenario.spindle, TorqueMotor):
         good = np.asarray(omega_final if omega_final is not None else [], dtype=float)
         good = good[np.isfinite(good)]
@@ -40,7 +40,7 @@ def operating_omega(scenario, omega_final=None):
 
 def floquet_verdict(params, omega) -> dict:
     """Return the Floquet verdict at ``omega`` [rad/s] as a JSON-able mapping."""
-    from abb_ros.model.floquet import point_stability
+    from abb_ros.model.stability.floquet import point_stability
     if omega is None:
         return {'balanced': None}
     st = point_stability(params, omega)

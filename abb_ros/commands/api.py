@@ -14,9 +14,14 @@ from pathlib import Path
 
 from abb_ros.io.drive_file import read_drive_yaml
 from abb_ros.io.safe_yaml import YamlFileError, load_text
-from abb_ros.model.param_spec import STRING, ParamError, ParamSpec
-from abb_ros.model.params import DIMENSIONLESS_NAMES, PARAM_SPECS, DriveParams, parse_value
-from abb_ros.model.plant_spec import cli_names, spec_for_command
+from abb_ros.model.parameters.param_spec import STRING, ParamError, ParamSpec
+from abb_ros.model.parameters.params import (
+    DIMENSIONLESS_NAMES,
+    PARAM_SPECS,
+    DriveParams,
+    parse_value,
+)
+from abb_ros.model.parameters.plant_spec import cli_names, spec_for_command
 
 __all__ = ['UsageError', 'CommandFailed', 'Terminated', 'stop_signals', 'signals_deferred',
            'stop_point',
@@ -96,8 +101,8 @@ def parse_settings(items, command: str | None = None) -> dict:
     """``['k=4000', 'wbar=2.7']`` -> ``{'k': 4000.0, 'wbar': 2.7}``.
 
     Drive (SI and Eq. 39) values are checked later, together; with ``command`` the other
-    names it accepts (abb_ros/model/plant_spec.py, e.g. ``imu.*`` for run) are parsed and
-    checked here, and an unknown name is an error listing the valid ones.
+    names it accepts (abb_ros/model/parameters/plant_spec.py, e.g. ``imu.*`` for run) are parsed
+    and checked here, and an unknown name is an error listing the valid ones.
     """
     settings = {}
     for item in items or []:
@@ -239,7 +244,7 @@ def commit_directory(path, staged) -> None:
 
 def _run_options(node: dict) -> dict:
     """run_scenario's keyword arguments for the node parameters given with --set."""
-    from abb_ros.model.plant_spec import check_rates, imu_config
+    from abb_ros.model.parameters.plant_spec import check_rates, imu_config
     check_rates(node)
     options = {}
     if 'integration_rate_hz' in node:
@@ -261,8 +266,8 @@ def _spindle(spindle, node: dict):
     """
     import dataclasses
 
-    from abb_ros.model.integrate import SpindleMotor, TorqueMotor
-    from abb_ros.model.plant_spec import PLANT
+    from abb_ros.model.dynamics.integrate import SpindleMotor, TorqueMotor
+    from abb_ros.model.parameters.plant_spec import PLANT
     changes = {k[len('spindle.'):]: v for k, v in node.items() if k.startswith('spindle.')}
     if not changes:
         return spindle

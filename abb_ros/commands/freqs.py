@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 from abb_ros.commands.api import drive_params, parse_settings
-from abb_ros.model.params import apply_settings
+from abb_ros.model.parameters.params import apply_settings
 
 PAPER = {'X': 298.0, 'Y': 298.0, 'Z': 298.0, 'alpha': 535.0, 'beta': 750.0, 'gamma': 577.0}
 """Section 4 of the paper (omega0 ~ 298 rad/s for X, Y, Z), for comparison in the output."""
@@ -18,7 +18,7 @@ def add_arguments(parser) -> None:
 
 def run(args) -> dict:
     """Return the drive's natural frequencies [rad/s] beside the paper's."""
-    from abb_ros.model.linear import natural_frequencies
+    from abb_ros.model.stability.linear import natural_frequencies
     base = drive_params(args.config)
     params, _ = apply_settings(base, parse_settings(args.set, 'freqs'))
     freqs = natural_frequencies(params)

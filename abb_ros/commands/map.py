@@ -19,7 +19,7 @@ from abb_ros.commands.api import (
     output_files,
     parse_settings,
 )
-from abb_ros.model.params import ParamError
+from abb_ros.model.parameters.params import ParamError
 
 DEFAULT_RANGES = {'wbar': (0.2, 3.5), 'zeta': (0.0, 0.15), 'Dbar': (0.0, 1.0),
                   'epsbar': (0.0, 0.05), 'mbar': (0.001, 0.12)}
@@ -84,7 +84,7 @@ def _res(text):
 
 def _check_axes(args, settings, base, xs, ys):
     """Refuse a --set of a swept axis, and axis ends that make no valid drive, before work."""
-    from abb_ros.model.params import apply_settings
+    from abb_ros.model.parameters.params import apply_settings
     for flag, axis in (('--x', args.x), ('--y', args.y)):
         for key in ((axis, 'omega') if axis == 'wbar' else (axis,)):
             if key in settings:
@@ -108,7 +108,7 @@ def run(args) -> dict:
     from tqdm import tqdm
 
     from abb_ros.io.map_file import save_map
-    from abb_ros.model.floquet import stability_map
+    from abb_ros.model.stability.floquet import stability_map
     from abb_ros.plots.maps import plot_map
     if args.x == args.y:
         raise UsageError('--x and --y must differ')

@@ -31,7 +31,7 @@ def add_arguments(parser) -> None:
 def run(args) -> dict:
     """Read the bag(s), write the time-response figures; return the summary."""
     from abb_ros.commands.api import CommandFailed, UsageError, check_output, output_files
-    from abb_ros.model.state import wrap_degrees
+    from abb_ros.model.dynamics.state import wrap_degrees
     from abb_ros.plots import time_response as plots
 
     if args.R is not None and not (args.R > 0 and np.isfinite(args.R)):

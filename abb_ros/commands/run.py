@@ -94,8 +94,8 @@ def run(args) -> dict:
         stop_point,
     )
     from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
-    from abb_ros.model.integrate import StateError
-    from abb_ros.model.state import StateLayout, wrap_degrees
+    from abb_ros.model.dynamics.integrate import StateError
+    from abb_ros.model.dynamics.state import StateLayout, wrap_degrees
 
     scenario, options = run_scenario_from_args(args.scenario, args.config, args.set,
                                                args.no_abb, args.duration)

@@ -9,7 +9,7 @@ from __future__ import annotations
 import math
 
 from abb_ros.commands.api import UsageError, drive_params, parse_settings
-from abb_ros.model.params import ParamError, apply_settings
+from abb_ros.model.parameters.params import ParamError, apply_settings
 
 
 def add_arguments(parser) -> None:
@@ -35,7 +35,7 @@ def operating_point(args):
 
 def run(args) -> dict:
     """Return the verdict and both planes' |lambda|max at the operating point."""
-    from abb_ros.model.floquet import point_stability
+    from abb_ros.model.stability.floquet import point_stability
     params, omega = operating_point(args)
     phi = None
     if args.phi_star:

@@ -37,8 +37,8 @@ from abb_ros.io.topics import (
     JOINT_STATES,
     SPINDLE_SPEED,
 )
-from abb_ros.model import sensors
-from abb_ros.model.state import StateLayout
+from abb_ros.model.dynamics.state import StateLayout
+from abb_ros.model.sensors import imu as deck_imu
 
 __all__ = ['ENCAPSULATION', 'Layout', 'joint_state', 'pose_stamped', 'twist_stamped', 'imu',
            'clock', 'float64', 'diagnostic_array', 'diagnostics', 'ENCODERS', 'sample_cdr',
@@ -301,7 +301,9 @@ def _rows(compiled) -> Rows:
 
 def batch_cdr(batch, dt_ns: int, imu_config, epoch_ns: int = 0, with_clock: bool = False
               ) -> list[tuple[int, list[tuple[str, bytes]]]]:
-    """Return :func:`sample_cdr` of each sample of a :class:`~abb_ros.model.sampling.SampleBatch`.
+    """Return :func:`sample_cdr` of each sample of a batch.
+
+    The batch is a :class:`~abb_ros.model.sensors.sampling.SampleBatch`.
 
     The same bytes, from the batch's arrays at once: the deck's pose and twist of every row in
     one compiled call, each topic's messages of every row as one array of :class:`Rows`.
@@ -314,7 +316,7 @@ def batch_cdr(batch, dt_ns: int, imu_config, epoch_ns: int = 0, with_clock: bool
     if sec.size and not 0 <= sec[0] <= sec[-1] < 2 ** 31:
         raise struct.error(f'stamp {stamps[-1]} ns out of range of builtin_interfaces/Time')
     deck = np.empty((len(y), 13))
-    sensors.JIT.deck_pose_twists(y, n, deck)
+    deck_imu.JIT.deck_pose_twists(y, n, deck)
     topics = [CLOCK_TOPIC] if with_clock else []
     messages = [_rows(_CLOCK).pack(sec, nanosec)] if with_clock else []
     topics += [JOINT_STATES, DECK_POSE, DECK_TWIST]

@@ -12,7 +12,7 @@ from typing import Mapping
 import yaml
 
 from abb_ros.io.safe_yaml import YamlFileError, load_file
-from abb_ros.model.params import DriveParams, ParamError
+from abb_ros.model.parameters.params import DriveParams, ParamError
 
 __all__ = ['read_drive_yaml', 'write_drive_yaml']
 
@@ -42,7 +42,7 @@ def write_drive_yaml(params: DriveParams, path, node: str = '/**') -> None:
     """Write ``params`` to ``path`` as a ROS 2 parameter file (``drive.*`` names)."""
     doc = {node: {'ros__parameters': {'drive': params.as_dict()}}}
     with open(path, 'w', encoding='utf-8') as f:
-        f.write('# abb_ros drive parameters, SI units (see abb_ros/model/params.py)\n')
+        f.write('# abb_ros drive parameters, SI units (see abb_ros/model/parameters/params.py)\n')
         yaml.safe_dump(doc, f, sort_keys=False)
 
 

@@ -8,7 +8,7 @@ import numpy as np
 
 
 def save_map(smap, path) -> None:
-    """Write a :class:`abb_ros.model.floquet.StabilityMap` to ``path``.
+    """Write a :class:`abb_ros.model.stability.floquet.StabilityMap` to ``path``.
 
     CSV when it ends in ``.csv`` (x, y, lam_max, status; '#' header), NPZ otherwise.
     """

@@ -24,9 +24,9 @@ from visualization_msgs.msg import Marker
 
 from abb_ros.io.cdr import Layout
 from abb_ros.io.ros_messages import FRAME_BASE
-from abb_ros.model.dynamics import n_coords
-from abb_ros.model.params import DriveParams
-from abb_ros.model.sensors import euler_quaternion, euler_rotation
+from abb_ros.model.dynamics.equations import n_coords
+from abb_ros.model.parameters.params import DriveParams
+from abb_ros.model.sensors.imu import euler_quaternion, euler_rotation
 
 __all__ = ['NAMESPACE', 'DECK_THICKNESS', 'ROTOR_HEIGHT', 'STEEL_DENSITY', 'ball_radius',
            'marker_poses', 'marker_array']

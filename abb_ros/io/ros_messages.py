@@ -25,10 +25,10 @@ from abb_ros.io.topics import (
     JOINT_STATES,
     SPINDLE_SPEED,
 )
-from abb_ros.model import sensors
-from abb_ros.model.sampling import Sample
-from abb_ros.model.sensors import ImuConfig
-from abb_ros.model.state import StateLayout
+from abb_ros.model.dynamics.state import StateLayout
+from abb_ros.model.sensors import imu
+from abb_ros.model.sensors.imu import ImuConfig
+from abb_ros.model.sensors.sampling import Sample
 
 __all__ = ['FRAME_BASE', 'FRAME_DECK', 'TOPIC_TYPES', 'STATE_TOPICS', 'time_msg',
            'joint_names', 'TOPIC_FRAMES', 'joint_state_content', 'deck_pose_twist_content',
@@ -78,10 +78,10 @@ def deck_pose_twist_content(y: np.ndarray, n: int) -> tuple[tuple[float, ...],
 
     C in ``base`` [m] and R = Rz(gamma) Rx(alpha) Ry(beta); the velocity of C [m/s] and
     Eq. (10) [rad/s], deck axes (one compiled kernel,
-    :func:`abb_ros.model.sensors.deck_pose_twist`).
+    :func:`abb_ros.model.sensors.imu.deck_pose_twist`).
     """
     out = np.empty(13)
-    sensors.JIT.deck_pose_twist(y, n, out)
+    imu.JIT.deck_pose_twist(y, n, out)
     v = out.tolist()
     return tuple(v[:7]), tuple(v[7:])
 

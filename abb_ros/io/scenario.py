@@ -25,7 +25,7 @@ or, with the spindle free and driven by torque (docs/torque_mode.md)::
       commands:             # timed winding-current commands [A] (saturate at the limit)
         - {t: 0.0, current: 0.5}
 
-Errors name the field and what is valid (:class:`~abb_ros.model.params.ParamError`).
+Errors name the field and what is valid (:class:`~abb_ros.model.parameters.params.ParamError`).
 """
 
 from __future__ import annotations
@@ -38,9 +38,9 @@ from pathlib import Path
 import numpy as np
 
 from abb_ros.io.safe_yaml import YamlFileError, load_file
-from abb_ros.model import kernels
-from abb_ros.model.integrate import INITIAL_DECK, ConstantSpeed, SpindleMotor, TorqueMotor
-from abb_ros.model.params import PARAM_SPECS, DriveParams, ParamError, apply_settings
+from abb_ros.model.dynamics import kernels
+from abb_ros.model.dynamics.integrate import INITIAL_DECK, ConstantSpeed, SpindleMotor, TorqueMotor
+from abb_ros.model.parameters.params import PARAM_SPECS, DriveParams, ParamError, apply_settings
 
 __all__ = ['Scenario', 'load_scenario', 'scenario_dir', 'list_scenarios', 'SpeedCommand',
            'CurrentCommand']
@@ -169,8 +169,8 @@ def _initial_deck(value) -> tuple:
     """Check the start deck state: X, Y, Z within +-MAX_TRANSLATION, angles within +-MAX_ANGLE.
 
     Outside the envelope of the kernels' state check
-    (:func:`abb_ros.model.kernels.stepper.check_state`) the small-angle model means nothing
-    (it stops at t = 0).
+    (:func:`abb_ros.model.dynamics.kernels.stepper.check_state`) the small-angle model means
+    nothing (it stops at t = 0).
     """
     deck = _numbers('scenario.initial.deck', value, 6, 'numbers X, Y, Z [m], alpha, beta, '
                     'gamma [rad]')
@@ -264,7 +264,7 @@ def _spindle(spec, params):
 
 def _torque_spindle(spec):
     """model: torque: a TorqueMotor (motor.* names, MOTOR_DEFAULTS) and timed currents [A]."""
-    from abb_ros.model.plant_spec import MOTOR_DEFAULTS
+    from abb_ros.model.parameters.plant_spec import MOTOR_DEFAULTS
     spec = _mapping('scenario.spindle', spec, {'model', 'motor', 'commands'})
     given = _mapping('scenario.spindle.motor', spec.get('motor') or {}, set(MOTOR_DEFAULTS))
     values = {}

@@ -22,11 +22,12 @@ from pathlib import Path
 
 import numpy as np
 
-from abb_ros.model import sensors, speed_bands
-from abb_ros.model.integrate import DEFAULT_DT, Simulation, SpindleMotor
-from abb_ros.model.params import DriveParams
-from abb_ros.model.sensors import TYPICAL_IMU, ImuModel
-from abb_ros.model.speed_sensor import SpeedSensor
+from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation, SpindleMotor
+from abb_ros.model.parameters.params import DriveParams
+from abb_ros.model.sensors import imu
+from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuModel
+from abb_ros.model.sensors.speed_sensor import SpeedSensor
+from abb_ros.model.stability import speed_bands
 
 WARMUP_TABLE_POINTS = 4
 """Speeds of the warm-up table: the kernels' types do not depend on the count."""
@@ -44,7 +45,7 @@ def warm_up() -> dict[str, float]:
     sim.trajectory(2, 1)
     s = sim.layout
     ImuModel(TYPICAL_IMU).read(sim.y[s.q], sim.y[s.qd], sim.accelerations())
-    sensors.JIT.deck_pose_twist(sim.y, params.n, np.empty(13))
+    imu.JIT.deck_pose_twist(sim.y, params.n, np.empty(13))
     fg = SpeedSensor()
     for step in range(2):
         fg.update(step * 1e-3, step * 1e-3 * omega, omega)
@@ -54,7 +55,8 @@ def warm_up() -> dict[str, float]:
     speed_bands.refine(table, omega)
     took['floquet'] = time.perf_counter() - start
     start = time.perf_counter()
-    from abb_ros.model import batch, floquet
+    from abb_ros.model.dynamics import batch
+    from abb_ros.model.stability import floquet
     floquet.max_multiplier_batch([params], [omega], 'in', kern=floquet.SERIAL)
     run = batch.BatchRun([params], sim.y[None, :].copy(), sim.spindle.pack(omega)[None, :],
                          DEFAULT_DT, 1e-3)
@@ -66,11 +68,14 @@ def warm_up() -> dict[str, float]:
 def cache_locations() -> list[str]:
     """Return the directories numba caches this package's kernels in (none without numba).
 
-    One per source directory: the model's kernels package and the model's own modules.
+    One per source directory that holds kernels: the dynamics' kernels package, the dynamics
+    (batch), the sensors and the stability analysis.
     """
-    from abb_ros.model import batch, kernels
+    from abb_ros.model.dynamics import batch, kernels
+    from abb_ros.model.stability import floquet
     paths = []
-    for entry in (kernels.JIT.advance, batch.JIT.rk4_metrics_batch):
+    for entry in (kernels.JIT.advance, batch.JIT.rk4_metrics_batch, imu.JIT.deck_pose_twist,
+                  floquet.JIT.monodromy_many_serial):
         cache = getattr(entry, '_cache', None)
         if cache is None or not hasattr(cache, '_cache_path'):
             return []

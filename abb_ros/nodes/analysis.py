@@ -1,11 +1,11 @@
 """``ros2 run abb_ros analysis``: predicted stability at the running speed (node abb_analysis).
 
 Tells a controller, before the balls show it, whether the current operating point can be
-balanced. A thin rclpy adapter over :mod:`abb_ros.model.speed_bands`:
+balanced. A thin rclpy adapter over :mod:`abb_ros.model.stability.speed_bands`:
 
 * parameters ``drive.*`` are declared exactly as the simulator declares them (one spec,
-  :mod:`abb_ros.model.drive_spec`), so both load the same YAML; at start-up and whenever the
-  simulator (parameter ``simulator_node``, resolved in this node's namespace) declares or
+  :mod:`abb_ros.model.parameters.drive_spec`), so both load the same YAML; at start-up and whenever
+  the simulator (parameter ``simulator_node``, resolved in this node's namespace) declares or
   changes ``drive.*`` or ``max_spindle_speed``, the values are copied into this node's own
   parameters (from ``/parameter_events``, and once by GetParameters for a simulator that was
   already running). The ball count follows ``joint_states`` (a changed ``drive.n`` applies in
@@ -49,11 +49,11 @@ from std_msgs.msg import Float64
 from abb_ros.io import cdr, ros_messages
 from abb_ros.io.joint_speed import JointSpeedReader
 from abb_ros.io.topics import DIAGNOSTICS, JOINT_STATES, STABILITY_MARGIN
-from abb_ros.model import speed_bands
-from abb_ros.model.param_spec import DRIVE_PREFIX
-from abb_ros.model.params import DriveParams, ParamError
-from abb_ros.model.table_worker import REFINE_TOL_RAD_S, TableWorker
+from abb_ros.model.parameters.param_spec import DRIVE_PREFIX
+from abb_ros.model.parameters.params import DriveParams, ParamError
+from abb_ros.model.stability import speed_bands
 from abb_ros.nodes import ros_params
+from abb_ros.nodes.analysis_table import REFINE_TOL_RAD_S, TableWorker
 from abb_ros.nodes.entry_point import run_node
 from abb_ros.nodes.parameter_table import specs_for
 from abb_ros.nodes.taps import Taps

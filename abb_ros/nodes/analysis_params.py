@@ -1,13 +1,13 @@
 """The analysis node's own parameters (besides ``drive.*`` and ``max_spindle_speed``).
 
 The node declares the drive's parameters and ``max_spindle_speed``
-(:mod:`abb_ros.model.drive_spec`, :mod:`abb_ros.model.plant_spec`) and copies them from the
-simulator it follows; :data:`ANALYSIS_SPECS` are the ones only it has.
+(:mod:`abb_ros.model.parameters.drive_spec`, :mod:`abb_ros.model.parameters.plant_spec`) and copies
+them from the simulator it follows; :data:`ANALYSIS_SPECS` are the ones only it has.
 """
 
 from __future__ import annotations
 
-from abb_ros.model.param_spec import INTEGER, STRING, ParamSpec
+from abb_ros.model.parameters.param_spec import INTEGER, STRING, ParamSpec
 
 __all__ = ['ANALYSIS_SPECS']
 

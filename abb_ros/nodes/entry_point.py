@@ -18,7 +18,7 @@ import rclpy
 from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
 from rclpy.signals import SignalHandlerOptions
 
-from abb_ros.model.params import ParamError
+from abb_ros.model.parameters.params import ParamError
 from abb_ros.nodes import stop as stop_request
 from abb_ros.nodes.rclpy_access import RCLError
 

@@ -1,7 +1,7 @@
 """The simulator node's HIL I/O: FG speed sensor, sensor faults, disturbances, markers.
 
-Wiring only (the logic is in :mod:`abb_ros.model.speed_sensor`,
-:mod:`abb_ros.model.sensor_faults`, :mod:`abb_ros.model.disturbances` and
+Wiring only (the logic is in :mod:`abb_ros.model.sensors.speed_sensor`,
+:mod:`abb_ros.model.sensors.faults`, :mod:`abb_ros.model.sensors.disturbances` and
 :mod:`abb_ros.io.markers`). :class:`HilIO` attaches to a
 :class:`abb_ros.nodes.simulator.SimulatorNode`: it puts the FG and the fault filters into
 the node's PlantSampler, serves ``~/apply_shock`` and ``~/swap_disc``, publishes
@@ -20,9 +20,9 @@ from std_srvs.srv import Trigger
 
 from abb_ros.io import cdr, markers
 from abb_ros.io.topics import DIAGNOSTICS, MARKERS
-from abb_ros.model import disturbances
-from abb_ros.model.sensor_faults import ImuFaults, SpeedFaults
-from abb_ros.model.speed_sensor import SpeedSensor
+from abb_ros.model.sensors import disturbances
+from abb_ros.model.sensors.faults import ImuFaults, SpeedFaults
+from abb_ros.model.sensors.speed_sensor import SpeedSensor
 from abb_ros.nodes.hil_settings import HilSettings
 
 __all__ = ['HilIO']

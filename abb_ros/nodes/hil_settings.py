@@ -13,8 +13,8 @@ import math
 from dataclasses import dataclass
 from typing import Any, Mapping
 
-from abb_ros.model.params import ParamError
-from abb_ros.model.speed_sensor import SpeedSensorConfig
+from abb_ros.model.parameters.params import ParamError
+from abb_ros.model.sensors.speed_sensor import SpeedSensorConfig
 
 __all__ = ['HilSettings', 'hil_settings']
 

@@ -1,11 +1,12 @@
 """Every parameter of abb_ros, collected from the specs beside what each configures.
 
-The drive's (:mod:`abb_ros.model.drive_spec`) and the plant's (:mod:`abb_ros.model.plant_spec`)
-live in the model, each node's own beside the node (``abb_ros/nodes/<node>_params.py``). This
-module joins them: :data:`SPECS`, :func:`specs_for` (what a node declares, in order) and
-:func:`markdown`, the table of docs/parameters.md
+The drive's (:mod:`abb_ros.model.parameters.drive_spec`) and the plant's
+(:mod:`abb_ros.model.parameters.plant_spec`) live in the model, each node's own beside the node
+(``abb_ros/nodes/<node>_params.py``). This module joins them: :data:`SPECS`, :func:`specs_for`
+(what a node declares, in order) and :func:`markdown`, the table of docs/parameters.md
 (``python -m abb_ros.nodes.parameter_table --markdown > docs/parameters.md``). The names
-``abb-sim --set`` takes are the model's alone (:func:`abb_ros.model.plant_spec.cli_names`).
+``abb-sim --set`` takes are the model's alone
+(:func:`abb_ros.model.parameters.plant_spec.cli_names`).
 """
 
 from __future__ import annotations
@@ -13,8 +14,8 @@ from __future__ import annotations
 import sys
 from typing import Iterable
 
-from abb_ros.model.drive_spec import DRIVE_SPECS
-from abb_ros.model.param_spec import ParamSpec
+from abb_ros.model.parameters.drive_spec import DRIVE_SPECS
+from abb_ros.model.parameters.param_spec import ParamSpec
 from abb_ros.nodes.analysis_params import ANALYSIS_SPECS
 from abb_ros.nodes.recorder_params import RECORDER_SPECS
 from abb_ros.nodes.simulator_params import SIMULATOR_SPECS
@@ -62,7 +63,8 @@ def markdown() -> str:
     """Return docs/parameters.md: one table per node, generated from SPECS."""
     lines = ['# Parameters', '',
              'Generated from the parameter specs (the drive\'s and the plant\'s in',
-             '`abb_ros/model/drive_spec.py` and `abb_ros/model/plant_spec.py`, each node\'s',
+             '`abb_ros/model/parameters/drive_spec.py` and',
+             '`abb_ros/model/parameters/plant_spec.py`, each node\'s',
              'own in `abb_ros/nodes/<node>_params.py`) by',
              '`python -m abb_ros.nodes.parameter_table --markdown > docs/parameters.md`;',
              'do not edit by hand (test/test_param_spec.py compares).', '',
@@ -97,9 +99,9 @@ def markdown() -> str:
 
 def _limits() -> list[str]:
     """Return the section on the operating speed and the work limits of ``abb-sim``."""
-    from abb_ros.model.drive_spec import CLAMPED_DECK, SPAN, SPEED_SPEC
-    from abb_ros.model.floquet import MAX_STEPS
-    from abb_ros.model.integrate import MAX_RUN_STEPS
+    from abb_ros.model.dynamics.integrate import MAX_RUN_STEPS
+    from abb_ros.model.parameters.drive_spec import CLAMPED_DECK, SPAN, SPEED_SPEC
+    from abb_ros.model.stability.floquet import MAX_STEPS
     return ['## Operating point and work limits (`abb-sim`)', ''] + _table([SPEED_SPEC]) + [
         '', f'Each drive parameter above lies within a factor of {SPAN:.0e} of its Table 1 '
         'value (of a typical value where the default is 0; the deck\'s mass and inertias up '

@@ -32,7 +32,7 @@ from rclpy.node import Node
 from abb_ros.io import cdr
 from abb_ros.io.bag_writer import BagError, BagWriter
 from abb_ros.io.topics import DIAGNOSTICS
-from abb_ros.model.param_spec import ParamError
+from abb_ros.model.parameters.param_spec import ParamError
 from abb_ros.nodes import ros_params
 from abb_ros.nodes.entry_point import run_node
 from abb_ros.nodes.parameter_table import specs_for

@@ -10,7 +10,7 @@ import math
 
 from abb_ros.io.bag_writer import DEFAULT_CHUNK_SIZE
 from abb_ros.io.topics import recorded_topics
-from abb_ros.model.param_spec import INTEGER, STRING, STRING_ARRAY, ParamSpec
+from abb_ros.model.parameters.param_spec import INTEGER, STRING, STRING_ARRAY, ParamSpec
 
 __all__ = ['RECORDER_SPECS']
 

@@ -31,7 +31,7 @@ from std_srvs.srv import Trigger
 
 from abb_ros.io import msgdefs
 from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
-from abb_ros.model.param_spec import ParamError
+from abb_ros.model.parameters.param_spec import ParamError
 from abb_ros.nodes.rclpy_access import RCLError
 from abb_ros.nodes.taps import Taps
 

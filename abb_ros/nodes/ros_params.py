@@ -27,11 +27,17 @@ from rcl_interfaces.msg import (
 )
 from rclpy.parameter import Parameter
 
-from abb_ros.model.integrate import SpindleMotor, TorqueMotor
-from abb_ros.model.param_spec import DOUBLE, DOUBLE_ARRAY, DRIVE_PREFIX, INTEGER, ParamSpec
-from abb_ros.model.params import DriveParams, ParamError
-from abb_ros.model.plant_spec import check_rates, imu_config
-from abb_ros.model.sensors import ImuConfig
+from abb_ros.model.dynamics.integrate import SpindleMotor, TorqueMotor
+from abb_ros.model.parameters.param_spec import (
+    DOUBLE,
+    DOUBLE_ARRAY,
+    DRIVE_PREFIX,
+    INTEGER,
+    ParamSpec,
+)
+from abb_ros.model.parameters.params import DriveParams, ParamError
+from abb_ros.model.parameters.plant_spec import check_rates, imu_config
+from abb_ros.model.sensors.imu import ImuConfig
 from abb_ros.nodes.hil_settings import HilSettings, hil_settings
 from abb_ros.nodes.parameter_table import specs_for
 from abb_ros.nodes.rclpy_access import parameter_overrides

@@ -1,7 +1,7 @@
 """``ros2 run abb_ros simulator``: the drive as a fixed-rate plant over ROS 2 (node abb_simulator).
 
-A thin rclpy adapter: :class:`abb_ros.model.integrate.Simulation` integrates, a
-:class:`abb_ros.model.sampling.PlantSampler` decides when the state and the IMU are due,
+A thin rclpy adapter: :class:`abb_ros.model.dynamics.integrate.Simulation` integrates, a
+:class:`abb_ros.model.sensors.sampling.PlantSampler` decides when the state and the IMU are due,
 :mod:`abb_ros.io.cdr` encodes the messages (the headless ``abb-sim run``'s encoder: no rclpy
 message is built). Topics, parameters and services: docs/ros_api.md.
 
@@ -34,10 +34,10 @@ from std_srvs.srv import SetBool, Trigger
 
 from abb_ros.io import cdr, ros_messages
 from abb_ros.io.topics import CURRENT_CMD, DIAGNOSTICS, SPEED_CMD
-from abb_ros.model.integrate import Simulation, StateError, initial_state
-from abb_ros.model.params import ParamError
-from abb_ros.model.sampling import PlantSampler
-from abb_ros.model.sensors import ImuModel
+from abb_ros.model.dynamics.integrate import Simulation, StateError, initial_state
+from abb_ros.model.parameters.params import ParamError
+from abb_ros.model.sensors.imu import ImuModel
+from abb_ros.model.sensors.sampling import PlantSampler
 from abb_ros.nodes import ros_params, simulator_live_view
 from abb_ros.nodes.entry_point import make_executor, run_node, spin
 from abb_ros.nodes.hil_io import HilIO

@@ -38,7 +38,7 @@ from std_msgs.msg import Float64
 
 from abb_ros.io import msgdefs, topics
 from abb_ros.io.live_view import LiveView, LiveViewError
-from abb_ros.model.param_spec import ParamError
+from abb_ros.model.parameters.param_spec import ParamError
 from abb_ros.nodes.recording import DRAIN_PERIOD_S, GraphRecording
 
 __all__ = ['COMMAND_PERIOD_S', 'SERVICE_TIMEOUT_S', 'SimulatorLiveView', 'ViewerParameters',

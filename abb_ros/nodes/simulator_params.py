@@ -1,10 +1,10 @@
 """The simulator node's parameters: the plant's, and those only the node has.
 
 :data:`SIMULATOR_SPECS` is the node's list, in declaration order: the drive is declared
-first (:mod:`abb_ros.model.drive_spec`), then these. The plant's parameters (rates, spindle,
-seed, IMU, motor; :mod:`abb_ros.model.plant_spec`) are shared with ``abb-sim run``; pacing,
-the HIL I/O (FG speed sensor, faults, disturbances, markers), recording and the live view
-are the node's own.
+first (:mod:`abb_ros.model.parameters.drive_spec`), then these. The plant's parameters (rates,
+spindle, seed, IMU, motor; :mod:`abb_ros.model.parameters.plant_spec`) are shared with ``abb-sim
+run``; pacing, the HIL I/O (FG speed sensor, faults, disturbances, markers), recording and the live
+view are the node's own.
 """
 
 from __future__ import annotations
@@ -12,8 +12,15 @@ from __future__ import annotations
 import math
 
 from abb_ros.io.topics import CURRENT_CMD, DIAGNOSTICS, SPEED_CMD, STABILITY_MARGIN
-from abb_ros.model.param_spec import BOOL, DOUBLE_ARRAY, INTEGER, STRING, STRING_ARRAY, ParamSpec
-from abb_ros.model.plant_spec import (
+from abb_ros.model.parameters.param_spec import (
+    BOOL,
+    DOUBLE_ARRAY,
+    INTEGER,
+    STRING,
+    STRING_ARRAY,
+    ParamSpec,
+)
+from abb_ros.model.parameters.plant_spec import (
     IMU_SPECS,
     MAX_SPINDLE_SPEED,
     MOTOR_SPECS,

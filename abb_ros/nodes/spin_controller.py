@@ -2,17 +2,17 @@
 
 An example controller (node abb_spin_controller) for the plant. On each ``joint_states``
 (velocity[0] = omega, header stamp = time) it advances the speed reference of
-:class:`abb_ros.model.run_up.RunUp` and publishes exactly one command: in ``mode`` speed a
+:class:`abb_ros.nodes.run_up.RunUp` and publishes exactly one command: in ``mode`` speed a
 ``spindle/speed_cmd`` (std_msgs/Float64, rad/s), the reference plus a PI correction of the
 measured speed error (gains ``kp``, ``ki``; the integral runs only while holding); in ``mode``
 torque (the simulator's ``spindle.mode`` torque) a ``spindle/current_cmd`` (std_msgs/Float64,
-A) from the speed loop :class:`abb_ros.model.speed_loop.SpeedLoop` (feedforward of the
+A) from the speed loop :class:`abb_ros.nodes.speed_loop.SpeedLoop` (feedforward of the
 reference's acceleration and of the friction, PI at ``loop_bandwidth``, anti-windup at the
 current limit) with the node's ``motor.*``, which must be the simulator's. The reference ramps at
 ``acceleration`` where the balanced equilibrium is stable and jumps over the unbalanced bands
-(from :func:`abb_ros.model.speed_bands.speed_table` of the node's own ``drive.*``, computed at
-start-up: give it the simulator's parameter file) so that the drive crosses them at its own
-acceleration limit; it holds ``target_speed`` only if the analysis calls it balanced, else the
+(from :func:`abb_ros.model.stability.speed_bands.speed_table` of the node's own ``drive.*``,
+computed at start-up: give it the simulator's parameter file) so that the drive crosses them at its
+own acceleration limit; it holds ``target_speed`` only if the analysis calls it balanced, else the
 nearest speed that is (with a guard of ``guard_wbar``, logged). ``stability/margin`` from the
 analysis node is watched: a negative margin while holding is reported (it does not change the
 command, so lockstep runs stay deterministic). Parameters: docs/ros_api.md.
@@ -33,14 +33,14 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
 from abb_ros.io.topics import CURRENT_CMD, JOINT_STATES, SPEED_CMD, STABILITY_MARGIN
-from abb_ros.model import speed_bands
-from abb_ros.model.integrate import TorqueMotor
-from abb_ros.model.params import DriveParams, ParamError
-from abb_ros.model.run_up import RunUp, hold_speed
-from abb_ros.model.speed_loop import SpeedLoop, rotor_inertia
+from abb_ros.model.dynamics.integrate import TorqueMotor
+from abb_ros.model.parameters.params import DriveParams, ParamError
+from abb_ros.model.stability import speed_bands
 from abb_ros.nodes import ros_params
 from abb_ros.nodes.entry_point import run_node
 from abb_ros.nodes.parameter_table import specs_for
+from abb_ros.nodes.run_up import RunUp, hold_speed
+from abb_ros.nodes.speed_loop import SpeedLoop, rotor_inertia
 
 NODE_NAME = 'abb_spin_controller'
 QOS_DEPTH = 10

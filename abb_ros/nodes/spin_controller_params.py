@@ -1,15 +1,15 @@
 """The example controller's own parameters (besides ``drive.*``, ``motor.*``).
 
 The controller also declares the drive's parameters, ``max_spindle_speed`` and the motor's
-(:mod:`abb_ros.model.drive_spec`, :mod:`abb_ros.model.plant_spec`); :data:`CONTROLLER_SPECS`
-are the ones only it has.
+(:mod:`abb_ros.model.parameters.drive_spec`, :mod:`abb_ros.model.parameters.plant_spec`);
+:data:`CONTROLLER_SPECS` are the ones only it has.
 """
 
 from __future__ import annotations
 
 import math
 
-from abb_ros.model.param_spec import INTEGER, STRING, ParamSpec
+from abb_ros.model.parameters.param_spec import INTEGER, STRING, ParamSpec
 
 __all__ = ['CONTROLLER_SPECS']
 

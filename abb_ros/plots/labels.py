@@ -24,8 +24,8 @@ def washer_name(c: float) -> str:
 def parameter_text(params, wbar: float | None = None, omit=()) -> str:
     """Return e.g. 'wbar = 2.7, zeta = 0.025 (metal washers), epsbar = 0.0167, mbar = 0.03, n = 2'.
 
-    params : abb_ros.model.params.DriveParams; ``omit`` names parameters left out (map axes).
-    ``n = 0`` is written 'n = 0 (without ABB)' and mbar is left out.
+    params : abb_ros.model.parameters.params.DriveParams; ``omit`` names parameters left out (map
+    axes). ``n = 0`` is written 'n = 0 (without ABB)' and mbar is left out.
     """
     parts = []
     if wbar is not None and 'wbar' not in omit:

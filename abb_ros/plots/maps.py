@@ -31,7 +31,7 @@ def plot_map(smap, path, title=None, kind='regions') -> None:
     """Write the map ``smap`` (floquet.StabilityMap) as a PNG at ``path``."""
     import numpy as np
 
-    from abb_ros.model.floquet import BALANCED
+    from abb_ros.model.stability.floquet import BALANCED
     plt = _pyplot()
     X, Y = np.meshgrid(smap.x_values, smap.y_values)
     if kind == 'surface':
@@ -81,7 +81,7 @@ def _region_legend(ax, plane, limits) -> None:
 
 def map_title(smap) -> str:
     """Return the map's title: its plane and the parameters held fixed (others: Table 1 values)."""
-    from abb_ros.model.params import DriveParams
+    from abb_ros.model.parameters.params import DriveParams
     params = DriveParams(**smap.fixed['SI'])
     wbar = smap.fixed['settings'].get('wbar')
     plane = 'In-plane' if smap.plane == 'in' else 'Out-of-plane'

@@ -14,8 +14,8 @@ import numpy as np
 
 from abb_ros.io.bag_reader import read_bag, read_drive_params
 from abb_ros.io.topics import DECK_POSE, JOINT_STATES
-from abb_ros.model.params import DriveParams
-from abb_ros.model.state import rbar, wrap_degrees
+from abb_ros.model.dynamics.state import rbar, wrap_degrees
+from abb_ros.model.parameters.params import DriveParams
 
 LEGEND_OUTSIDE = dict(loc='upper left', bbox_to_anchor=(1.01, 1.0), fontsize=8, borderaxespad=0)
 """Legends right of the axes, where they cover no data."""

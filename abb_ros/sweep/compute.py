@@ -7,10 +7,10 @@ sample. Drives are grouped by ball count n (a kernel batch shares n):
 - ``stability``: the in-plane and out-of-plane |lambda|max at the balanced equilibrium
   (symmetric fan, Eq. 26; for n >= 3 the transverse multipliers, ``neutral_modes`` the
   family's neutral ones removed) at every speed of the spec, by
-  :func:`abb_ros.model.floquet.multipliers_batch` over all (drive, speed) pairs at once
+  :func:`abb_ros.model.stability.floquet.multipliers_batch` over all (drive, speed) pairs at once
   (its one-thread build, ``floquet.SERIAL``: a worker is one process with one thread);
 - ``run``: the nonlinear equations integrated from the scenario's initial state with its
-  speed profile by :class:`abb_ros.model.batch.BatchRun`, which reduces each trajectory to
+  speed profile by :class:`abb_ros.model.dynamics.batch.BatchRun`, which reduces each trajectory to
   its metrics inside the kernel.
 
 A drive's result depends only on its own parameters (every kernel treats the points of a
@@ -26,9 +26,9 @@ import math
 
 import numpy as np
 
-from abb_ros.model import kernels
-from abb_ros.model.params import DIMENSIONLESS_NAMES, apply_settings
-from abb_ros.model.state import StateLayout, wrap_degrees
+from abb_ros.model.dynamics import kernels
+from abb_ros.model.dynamics.state import StateLayout, wrap_degrees
+from abb_ros.model.parameters.params import DIMENSIONLESS_NAMES, apply_settings
 from abb_ros.sweep.starts import initial_states, is_start
 
 __all__ = ['compute_partition', 'STATUS_NAMES', 'partition_params', 'warm_up']
@@ -89,7 +89,7 @@ def compute_partition(spec, index: int, columns: dict) -> dict:
 
 def _multipliers(multipliers_batch, plist, omegas, plane, kern):
     """Run multipliers_batch; a drive over its step limit is refused naming the spec's field."""
-    from abb_ros.model.params import ParamError
+    from abb_ros.model.parameters.params import ParamError
     try:
         return multipliers_batch(plist, omegas, plane, kern=kern)
     except ParamError as exc:
@@ -101,7 +101,7 @@ def _multipliers(multipliers_batch, plist, omegas, plane, kern):
 
 
 def _stability(spec, params, groups) -> dict:
-    from abb_ros.model.floquet import SERIAL, multipliers_batch
+    from abb_ros.model.stability.floquet import SERIAL, multipliers_batch
     speeds = spec.speeds
     count = len(params)
     S = speeds.size
@@ -133,8 +133,8 @@ def _stability(spec, params, groups) -> dict:
 
 
 def _runs(spec, params, groups, columns) -> dict:
-    from abb_ros.model.batch import FAIL_TIME, PEAK_RBAR, TIME_ABOVE, BatchRun
-    from abb_ros.model.integrate import StateError
+    from abb_ros.model.dynamics.batch import FAIL_TIME, PEAK_RBAR, TIME_ABOVE, BatchRun
+    from abb_ros.model.dynamics.integrate import StateError
     scen = spec.scenario
     dt = spec.run['dt']
     limit = spec.run['rbar_limit']
@@ -182,8 +182,8 @@ def _runs(spec, params, groups, columns) -> dict:
 
 def _initial(scen, columns, idx, plist):
     """Return the initial states of the samples ``idx`` and which of them overlap."""
-    from abb_ros.model.integrate import initial_state
-    from abb_ros.model.params import ParamError
+    from abb_ros.model.dynamics.integrate import initial_state
+    from abb_ros.model.parameters.params import ParamError
     n = plist[0].n
     phi0, deck0 = initial_states(scen, columns, idx, n)
     y0 = []

@@ -77,7 +77,7 @@ def _bins(x, discrete):
 
 
 def _unit(name):
-    from abb_ros.model.params import PARAM_SPECS
+    from abb_ros.model.parameters.params import PARAM_SPECS
     spec = PARAM_SPECS.get(name)
     return f'{name} [{spec.unit}]' if spec and spec.unit else name
 

@@ -25,7 +25,7 @@ do; a drive whose washers are stiffer runs at a lower wbar of its own.
 
 All samples are drawn up front from the seed (:func:`draw_samples`), before they are cut into
 partitions, so the samples and the results do not depend on how the work is partitioned or
-where it runs. Errors are :class:`~abb_ros.model.params.ParamError` naming the field
+where it runs. Errors are :class:`~abb_ros.model.parameters.params.ParamError` naming the field
 (``parameters.k.low``, ``compute.run.duration``, ...) and what is valid.
 """
 
@@ -42,8 +42,9 @@ import numpy as np
 
 from abb_ros.io.safe_yaml import YamlFileError, load_file
 from abb_ros.io.scenario import finite_number as _num
-from abb_ros.model.drive_spec import MAX_OMEGA
-from abb_ros.model.params import DIMENSIONLESS_NAMES, PARAM_SPECS, ParamError, apply_settings
+from abb_ros.model.parameters.drive_spec import MAX_OMEGA
+from abb_ros.model.parameters.param_spec import ParamError
+from abb_ros.model.parameters.params import DIMENSIONLESS_NAMES, PARAM_SPECS, apply_settings
 from abb_ros.sweep.starts import START_PARAMETERS, check_start_value, check_starts, is_start
 
 __all__ = ['MAX_SAMPLES', 'MAX_SPEC_BYTES', 'MAX_SPEEDS', 'SweepSpec', 'load_spec', 'parse_spec',
@@ -64,8 +65,8 @@ MAX_SPEC_BYTES = 1 << 20
 MAX_DURATION = 1000.0
 """Longest run in ``compute.run.duration`` [s]."""
 
-SAMPLEABLE = tuple(PARAM_SPECS) + tuple(n for n in DIMENSIONLESS_NAMES if n != 'wbar') \
-    + START_PARAMETERS
+_DRIVE = tuple(PARAM_SPECS) + tuple(n for n in DIMENSIONLESS_NAMES if n != 'wbar')
+SAMPLEABLE = _DRIVE + START_PARAMETERS
 """Parameters a spec may vary: the SI drive parameters and the Eq. (39) names but wbar (speeds
 belong to ``compute``), and the start of the runs (:mod:`abb_ros.sweep.starts`)."""
 
@@ -203,9 +204,8 @@ def parse_spec(doc, base_dir=None) -> SweepSpec:
     if not isinstance(base, dict):
         raise ParamError('base', base, 'a mapping name: value of SI or Eq. (39) names')
     for key, value in base.items():
-        if key not in SAMPLEABLE or is_start(key):
-            drive = [k for k in SAMPLEABLE if not is_start(k)]
-            raise ParamError(f'base.{key}', value, 'one of ' + ', '.join(drive),
+        if key not in _DRIVE:
+            raise ParamError(f'base.{key}', value, 'one of ' + ', '.join(_DRIVE),
                              'unknown parameter')
     scenario = scenario.with_settings(base)
     nominal = scenario.params
@@ -274,8 +274,7 @@ def parse_spec(doc, base_dir=None) -> SweepSpec:
                'rbar_limit': _num('compute.run.rbar_limit', r.get('rbar_limit',
                                                                   DEFAULT_RBAR_LIMIT), 0.0, True),
                'dt': _num('compute.run.dt', r.get('dt', 1e-4), 0.0, True, 1e-2)}
-    n_dist = parameters.get('n')
-    check_starts(parameters, n_dist['values'] if n_dist else [nominal.n], run)
+    check_starts(parameters, parameters.get('n', {'values': [nominal.n]})['values'], run)
     doc.update(name=name, description=description, scenario=scen_name, base=base,
                parameters=parameters, samples=samples,
                sampling={'method': method, 'seed': seed}, partition_size=partition_size)

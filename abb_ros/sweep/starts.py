@@ -19,8 +19,8 @@ import re
 
 import numpy as np
 
-from abb_ros.model.kernels.layout import MAX_TRANSLATION
-from abb_ros.model.params import ParamError
+from abb_ros.model.dynamics.kernels.layout import MAX_TRANSLATION
+from abb_ros.model.parameters.params import ParamError
 
 __all__ = ['MAX_BALLS', 'START_PARAMETERS', 'DECK_STARTS', 'is_start', 'check_start_value',
            'check_starts', 'split', 'initial_states']

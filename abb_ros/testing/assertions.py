@@ -12,9 +12,9 @@ import math
 
 import numpy as np
 
-from abb_ros.model.equilibrium import balanced_equilibrium
-from abb_ros.model.params import DriveParams
-from abb_ros.model.state import wrap_angle
+from abb_ros.model.dynamics.state import wrap_angle
+from abb_ros.model.parameters.params import DriveParams
+from abb_ros.model.stability.equilibrium import balanced_equilibrium
 
 __all__ = ['settling_time', 'peak', 'phi_star_error_deg', 'time_in_bands',
            'assert_balls_at_phi_star', 'assert_settles']

@@ -33,9 +33,9 @@ from dataclasses import fields
 import numpy as np
 
 from abb_ros.io.topics import CURRENT_CMD, DECK_POSE, JOINT_STATES, SPEED_CMD, STABILITY_MARGIN
-from abb_ros.model.params import DriveParams
-from abb_ros.model.plant_spec import MOTOR_DEFAULTS
-from abb_ros.model.state import rbar
+from abb_ros.model.dynamics.state import rbar
+from abb_ros.model.parameters.params import DriveParams
+from abb_ros.model.parameters.plant_spec import MOTOR_DEFAULTS
 
 __all__ = ['LockstepPlant', 'LockstepTimeout', 'Trace', 'drive_parameters', 'DEADLINE_S']
 
@@ -200,7 +200,7 @@ class LockstepPlant:
 
         The analysis' table: speed_bands.speed_table over 0..max_spindle_speed.
         """
-        from abb_ros.model.speed_bands import speed_table
+        from abb_ros.model.stability.speed_bands import speed_table
         return speed_table(self.drive, self.sim.settings.max_spindle_speed).bands
 
     @property

@@ -1,0 +1,562 @@
+"""Time integration of the nonlinear model: a fixed-step RK4 for real time, and a reference.
+
+:class:`Simulation` advances the state of :mod:`abb_ros.model.dynamics.equations` with the compiled
+classical RK4 of :mod:`abb_ros.model.dynamics.kernels`, many steps per call; time is the integer
+step count times ``dt`` (no drift). :func:`reference_solution` integrates the same
+right-hand side with scipy's adaptive DOP853 at tight tolerances.
+
+The spindle speed is an input: :class:`ConstantSpeed` (the paper's case), :class:`Ramp`
+(constant angular acceleration over an interval) or :class:`SpindleMotor` (tracks a
+commanded speed as a first-order lag with an acceleration limit, as a speed-controlled
+spindle motor does); or the spindle is free and driven by torque: :class:`TorqueMotor` (a
+current-commanded DC/BLDC motor, docs/torque_mode.md), with :meth:`Simulation.set_command`
+the current command.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from abb_ros.model.dynamics import kernels
+from abb_ros.model.dynamics.equations import solver_buffers
+from abb_ros.model.dynamics.kernels.layout import (
+    STAT_MOST_SUBSTEPS,
+    STAT_REFINED,
+    STAT_SUBSTEPS,
+    STAT_SWITCHES,
+    W_STATS,
+)
+from abb_ros.model.dynamics.state import StateLayout, wrap_angle
+from abb_ros.model.parameters.params import DriveParams, ParamError
+from abb_ros.model.parameters.plant_spec import MOTOR_DEFAULTS
+
+__all__ = ['DEFAULT_DT', 'MAX_RUN_STEPS', 'ConstantSpeed', 'Ramp', 'SpindleMotor', 'StateError',
+           'Simulation', 'initial_state', 'reference_solution', 'Trajectory', 'simulate',
+           'TorqueMotor']
+
+DEFAULT_DT = 1.0 / 10000.0
+
+MAX_RUN_STEPS = 100_000_000
+"""Most fixed steps of one run (duration / dt): 10^4 simulated seconds at 10 kHz, hours of
+work and a bag of gigabytes; a longer run is refused before it starts."""
+
+CONTACT_DT_VERIFIED = (1e-5, 2e-4)
+"""Steps [s] over which the contact step's rebound accuracy (1e-5 m/s or 7.8e-5 of the speed,
+approach speeds 0.001-0.5 m/s, both spindle modes) is tested: test_contact_step_sizes.py.
+Outside it a run goes on, and says so (:func:`contact_step_note`)."""
+
+
+def contact_step_note(params, dt: float) -> str:
+    """Return a one-line warning for a contact step outside the verified range, or ''.
+
+    The warning applies when balls touch (contact on) and dt [s] lies outside
+    :data:`CONTACT_DT_VERIFIED`.
+    """
+    lo, hi = CONTACT_DT_VERIFIED
+    if params.contact_E <= 0 or params.n < 2 or lo <= dt <= hi:
+        return ''
+    return (f'integration step {dt:.3g} s outside {lo:g}..{hi:g} s, where the contact '
+            'impacts\' accuracy is verified (docs/ball_size_contact_rolling.md)')
+"""Default fixed step [s] (10 kHz); see docs/verification.md for the accuracy
+study that chose it."""
+
+INITIAL_DECK = (0.3e-3, 0.3e-3, 0.3e-3, 0.0, 0.0, 0.0)
+"""Section 5 initial conditions: X = Y = Z = 0.3 mm, alpha = beta = gamma = 0."""
+
+INITIAL_PHI_DEG = 60.0
+"""Section 5: phi_1(0) = -phi_2(0) = 60 deg."""
+CONTACT_START_GAP_DEG = 0.1
+"""With contact, neighbouring balls of a default start are this far beyond touching [deg]."""
+
+
+@dataclass(frozen=True)
+class ConstantSpeed:
+    """theta'' = 0: the paper's constant omega."""
+
+    def pack(self, omega_cmd: float = 0.0) -> np.ndarray:
+        """Return the packed profile S (:mod:`abb_ros.model.dynamics.kernels.layout`)."""
+        return np.array([kernels.SPINDLE_CONSTANT, omega_cmd, 0, 1, 0, 0, 0], dtype=float)
+
+
+@dataclass(frozen=True)
+class Ramp:
+    """theta'' = accel [rad/s^2] for t0 <= t < t1 [s], zero otherwise."""
+
+    t0: float
+    t1: float
+    accel: float
+
+    def pack(self, omega_cmd: float = 0.0) -> np.ndarray:
+        """Return the packed profile S (:mod:`abb_ros.model.dynamics.kernels.layout`)."""
+        return np.array([kernels.SPINDLE_RAMP, omega_cmd, 0, 1, self.t0, self.t1, self.accel],
+                        dtype=float)
+
+
+@dataclass(frozen=True)
+class SpindleMotor:
+    """Speed-controlled spindle: theta'' = clip((omega_cmd - omega)/tau, +-max_accel).
+
+    max_accel [rad/s^2] > 0, tau [s] > 0.
+    """
+
+    max_accel: float = 1000.0
+    tau: float = 0.05
+
+    def __post_init__(self):
+        for name, value in (('max_accel', self.max_accel), ('tau', self.tau)):
+            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
+                raise ParamError(f'spindle.{name}', value, '(0, inf)')
+
+    def pack(self, omega_cmd: float = 0.0) -> np.ndarray:
+        """Return the packed profile S (:mod:`abb_ros.model.dynamics.kernels.layout`)."""
+        return np.array([kernels.SPINDLE_MOTOR, omega_cmd, self.max_accel, self.tau, 0, 0, 0],
+                        dtype=float)
+
+
+@dataclass(frozen=True)
+class TorqueMotor:
+    """Free spindle driven by a current-commanded DC/BLDC motor (docs/torque_mode.md).
+
+    The command of :meth:`pack` is the winding current [A]. K_t [N m/A] (= K_e [V s/rad]),
+    R_w [ohm], I_max [A], V_s [V] > 0; bearing friction b_v [N m s] and T_c [N m] >= 0,
+    smoothed over omega_c [rad/s] > 0.
+    """
+
+    K_t: float = MOTOR_DEFAULTS['torque_constant']
+    R_w: float = MOTOR_DEFAULTS['resistance']
+    I_max: float = MOTOR_DEFAULTS['current_limit']
+    b_v: float = MOTOR_DEFAULTS['viscous_friction']
+    T_c: float = MOTOR_DEFAULTS['coulomb_friction']
+    omega_c: float = MOTOR_DEFAULTS['friction_smoothing']
+    V_s: float = MOTOR_DEFAULTS['voltage_limit']
+
+    FIELDS = dict(K_t='torque_constant', R_w='resistance', I_max='current_limit',
+                  b_v='viscous_friction', T_c='coulomb_friction', omega_c='friction_smoothing',
+                  V_s='voltage_limit')
+    """Field -> parameter name (``motor.<name>``, plant_spec.MOTOR_DEFAULTS)."""
+
+    @classmethod
+    def from_values(cls, values) -> 'TorqueMotor':
+        """From {``motor.<name>``: value}; missing names take their defaults."""
+        return cls(**{f: float(values.get('motor.' + name, MOTOR_DEFAULTS[name]))
+                      for f, name in cls.FIELDS.items()})
+
+    def __post_init__(self):
+        for name in ('K_t', 'R_w', 'I_max', 'b_v', 'T_c', 'omega_c', 'V_s'):
+            value = getattr(self, name)
+            positive = name not in ('b_v', 'T_c')
+            if not (isinstance(value, (int, float)) and math.isfinite(value)
+                    and (value > 0 or (not positive and value == 0))):
+                raise ParamError(f'motor.{self.FIELDS[name]}', value,
+                                 '(0, inf)' if positive else '[0, inf)')
+
+    def pack(self, current_cmd: float = 0.0) -> np.ndarray:
+        """Return the packed profile S of torque mode (:mod:`~.dynamics.kernels.layout`)."""
+        return np.array([kernels.SPINDLE_TORQUE, current_cmd, self.K_t, self.R_w, self.I_max,
+                         self.b_v, self.T_c, self.omega_c, self.V_s], dtype=float)
+
+    def current(self, omega: float, current_cmd: float) -> float:
+        """Winding current [A] at speed omega for the command (limits applied)."""
+        return float(kernels.PY.motor_current(float(omega), self.pack(current_cmd)))
+
+
+class StateError(RuntimeError):
+    """The state became non-finite or left the sane envelope; integration stopped.
+
+    ``status`` is kernels.NONFINITE or kernels.ENVELOPE; ``t`` the time of the last good state.
+    """
+
+    def __init__(self, status: int, t: float):
+        self.status = status
+        self.t = t
+        what = ('became non-finite' if status == kernels.NONFINITE else
+                'left the sane envelope (|X|,|Y|,|Z| <= %g m, |alpha|,|beta|,|gamma| <= %g rad, '
+                '|phi_i\'| <= %g rad/s)' % (kernels.MAX_TRANSLATION, kernels.MAX_ANGLE,
+                                             kernels.MAX_BALL_RATE))
+        super().__init__(f'state {what} after t = {t:.6f} s; integration stopped')
+
+
+def default_phi0(n: int, separation: float = 0.0) -> np.ndarray:
+    """Return the initial ball angles [rad].
+
+    Section 5's +-60 deg; for n > 2 the balls alternate
+    between the two groups, each group spread by 1 deg steps (identical balls started at the
+    same angle would move as one), or, with contact, by the balls' contact
+    ``separation`` [rad] plus 0.1 deg when that is wider: the balls then start side by side,
+    just apart.
+    """
+    step = 1.0
+    if math.degrees(separation) + CONTACT_START_GAP_DEG > step:
+        step = math.degrees(separation) + CONTACT_START_GAP_DEG
+    phi = np.empty(n)
+    for i in range(n):
+        group, rank = i % 2, i // 2
+        sign = 1.0 if group == 0 else -1.0
+        phi[i] = sign * (INITIAL_PHI_DEG + rank * step)
+    return np.radians(phi)
+
+
+def initial_state(params: DriveParams, omega: float, phi0=None, deck0=INITIAL_DECK,
+                  theta0: float = 0.0) -> np.ndarray:
+    """Return the state y0 of Section 5 at spindle speed omega [rad/s]; shape (2N,)."""
+    n = params.n
+    if phi0 is None:
+        phi = default_phi0(n, params.contact_separation if params.contact_E > 0 else 0.0)
+    else:
+        phi = np.asarray(phi0, dtype=float)
+    if phi.shape != (n,):
+        raise ParamError('phi0', list(np.degrees(phi)), f'{n} ball angles (n = {n})')
+    _check_no_overlap(params, phi)
+    return StateLayout(n).pack(theta=theta0, deck=deck0, phi=phi, omega=omega)
+
+
+def _check_no_overlap(params: DriveParams, phi) -> None:
+    """With contact balls may not start closer than 2 asin(r_ball / R)."""
+    if params.contact_E <= 0 or params.n < 2:
+        return
+    d = np.subtract.outer(phi, phi)
+    d = np.abs(wrap_angle(d))
+    d[np.diag_indices(params.n)] = math.inf
+    if d.min() < params.contact_separation * (1 - 1e-12):
+        raise ParamError('phi0', f'{math.degrees(d.min()):.4f} deg between the closest balls',
+                         f'at least 2 asin(r_ball / R) = '
+                         f'{math.degrees(params.contact_separation):.4f} deg',
+                         'with contact the balls cannot overlap')
+
+
+def _check_torque_terms(params: DriveParams, spindle) -> None:
+    """Refuse torque mode with rolling resistance or rolling balls.
+
+    The free-theta equation of torque mode (docs/torque_mode.md) has ball contact but not
+    yet rolling resistance or rolling balls (docs/ball_size_contact_rolling.md).
+    """
+    if isinstance(spindle, TorqueMotor) and (params.rolling_mu > 0 or params.ball_rotation):
+        name = 'rolling_mu' if params.rolling_mu > 0 else 'ball_rotation'
+        raise ParamError(name, getattr(params, name), '0 in torque mode (spindle.mode torque)',
+                         'the free-theta equation does not have this term yet')
+
+
+class Simulation:
+    """The drive's state advanced by fixed RK4 steps of ``dt`` in a compiled kernel.
+
+    Parameters
+    ----------
+    params : DriveParams
+    omega : float
+        Initial spindle speed [rad/s] (also the initial speed command; with a
+        :class:`TorqueMotor` the initial current command is 0 A).
+    dt : float
+        Step [s].
+    spindle : ConstantSpeed | Ramp | SpindleMotor
+        Spindle-speed profile; default a :class:`SpindleMotor` holding ``omega``.
+    y0 : ndarray, optional
+        Initial state (default :func:`initial_state`).
+    """
+
+    def __init__(self, params: DriveParams, omega: float, dt: float = DEFAULT_DT,
+                 spindle=None, y0=None, t0: float = 0.0, kern=None):
+        if not (math.isfinite(dt) and dt > 0):
+            raise ParamError('dt', dt, '(0, inf) s')
+        self.kern = kern or kernels.JIT
+        self.dt = float(dt)
+        self.t0 = float(t0)
+        self.steps = 0
+        self.spindle = SpindleMotor() if spindle is None else spindle
+        self.omega_cmd = 0.0 if isinstance(self.spindle, TorqueMotor) else float(omega)
+        self._set_params(params)
+        self._y0 = initial_state(params, omega) if y0 is None else np.array(y0, dtype=float)
+        self.reset(self._y0)
+
+    def _set_params(self, params: DriveParams):
+        _check_torque_terms(params, self.spindle)
+        self.params = params
+        self.layout = StateLayout.of(params.n)
+        self._P = kernels.pack_params(params)
+        self._work = kernels.make_work(params.n)
+        self._solver = solver_buffers(params.n)
+        self._S = self.spindle.pack(self.omega_cmd)
+
+    @property
+    def contact_step_note(self) -> str:
+        """:func:`contact_step_note` of this run's drive and step ('' when nothing to say)."""
+        return contact_step_note(self.params, self.dt)
+
+    # ---- inputs -------------------------------------------------------------------------
+    def set_speed_command(self, omega_cmd: float) -> None:
+        """Set the commanded spindle speed [rad/s], taken at the next step boundary."""
+        self.omega_cmd = float(omega_cmd)
+        self._S = self.spindle.pack(self.omega_cmd)
+
+    def set_command(self, command: float) -> None:
+        """Set the spindle command, taken at the next step boundary.
+
+        The command is the speed [rad/s], or the winding current [A] for a
+        :class:`TorqueMotor`.
+        """
+        self.set_speed_command(command)
+
+    @property
+    def motor_current(self) -> float:
+        """Winding current [A] of a :class:`TorqueMotor` now (NaN in speed modes)."""
+        if not isinstance(self.spindle, TorqueMotor):
+            return math.nan
+        return self.spindle.current(self.omega, self.omega_cmd)
+
+    @property
+    def motor_torque(self) -> float:
+        """Electromagnetic torque K_t i [N m] of a :class:`TorqueMotor`.
+
+        NaN in speed modes; joint_states.effort[0].
+        """
+        current = self.motor_current
+        return math.nan if math.isnan(current) else self.spindle.K_t * current
+
+    def set_spindle(self, spindle) -> None:
+        """Set a new spindle model at the next step boundary.
+
+        Into torque mode the command becomes 0 A, out of it the present speed
+        (:meth:`set_command` to choose).
+        """
+        _check_torque_terms(self.params, spindle)
+        torque = isinstance(spindle, TorqueMotor)
+        if torque != isinstance(self.spindle, TorqueMotor):
+            self.omega_cmd = 0.0 if torque else self.omega
+        self.spindle = spindle
+        self._S = spindle.pack(self.omega_cmd)
+
+    def set_params(self, params: DriveParams) -> None:
+        """Apply new physical parameters at the current step boundary (same n)."""
+        if params.n != self.params.n:
+            raise ParamError('n', params.n, f'{self.params.n} until reset (a change of n '
+                             'needs a new state: use reset(params=...))')
+        self._set_params(params)
+
+    def reset(self, y0=None, params: DriveParams | None = None) -> None:
+        """Back to the initial state (or y0), optionally with new parameters (any n).
+
+        Time keeps running (the step counter is not reset), so clocks never go backwards.
+        """
+        if params is not None:
+            old = self.layout
+            self._set_params(params)
+            if params.n != old.n:
+                self._y0 = initial_state(params, float(old.omega(self._y0)))
+        y0 = self._y0 if y0 is None else np.asarray(y0, dtype=float)
+        if y0.shape != (self.layout.size,):
+            raise ParamError('y0', y0.shape, f'shape ({self.layout.size},)')
+        self.y = np.array(y0, dtype=float)
+
+    # ---- stepping -----------------------------------------------------------------------
+    @property
+    def t(self) -> float:
+        """Simulated time [s] = t0 + steps * dt."""
+        return self.t0 + self.steps * self.dt
+
+    def advance(self, nsteps: int) -> None:
+        """Advance by nsteps steps.
+
+        Raises :class:`StateError` on a bad state (the last good state is kept and time stops
+        there).
+        """
+        done, status = self.kern.advance(self.y, self.t0, self.dt, self.steps, int(nsteps),
+                                         self._P, self._S, self._work)
+        self.steps += int(done)
+        if status != kernels.OK:
+            raise StateError(int(status), self.t)
+
+    def trajectory(self, nsteps: int, every: int, out: np.ndarray | None = None
+                   ) -> np.ndarray:
+        """Advance nsteps; return the states after every ``every`` steps.
+
+        Shape (nsteps // every, 2N), in ``out`` when given (at least that many rows). Raises
+        :class:`StateError` like :meth:`advance`; ``out`` then holds the states of the
+        (steps done) // every periods completed.
+        """
+        rows = int(nsteps) // int(every)
+        if out is None:
+            out = np.empty((rows, self.y.size))
+        done, got, status = self.kern.trajectory(
+            self.y, self.t0, self.dt, self.steps, int(nsteps), int(every), self._P, self._S,
+            self._work, out)
+        self.steps += int(done)
+        if status != kernels.OK:
+            raise StateError(int(status), self.t)
+        return out[:got]
+
+    # ---- outputs ------------------------------------------------------------------------
+    def accelerations(self) -> np.ndarray:
+        """Return q'' at the current state, shape (N,) (a new array; the scratch is reused)."""
+        qdd = np.empty(self.N)
+        self.kern.accel(self.t, self.y, self.params.n, self._P, self._S, qdd, self._solver)
+        return qdd
+
+    def accelerations_along(self, ys: np.ndarray, steps) -> np.ndarray:
+        """Return q'' at each state ``ys[j]`` of step ``steps[j]``, shape (len(ys), N).
+
+        The same values as :meth:`accelerations` at each of those states in turn (the
+        spindle command is the present one), in one compiled call.
+        """
+        qdd = np.empty((len(ys), self.N))
+        self.kern.accel_rows(ys, self.t0, self.dt, np.asarray(steps, dtype=np.int64),
+                             self.params.n, self._P, self._S, qdd, self._solver)
+        return qdd
+
+    @property
+    def N(self) -> int:
+        """Coordinates N = 7 + n."""
+        return self.layout.N
+
+    @property
+    def refined_steps(self) -> int:
+        """Steps integrated in contact sub-steps since the last parameter change.
+
+        The step is refined automatically while balls touch.
+        """
+        return int(self._work[W_STATS, STAT_REFINED])
+
+    @property
+    def substeps(self) -> int:
+        """RK4 sub-steps taken in the refined steps since the last parameter change."""
+        return int(self._work[W_STATS, STAT_SUBSTEPS])
+
+    @property
+    def rolling_switches(self) -> int:
+        """Rolling-resistance regime switches located inside steps since the last change.
+
+        Stick, slip and break-free (event-located Coulomb switching), since the last parameter
+        change.
+        """
+        return int(self._work[W_STATS, STAT_SWITCHES])
+
+    @property
+    def max_substeps(self) -> int:
+        """Most sub-steps taken in one step since the last parameter change (1: none)."""
+        return max(1, int(self._work[W_STATS, STAT_MOST_SUBSTEPS]))
+
+    @property
+    def theta(self) -> float:
+        """Rotor angle theta [rad]."""
+        return float(self.layout.theta(self.y))
+
+    @property
+    def omega(self) -> float:
+        """Spindle speed theta' [rad/s]."""
+        return float(self.layout.omega(self.y))
+
+    @property
+    def deck(self) -> np.ndarray:
+        """[X, Y, Z, alpha, beta, gamma] (m, rad)."""
+        return self.layout.deck(self.y).copy()
+
+    @property
+    def deck_rates(self) -> np.ndarray:
+        """Deck rates [X', Y', Z', alpha', beta', gamma'] (m/s, rad/s)."""
+        return self.layout.deck_rates(self.y).copy()
+
+    @property
+    def phi(self) -> np.ndarray:
+        """Ball angles phi_i [rad] relative to the rotor."""
+        return self.layout.phi(self.y).copy()
+
+    @property
+    def phi_rates(self) -> np.ndarray:
+        """Ball rates phi_i' [rad/s] relative to the rotor."""
+        return self.layout.phi_rates(self.y).copy()
+
+    @property
+    def rbar(self) -> float:
+        """Deck translation over race radius, sqrt(X^2 + Y^2 + Z^2) / R."""
+        return float(self.layout.rbar(self.y, self.params.R))
+
+
+@dataclass
+class Trajectory:
+    """States sampled at times ``t`` [s]; ``y`` shape (len(t), 2N)."""
+
+    params: DriveParams
+    t: np.ndarray
+    y: np.ndarray
+
+    @property
+    def n(self) -> int:
+        """Number of balls."""
+        return self.params.n
+
+    @property
+    def layout(self) -> StateLayout:
+        """The state layout of n balls."""
+        return StateLayout(self.n)
+
+    @property
+    def rbar(self) -> np.ndarray:
+        """The deck's rbar of every sample."""
+        return self.layout.rbar(self.y, self.params.R)
+
+    @property
+    def phi(self) -> np.ndarray:
+        """Ball angles [rad], shape (len(t), n)."""
+        return self.layout.phi(self.y)
+
+    @property
+    def deck(self) -> np.ndarray:
+        """Deck coordinates of every sample, shape (len(t), 6)."""
+        return self.layout.deck(self.y)
+
+    @property
+    def omega(self) -> np.ndarray:
+        """Spindle speed [rad/s] of every sample."""
+        return self.layout.omega(self.y)
+
+
+def simulate(params: DriveParams, omega: float, duration: float, dt: float = DEFAULT_DT,
+             sample_dt: float = 1e-3, spindle=None, y0=None, progress=None) -> Trajectory:
+    """Integrate for ``duration`` s with fixed steps, sampling every ``sample_dt`` s.
+
+    ``spindle`` default :class:`ConstantSpeed` (the paper's runs). ``progress`` is an
+    optional callable receiving the number of samples done (for a progress bar).
+    """
+    every = max(1, int(round(sample_dt / dt)))
+    if abs(every * dt - sample_dt) > 1e-9 * sample_dt:
+        raise ParamError('sample_dt', sample_dt, f'a multiple of dt = {dt:g} s')
+    sim = Simulation(params, omega, dt, spindle=spindle or ConstantSpeed(), y0=y0)
+    total = int(round(duration / dt)) // every
+    chunk = max(1, min(total, 1000))
+    rows = [sim.y[None, :].copy()]
+    done = 0
+    while done < total:
+        m = min(chunk, total - done)
+        rows.append(sim.trajectory(m * every, every))
+        done += m
+        if progress is not None:
+            progress(m)
+    y = np.concatenate(rows)
+    t = sim.t0 + np.arange(len(y)) * every * dt
+    return Trajectory(params, t, y)
+
+
+def reference_solution(params: DriveParams, y0, t_span, spindle=None, t_eval=None,
+                       rtol: float = 1e-10, atol: float = 1e-13, method: str = 'DOP853',
+                       kern=None):
+    """Integrate the same equations by scipy's adaptive ``solve_ivp``; return its OdeResult.
+
+    Default DOP853, tight tolerances; the right-hand side from ``kern`` (default the compiled
+    kernels).
+    """
+    from scipy.integrate import solve_ivp
+    n = params.n
+    layout = StateLayout(n)
+    P = kernels.pack_params(params)
+    S = (spindle or ConstantSpeed()).pack(float(layout.omega(y0)))
+    kern = kern or kernels.JIT
+    bufs = solver_buffers(n)
+
+    def fun(t, y):
+        dy = np.empty(layout.size)
+        kern.deriv(t, np.ascontiguousarray(y), n, P, S, dy, bufs)
+        return dy
+
+    return solve_ivp(fun, t_span, np.asarray(y0, dtype=float), method=method, rtol=rtol,
+                     atol=atol, t_eval=t_eval)

@@ -1,0 +1,1 @@
+"""What the drive's sensors read: sampling schedule, IMU, FG speed sensor, faults, disturbances."""

@@ -1,0 +1,1 @@
+"""Stability: equilibria, linearisation, Floquet multipliers, speed bands, where balls settle."""
