@@ -4,7 +4,7 @@
 in-process). Every start is run by :func:`abb_ros.app.headless.run_scenario`, the very run of
 ``abb-sim run`` (same integrator, same step, speed commands at the same publish instants), so
 a row reproduces ``abb-sim run`` from that start bit for bit; the samples it returns at the
-publish rate give the rest window of :func:`abb_ros.basin.outcomes.classify`. A
+publish rate give the rest window of :func:`abb_ros.model.stability.outcomes.classify`. A
 start whose balls overlap (balls with contact) is not run (class ``overlap``, left out of the
 fraction);
 a run that blows up is class ``failed`` with its cause (and no final state). A start's
@@ -19,11 +19,11 @@ import dataclasses
 import numpy as np
 
 from abb_ros.app.headless import run_scenario
-from abb_ros.basin.outcomes import classify
 from abb_ros.basin.spec import start_columns
 from abb_ros.model.dynamics.integrate import StateError
 from abb_ros.model.dynamics.state import StateLayout, wrap_degrees
 from abb_ros.model.parameters.params import ParamError
+from abb_ros.model.stability.outcomes import classify
 
 __all__ = ['compute_partition', 'run_start', 'OVERLAP']
 

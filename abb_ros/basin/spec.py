@@ -2,7 +2,7 @@
 
 A :class:`BasinSpec` holds the scenario (drive, speed profile, deck start, with any ``--set``
 applied), the run options of ``abb-sim run`` (step, publish period), the starts and the
-criteria of :mod:`abb_ros.basin.outcomes`. The starts are the initial ball angles [deg]:
+criteria of :mod:`abb_ros.model.stability.outcomes`. The starts are the initial ball angles [deg]:
 
 - ``grid`` (n = 2): res[0] x res[1] cell centres over [-180, 180) x [-180, 180), phi1 the
   slow index: ``phi = -180 + (k + 1/2) 360 / N``;

@@ -14,7 +14,7 @@ import math
 import numpy as np
 
 from abb_ros.basin.compute import OVERLAP
-from abb_ros.basin.outcomes import CLASSES
+from abb_ros.model.stability.outcomes import CLASSES
 from abb_ros.sweep.proportions import wilson
 
 __all__ = ['operating_omega', 'floquet_verdict', 'fraction_summary']

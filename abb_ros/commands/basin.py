@@ -32,7 +32,7 @@ def add_arguments(parser) -> None:
                         help='largest final rbar of a balanced end (default: %(default)g)')
     parser.add_argument('--rest-tol', type=float, metavar='DEG',
                         help='largest motion of a ball at rest in the rest window (default: '
-                        'REST_TOL_DEG of abb_ros/basin/outcomes.py, docs/basin.md)')
+                        'REST_TOL_DEG of abb_ros/model/stability/outcomes.py, docs/basin.md)')
     parser.add_argument('--partition-size', type=int, default=32,
                         help='starts per Dask task and per part file (default: %(default)s)')
     parser.add_argument('--out', required=True, help='output directory')
@@ -49,10 +49,10 @@ def add_arguments(parser) -> None:
 
 def run(args) -> dict:
     """Run the basin study into --out and return its summary."""
-    from abb_ros.basin.outcomes import REST_TOL_DEG
     from abb_ros.basin.spec import BasinSpec, parse_res
     from abb_ros.basin.study import check_out, run_basin
     from abb_ros.commands.api import UsageError, dask_client, run_scenario_from_args
+    from abb_ros.model.stability.outcomes import REST_TOL_DEG
     from abb_ros.sweep.runner import SweepError
 
     with dask_client('basin', args.scheduler, args.workers, args.serial, check_only=True):
