@@ -31,7 +31,8 @@ from abb_ros.app.headless import PUBLISH_DT
 from abb_ros.io import cdr, msgdefs
 from abb_ros.io.bag_writer import DEFAULT_CHUNK_SIZE, BagWriter
 from abb_ros.io.scenario import load_scenario
-from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation, initial_state
+from abb_ros.model.dynamics.initial import initial_state
+from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation
 from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuModel
 from abb_ros.model.sensors.sampling import PlantSampler
 

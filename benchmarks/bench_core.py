@@ -22,13 +22,10 @@ import time
 import numpy as np
 
 from abb_ros.model.dynamics import kernels
-from abb_ros.model.dynamics.integrate import (
-    DEFAULT_DT,
-    ConstantSpeed,
-    Simulation,
-    initial_state,
-    reference_solution,
-)
+from abb_ros.model.dynamics.initial import initial_state
+from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation
+from abb_ros.model.dynamics.reference import reference_solution
+from abb_ros.model.dynamics.spindle import ConstantSpeed
 from abb_ros.model.parameters.params import METAL_C, DriveParams, apply_settings
 
 

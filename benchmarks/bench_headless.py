@@ -33,7 +33,8 @@ from abb_ros.io import cdr, ros_messages
 from abb_ros.io.bag_writer import BagWriter
 from abb_ros.io.msgdefs import message_class
 from abb_ros.io.scenario import load_scenario
-from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation, initial_state
+from abb_ros.model.dynamics.initial import initial_state
+from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation
 from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuModel
 from abb_ros.model.sensors.sampling import PlantSampler
 from abb_ros.model.sensors.speed_sensor import SpeedSensor

@@ -1,9 +1,14 @@
 """Cost of the live view (prints figures; asserts nothing).
 
-1. LiveView.write per message, in this process, on the five state topics of a sample (the
-   node's CDR bytes): with no viewer, and with Foxglove's own client (npm
-   ``@foxglove/ws-protocol``, test/live_view_client/, run with node) subscribed to every
-   channel in another process, and what it received.
+1. Writing the five state topics of a sample at the node's pace (5000 msg/s, the node's CDR
+   bytes), side by side on two servers: foxglove-sdk 0.30's (the live view's previous server,
+   which takes only ``foxglove.sdk.v1``) and the live view's own (tornado; both subprotocols).
+   Each with no viewer, and with Foxglove's own client (npm ``@foxglove/ws-protocol``,
+   test/live_view_client/, run with node) subscribed to every channel from another process,
+   offering ``foxglove.sdk.v1`` and, on the live view, its default ``foxglove.websocket.v1``:
+   microseconds per write on the writing thread, CPU of this process over the window (the
+   writer and the server's threads; the writer sleeps between periods), what the client
+   received.
 2. The simulator node at real time (real_time_factor 1, n = 10, 10 kHz / 1 kHz) in its own
    process for DURATION s, without and with ``live_view.enabled`` and that client subscribed
    to everything: achieved real-time factor, overruns and slips (from /diagnostics; target 0
@@ -31,7 +36,8 @@ from bench_simulator_node import N_BALLS, Probe, start_node, stop_node  # noqa: 
 
 from abb_ros.io import cdr  # noqa: E402
 from abb_ros.io.live_view import LiveView  # noqa: E402
-from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation, SpindleMotor  # noqa: E402
+from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation
+from abb_ros.model.dynamics.spindle import SpindleMotor  # noqa: E402
 from abb_ros.model.parameters.params import DriveParams  # noqa: E402
 from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuModel  # noqa: E402
 from abb_ros.model.sensors.sampling import PlantSampler  # noqa: E402
@@ -50,9 +56,14 @@ def client_available() -> str:
     return ''
 
 
-def start_client(url: str, seconds: float) -> subprocess.Popen:
-    """Foxglove's client subscribed to every channel of ``url`` for ``seconds``."""
+def start_client(url: str, seconds: float, subprotocol: str | None = None) -> subprocess.Popen:
+    """Foxglove's client subscribed to every channel of ``url`` for ``seconds``.
+
+    ``subprotocol``: the one it offers (None: the client's default, foxglove.websocket.v1).
+    """
     options = dict(messages=1, timeout_s=seconds, wait_for=['/never'])
+    if subprotocol:
+        options['subprotocol'] = subprotocol
     return subprocess.Popen(['node', str(CLIENT / 'client.mjs'), url, json.dumps(options)],
                             stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
 
@@ -76,17 +87,54 @@ def sample_messages(periods: int) -> list:
     return out
 
 
-def time_writes(view: LiveView, messages: list, rate_hz: float) -> float:
-    """Seconds per LiveView.write, writing ``messages`` at ``rate_hz`` (the node's pace)."""
+def time_writes(view, messages: list, rate_hz: float) -> tuple[float, float]:
+    """Write ``messages`` at ``rate_hz`` (five per millisecond, as the node publishes them).
+
+    Returns (seconds per write on this thread, CPU of this process as a fraction of a core).
+    """
     spent, start = 0.0, time.perf_counter()
-    for k, (topic, data, stamp) in enumerate(messages):
+    cpu0 = time.process_time()
+    per_period = 5
+    for k in range(0, len(messages), per_period):
         due = start + k / rate_hz
-        while time.perf_counter() < due:
-            pass
+        ahead = due - time.perf_counter()
+        if ahead > 0:
+            time.sleep(ahead)
         t0 = time.perf_counter()
-        view.write(topic, data, stamp)
+        for topic, data, stamp in messages[k:k + per_period]:
+            view.write(topic, data, stamp)
         spent += time.perf_counter() - t0
-    return spent / len(messages)
+    wall = time.perf_counter() - start
+    return spent / len(messages), (time.process_time() - cpu0) / wall
+
+
+class SdkView:
+    """foxglove-sdk 0.30's server with the live view's channels: the previous path."""
+
+    def __init__(self):
+        import foxglove
+        self._foxglove = foxglove
+        self._context = foxglove.Context()
+        self.server = foxglove.start_server(name='abb_ros', host='127.0.0.1', port=0,
+                                            supported_encodings=['cdr'],
+                                            context=self._context)
+        self.url = f'ws://127.0.0.1:{self.server.port}'
+        self._channels = {}
+
+    def add_topic(self, topic: str, type_name: str) -> None:
+        from abb_ros.io import msgdefs
+        name = '/' + topic.lstrip('/')
+        full = msgdefs.normalize_type(type_name)
+        schema = self._foxglove.Schema(name=full, encoding='ros2msg',
+                                       data=msgdefs.full_text(full).encode())
+        self._channels[topic] = self._foxglove.Channel(
+            name, schema=schema, message_encoding='cdr', context=self._context)
+
+    def write(self, topic: str, data: bytes, stamp_ns: int) -> None:
+        self._channels[topic].log(data, log_time=stamp_ns)
+
+    def close(self) -> None:
+        self.server.stop()
 
 
 STATE_TYPES = {'joint_states': 'sensor_msgs/msg/JointState',
@@ -100,26 +148,36 @@ RATE_HZ = 5000.0
 def bench_writes(count: int, why_not: str) -> None:
     messages = sample_messages(count // 5 + 1)[:count]
     seconds = len(messages) / RATE_HZ
-    view = LiveView(port=0, server_time=True)
-    try:
-        for topic, type_name in STATE_TYPES.items():
-            view.add_topic(topic, type_name)
-        time_writes(view, messages[:1000], RATE_HZ)   # warm
-        alone = time_writes(view, messages, RATE_HZ)
-        print(f'\n[LiveView.write, {len(messages)} messages of the five state topics at '
-              f'{RATE_HZ:.0f} msg/s, {seconds:.0f} s]')
-        print(f'  no viewer                   {1e6 * alone:7.2f} us per message')
-        if why_not:
-            print(f'  one viewer: skipped ({why_not})')
-            return
-        client = start_client(view.url, seconds + 4.0)
-        time.sleep(2.0)   # connected and subscribed
-        viewed = time_writes(view, messages, RATE_HZ)
-        got = received(client)
-        print(f'  Foxglove client subscribed  {1e6 * viewed:7.2f} us per message '
-              f'({got} of {len(messages)} received)')
-    finally:
-        view.close()
+    print(f'\n[writing {len(messages)} messages of the five state topics at {RATE_HZ:.0f} msg/s, '
+          f'{seconds:.0f} s per case]')
+    print('  server            viewer                          us/write  CPU of the process'
+          '   received  dropped  load')
+    cases = [('foxglove-sdk 0.30', SdkView, [None, 'foxglove.sdk.v1']),
+             ('live view', lambda: LiveView(port=0),
+              [None, 'foxglove.websocket.v1', 'foxglove.sdk.v1'])]
+    for server, make, viewers in cases:
+        for subprotocol in viewers:
+            view = make()
+            try:
+                for topic, type_name in STATE_TYPES.items():
+                    view.add_topic(topic, type_name)
+                time_writes(view, messages[:1000], RATE_HZ)   # warm
+                client = None
+                if subprotocol and not why_not:
+                    client = start_client(view.url, seconds + 8.0, subprotocol)
+                    time.sleep(2.0)   # connected and subscribed
+                elif subprotocol:
+                    print(f'  {server:17s} {subprotocol}: skipped ({why_not})')
+                    continue
+                per, cpu = time_writes(view, messages, RATE_HZ)
+                got = f'{received(client):6d}' if client is not None else '     -'
+                label = f'client, {subprotocol}' if subprotocol else 'none'
+                dropped = getattr(view, 'dropped', None)   # foxglove-sdk does not count them
+                dropped = '      -' if dropped is None else f'{dropped:7d}'
+                print(f'  {server:17s} {label:30s} {1e6 * per:8.2f}  {100 * cpu:6.1f} % of a core'
+                      f'   {got}  {dropped}  {os.getloadavg()[0]:.2f}')
+            finally:
+                view.close()
 
 
 def free_port() -> int:
@@ -138,7 +196,7 @@ def measure_node(ns: str, seconds: float, live: bool, why_not: str) -> dict:
     client = None
     try:
         probe.wait_diag()
-        if live and not why_not:
+        if live and not why_not:   # the client's default subprotocol, foxglove.websocket.v1
             client = start_client(f'ws://127.0.0.1:{port}', seconds + 6.0)
         probe.spin_for(3.0)   # start-up transients, the client connected
         d0_t, d0 = probe.diag
@@ -170,7 +228,8 @@ def main():
     for label, live in (('off', False), ('on, client subscribed', True)):
         r = measure_node(f'/bench_live_{int(live)}', args.duration, live, why_not)
         print(f'  {label:24s} {r["rtf"]:.4f}  {r["overruns"]:8d}  {r["slips"]:5d}  '
-              f'{100 * r["cpu"]:6.1f} % of one core  {r["exit_code"]}')
+              f'{100 * r["cpu"]:6.1f} % of one core  {r["exit_code"]}   load '
+              f'{os.getloadavg()[0]:.2f}')
         if r['received'] is not None:
             print(f'    the client received {r["received"]} messages '
                   f'({r["received"] / (r["window"] + 3.0):.0f}/s while the node ran)')

@@ -33,7 +33,8 @@ from rclpy.qos import QoSProfile
 from sensor_msgs.msg import JointState
 
 from abb_ros.io import cdr
-from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation, SpindleMotor
+from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation
+from abb_ros.model.dynamics.spindle import SpindleMotor
 from abb_ros.model.parameters.params import DriveParams
 from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuModel
 from abb_ros.model.sensors.sampling import PlantSampler

@@ -24,7 +24,8 @@ import time
 import numpy as np
 
 from abb_ros.model.dynamics import batch, kernels
-from abb_ros.model.dynamics.integrate import ConstantSpeed, initial_state
+from abb_ros.model.dynamics.initial import initial_state
+from abb_ros.model.dynamics.spindle import ConstantSpeed
 from abb_ros.model.parameters.params import DriveParams, apply_settings
 from abb_ros.model.stability import floquet
 from abb_ros.sweep.compute import warm_up

@@ -199,7 +199,8 @@ def study_collision():
     The elastic one shows the momentum, the damped one with rolling resistance the energy
     ledger; both go to collision_energy.png.
     """
-    from abb_ros.model.dynamics.integrate import ConstantSpeed, Simulation
+    from abb_ros.model.dynamics.integrate import Simulation
+    from abb_ros.model.dynamics.spindle import ConstantSpeed
     from abb_ros.model.parameters.ball_materials import clamped_race
     sys.path.insert(0, os.path.join(ROOT, 'test'))
     from race_ledger import collision_state, race_energy_ledger

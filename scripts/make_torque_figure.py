@@ -12,7 +12,8 @@ from pathlib import Path
 import matplotlib
 import numpy as np
 
-from abb_ros.model.dynamics.integrate import Simulation, TorqueMotor
+from abb_ros.model.dynamics.integrate import Simulation
+from abb_ros.model.dynamics.spindle import TorqueMotor
 from abb_ros.model.parameters.params import DriveParams
 from abb_ros.model.stability.linear import natural_frequencies
 

@@ -8,7 +8,8 @@ ledger checks the contact and rolling kernels against energy conservation
 import numpy as np
 
 from abb_ros.model.dynamics import kernels
-from abb_ros.model.dynamics.integrate import ConstantSpeed, initial_state
+from abb_ros.model.dynamics.initial import initial_state
+from abb_ros.model.dynamics.spindle import ConstantSpeed
 from abb_ros.model.parameters.params import DriveParams
 
 

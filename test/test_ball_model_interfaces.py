@@ -182,7 +182,7 @@ def test_with_contact_the_default_start_puts_the_balls_side_by_side_just_apart()
     """No start angles given (the simulator node, a scenario without phi_deg): with contact the
     two groups of Section 5's start are spread by the contact separation + 0.1 deg instead of
     1 deg, so ten steel balls start without overlap; without contact the start is the paper's."""
-    from abb_ros.model.dynamics.integrate import default_phi0, initial_state
+    from abb_ros.model.dynamics.initial import default_phi0, initial_state
     from abb_ros.model.parameters.ball_materials import with_steel_balls
     paper = DriveParams(n=10)
     steel = with_steel_balls(paper)

@@ -15,8 +15,10 @@ from race_ledger import collision_state
 from abb_ros.io.scenario import load_scenario
 from abb_ros.model.dynamics import kernels
 from abb_ros.model.dynamics.equations import solver_buffers
-from abb_ros.model.dynamics.integrate import ConstantSpeed, Simulation, TorqueMotor, initial_state
+from abb_ros.model.dynamics.initial import initial_state
+from abb_ros.model.dynamics.integrate import Simulation
 from abb_ros.model.dynamics.kernels.layout import STAT_REFINED, W_STATS
+from abb_ros.model.dynamics.spindle import ConstantSpeed, TorqueMotor
 from abb_ros.model.parameters.ball_materials import clamped_race, with_steel_balls
 from abb_ros.model.parameters.params import DriveParams
 

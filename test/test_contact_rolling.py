@@ -15,7 +15,9 @@ from race_ledger import collision_state, race_energy_ledger
 
 from abb_ros.model.dynamics import kernels
 from abb_ros.model.dynamics.equations import solver_buffers
-from abb_ros.model.dynamics.integrate import ConstantSpeed, Ramp, Simulation, initial_state
+from abb_ros.model.dynamics.initial import initial_state
+from abb_ros.model.dynamics.integrate import Simulation
+from abb_ros.model.dynamics.spindle import ConstantSpeed, Ramp
 from abb_ros.model.parameters.ball_materials import STEEL_E, clamped_race
 from abb_ros.model.parameters.params import DriveParams, ParamError
 

@@ -25,7 +25,9 @@ import pytest
 from abb_ros.io.scenario import load_scenario
 from abb_ros.model.dynamics import kernels
 from abb_ros.model.dynamics.equations import solver_buffers
-from abb_ros.model.dynamics.integrate import ConstantSpeed, Simulation, initial_state
+from abb_ros.model.dynamics.initial import initial_state
+from abb_ros.model.dynamics.integrate import Simulation
+from abb_ros.model.dynamics.spindle import ConstantSpeed
 from abb_ros.model.parameters.ball_materials import with_steel_balls
 
 SECONDS = 0.5

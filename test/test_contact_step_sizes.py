@@ -16,8 +16,9 @@ from test_contact_multirate import head_on
 
 from abb_ros.model.dynamics import kernels
 from abb_ros.model.dynamics.equations import solver_buffers
-from abb_ros.model.dynamics.integrate import ConstantSpeed, Simulation, TorqueMotor
+from abb_ros.model.dynamics.integrate import Simulation
 from abb_ros.model.dynamics.kernels.layout import STAT_REFINED, W_STATS
+from abb_ros.model.dynamics.spindle import ConstantSpeed, TorqueMotor
 
 SPEEDS = (0.001, 0.01, 0.05, 0.5)
 STEPS = (1e-5, 3e-5, 1e-4, 2e-4)

@@ -9,7 +9,8 @@ from abb_ros.io import ros_messages
 from abb_ros.io.scenario import load_scenario
 from abb_ros.model.dynamics import kernels
 from abb_ros.model.dynamics.equations import n_coords
-from abb_ros.model.dynamics.integrate import Simulation, initial_state
+from abb_ros.model.dynamics.initial import initial_state
+from abb_ros.model.dynamics.integrate import Simulation
 from abb_ros.model.sensors.disturbances import apply_shock, deck_twist_matrix, swap_disc
 from abb_ros.model.sensors.faults import ImuFaults, SpeedFaults
 from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuModel

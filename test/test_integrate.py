@@ -3,16 +3,10 @@
 import numpy as np
 import pytest
 
-from abb_ros.model.dynamics.integrate import (
-    DEFAULT_DT,
-    ConstantSpeed,
-    Ramp,
-    Simulation,
-    SpindleMotor,
-    StateError,
-    initial_state,
-    reference_solution,
-)
+from abb_ros.model.dynamics.initial import initial_state
+from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation, StateError
+from abb_ros.model.dynamics.reference import reference_solution
+from abb_ros.model.dynamics.spindle import ConstantSpeed, Ramp, SpindleMotor
 from abb_ros.model.parameters.params import METAL_C, DriveParams, ParamError, apply_settings
 
 

@@ -6,8 +6,9 @@ import pytest
 from abb_ros.model import jit
 from abb_ros.model.dynamics import kernels
 from abb_ros.model.dynamics.equations import accelerations, lagrange_residual
-from abb_ros.model.dynamics.integrate import SpindleMotor, initial_state
+from abb_ros.model.dynamics.initial import initial_state
 from abb_ros.model.dynamics.kernels.layout import STAT_SWITCHES, W_STATS
+from abb_ros.model.dynamics.spindle import SpindleMotor
 from abb_ros.model.dynamics.state import StateLayout
 from abb_ros.model.parameters.params import METAL_C, DriveParams, apply_settings
 

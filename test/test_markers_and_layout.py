@@ -18,7 +18,7 @@ from abb_ros.io.markers import (
     marker_poses,
 )
 from abb_ros.io.topics import MARKERS
-from abb_ros.model.dynamics.integrate import initial_state
+from abb_ros.model.dynamics.initial import initial_state
 from abb_ros.model.parameters.params import DriveParams
 from abb_ros.model.sensors.imu import euler_quaternion, euler_rotation
 

@@ -530,7 +530,7 @@ def test_a_change_of_n_waits_for_reset(plant_factory):
     assert plant.step().success
     plant.wait(lambda: len(states) == 2, 'a step after ~/reset')
     assert states[-1].name == ['spindle', 'ball_1', 'ball_2', 'ball_3']
-    # n = 3 starts from the two fanned groups of integrate.default_phi0: +60, -60, +61 deg.
+    # n = 3 starts from the two fanned groups of initial.default_phi0: +60, -60, +61 deg.
     assert np.degrees(states[-1].position[1:]) == pytest.approx([60.0, -60.0, 61.0], abs=1.0)
 
 

@@ -9,7 +9,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 from test_simulator_node import QOS, Plant
 
-from abb_ros.model.dynamics.integrate import TorqueMotor
+from abb_ros.model.dynamics.spindle import TorqueMotor
 
 pytestmark = pytest.mark.ros
 

@@ -5,7 +5,7 @@ import numpy as np
 import pytest
 
 from abb_ros.io.scenario import load_scenario
-from abb_ros.model.dynamics.integrate import TorqueMotor
+from abb_ros.model.dynamics.spindle import TorqueMotor
 from abb_ros.nodes.speed_loop import SpeedLoop, rotor_inertia
 
 P3 = load_scenario('p3').params

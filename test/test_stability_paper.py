@@ -10,7 +10,8 @@ import math
 import numpy as np
 import pytest
 
-from abb_ros.model.dynamics.integrate import ConstantSpeed, Simulation
+from abb_ros.model.dynamics.integrate import Simulation
+from abb_ros.model.dynamics.spindle import ConstantSpeed
 from abb_ros.model.dynamics.state import n_coords
 from abb_ros.model.parameters.params import DriveParams, apply_settings
 from abb_ros.model.stability import floquet as F

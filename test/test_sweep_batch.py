@@ -6,7 +6,8 @@ import numpy as np
 import pytest
 
 from abb_ros.model.dynamics import batch, kernels
-from abb_ros.model.dynamics.integrate import ConstantSpeed, SpindleMotor, initial_state
+from abb_ros.model.dynamics.initial import initial_state
+from abb_ros.model.dynamics.spindle import ConstantSpeed, SpindleMotor
 from abb_ros.model.dynamics.state import wrap_degrees
 from abb_ros.model.parameters.params import DriveParams, apply_settings
 from abb_ros.sweep.compute import compute_partition

@@ -15,7 +15,7 @@ import pytest
 from test_equations_vs_lagrange import ROUND_OFF, at_scale, scales, states
 
 from abb_ros.model.dynamics import equations, kernels
-from abb_ros.model.dynamics.integrate import TorqueMotor
+from abb_ros.model.dynamics.spindle import TorqueMotor
 
 S0 = 1e-3
 """Deck scale of the order test, as in test_equations_vs_lagrange."""

@@ -22,7 +22,8 @@ import sympy as sp
 from scipy.integrate import solve_ivp
 
 from abb_ros.model.dynamics import equations, kernels
-from abb_ros.model.dynamics.integrate import TorqueMotor, initial_state
+from abb_ros.model.dynamics.initial import initial_state
+from abb_ros.model.dynamics.spindle import TorqueMotor
 from abb_ros.model.parameters.params import DriveParams
 
 

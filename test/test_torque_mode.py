@@ -13,7 +13,9 @@ import pytest
 
 from abb_ros.io.scenario import CurrentCommand, load_scenario
 from abb_ros.model.dynamics import kernels
-from abb_ros.model.dynamics.integrate import ConstantSpeed, Simulation, TorqueMotor, initial_state
+from abb_ros.model.dynamics.initial import initial_state
+from abb_ros.model.dynamics.integrate import Simulation
+from abb_ros.model.dynamics.spindle import ConstantSpeed, TorqueMotor
 from abb_ros.model.parameters.params import DriveParams, ParamError
 from abb_ros.model.stability.linear import natural_frequencies
 

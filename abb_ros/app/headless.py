@@ -18,7 +18,8 @@ import numpy as np
 
 from abb_ros.io import topics
 from abb_ros.io.scenario import Scenario
-from abb_ros.model.dynamics.integrate import DEFAULT_DT, MAX_RUN_STEPS, Simulation, initial_state
+from abb_ros.model.dynamics.initial import initial_state
+from abb_ros.model.dynamics.integrate import DEFAULT_DT, MAX_RUN_STEPS, Simulation
 from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuConfig, ImuModel
 from abb_ros.model.sensors.sampling import PlantSampler
 from abb_ros.model.sensors.speed_sensor import SpeedSensor, SpeedSensorConfig

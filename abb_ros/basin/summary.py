@@ -26,7 +26,7 @@ def operating_omega(scenario, omega_final=None):
     The last speed command (or the constant speed); for a spindle driven by torque, the median
     final speed of the runs ``omega_final`` (None when there is none).
     """
-    from abb_ros.model.dynamics.integrate import TorqueMotor
+    from abb_ros.model.dynamics.spindle import TorqueMotor
     if isinstance(scenario.spindle, TorqueMotor):
         good = np.asarray(omega_final if omega_final is not None else [], dtype=float)
         good = good[np.isfinite(good)]

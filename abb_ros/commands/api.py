@@ -266,7 +266,7 @@ def _spindle(spindle, node: dict):
     """
     import dataclasses
 
-    from abb_ros.model.dynamics.integrate import SpindleMotor, TorqueMotor
+    from abb_ros.model.dynamics.spindle import SpindleMotor, TorqueMotor
     from abb_ros.model.parameters.plant_spec import PLANT
     changes = {k[len('spindle.'):]: v for k, v in node.items() if k.startswith('spindle.')}
     if not changes:

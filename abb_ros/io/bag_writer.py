@@ -31,10 +31,9 @@ import shutil
 from pathlib import Path
 
 import yaml
-from mcap.writer import CompressionType, Writer
 
 from abb_ros.io import msgdefs
-from abb_ros.io.mcap_chunks import ChunkWriter
+from abb_ros.io.mcap_file import McapFile
 
 METADATA_VERSION = 9
 ROS_DISTRO = 'jazzy'
@@ -49,8 +48,7 @@ INCOMPLETE_KEY = 'abb_ros.incomplete'
 _CHUNK_OPCODE = 0x06   # MCAP record opcode of a Chunk
 _RESERVE = 'metadata.reserve.tmp'
 _MIN_RESERVE = 8192    # [bytes]
-_COMPRESSION = {'zstd': CompressionType.ZSTD, 'lz4': CompressionType.LZ4,
-                'none': CompressionType.NONE}
+_COMPRESSION = {'zstd': 'zstd', 'lz4': 'lz4', 'none': ''}   # the MCAP chunk compression names
 # rmw's RMW_DURATION_INFINITE as the graph reports it (INT64_MAX ns).
 _INFINITE = {'sec': 9223372036, 'nsec': 854775807}
 
@@ -203,7 +201,7 @@ class BagWriter:
 
     def __init__(self, path, overwrite: bool = False, chunk_size: int = DEFAULT_CHUNK_SIZE,
                  compression: str = 'zstd', flush_period: float = DEFAULT_FLUSH_PERIOD,
-                 opener=None, fast_append: bool = True):
+                 opener=None):
         if compression not in _COMPRESSION:
             raise BagError(f'compression must be one of {", ".join(_COMPRESSION)}, '
                            f'got {compression!r}')
@@ -214,13 +212,11 @@ class BagWriter:
         _prepare_directory(self.path, overwrite)
         self.mcap_path = self.path / f'{self.path.name}_0.mcap'
         self._sink = _FileSink(self.mcap_path, opener, self._chunk_written)
-        self._mcap = Writer(self._sink, chunk_size=int(chunk_size),
-                            compression=_COMPRESSION[compression])
-        self._chunks = ChunkWriter(self._mcap, self._sink, _COMPRESSION[compression],
-                                   fast=fast_append, flush_period=flush_period,
-                                   resolve=self._checked, on_error=self._fail)
-        # the chunk writer's methods themselves: one call less per message
-        self.write, self.write_many = self._chunks.write, self._chunks.write_many
+        self._mcap = McapFile(self._sink, chunk_size, _COMPRESSION[compression],
+                              flush_period=flush_period, resolve=self._checked,
+                              on_error=self._fail)
+        # the MCAP file's methods themselves: one call less per message
+        self.write, self.write_many = self._mcap.write, self._mcap.write_many
         self._topics: dict[str, _Topic] = {}
         self._schemas: dict[str, int] = {}
         self._custom: dict[str, str] = {}
@@ -277,13 +273,13 @@ class BagWriter:
             schema_id=schema_id, metadata={'offered_qos_profiles': dump_yaml(profiles),
                                            'topic_type_hash': digest})
         entry = self._topics[name] = _Topic(name, type_name, channel_id, profiles, digest)
-        self._chunks.channels[name] = self._chunks.channels[name.lstrip('/')] = entry
+        self._mcap.channels[name] = self._mcap.channels[name.lstrip('/')] = entry
         self._write_metadata_yaml()
 
     def write(self, topic: str, message, log_time_ns: int, publish_time_ns: int | None = None
               ) -> None:
         """Append one message (its CDR bytes) received at ``log_time_ns``."""
-        self._chunks.write(topic, message, log_time_ns, publish_time_ns)
+        self._mcap.write(topic, message, log_time_ns, publish_time_ns)
 
     def write_many(self, messages, log_time_ns: int) -> None:
         """Append several messages received at ``log_time_ns``, e.g. one sample's.
@@ -291,7 +287,7 @@ class BagWriter:
         ``messages``: (topic, CDR bytes) pairs, as :func:`abb_ros.io.cdr.sample_cdr` gives
         them; the same as :meth:`write` for each in turn.
         """
-        self._chunks.write_many(messages, log_time_ns)
+        self._mcap.write_many(messages, log_time_ns)
 
     def _checked(self, topic: str, message) -> tuple[_Topic, bytes]:
         """Return the topic entry and the bytes of ``message``, or raise what is wrong."""
@@ -311,12 +307,12 @@ class BagWriter:
             t.durable = t.count
         self.durable_count = self.message_count
         if self.message_count:
-            self._durable_span = (self._chunks.first, self._chunks.last)
+            self._durable_span = (self._mcap.first, self._mcap.last)
 
     def flush(self) -> None:
         """Write the chunk in progress (if any) to the OS now."""
         self._check_open()
-        self._chunks.flush()
+        self._mcap.flush()
 
     def add_metadata(self, name: str, data: dict) -> None:
         """Add an MCAP metadata record (string -> string)."""
@@ -357,10 +353,9 @@ class BagWriter:
             return
         self._guard(self._mcap.add_metadata, 'rosbag2',    # the last chunk is written below
                     {'serialized_metadata': dump_yaml(self.metadata(durable=False))})
-        self._guard(self._chunks.close_chunk)
         self._guard(self._mcap.finish)
         self.closed = True
-        self._chunks.channels.clear()   # every write now asks _checked, which raises
+        self._mcap.channels.clear()   # every write now asks _checked, which raises
         self._sink.close()
         self._write_metadata_yaml()
         (self.path / _RESERVE).unlink(missing_ok=True)
@@ -375,7 +370,7 @@ class BagWriter:
             start, end = self._durable_span or (0, 0)
         else:
             count = self.message_count
-            start, end = (self._chunks.first, self._chunks.last) if count else (0, 0)
+            start, end = (self._mcap.first, self._mcap.last) if count else (0, 0)
         duration = end - start if count else 0
         file_name = self.mcap_path.name
         topics = [{'topic_metadata': {'name': t.name, 'type': t.type,
@@ -416,11 +411,9 @@ class BagWriter:
                 pass
 
     def _guard(self, fn, *args, **kwargs):
-        """Call a writer method; move the records it put in its own chunk to the open one."""
+        """Return what a method of the MCAP file returns; a refused write ends in :meth:`_fail`."""
         try:
-            result = fn(*args, **kwargs)
-            self._chunks.absorb()
-            return result
+            return fn(*args, **kwargs)
         except OSError as exc:
             self._fail(exc)
 
@@ -428,7 +421,7 @@ class BagWriter:
         """Handle a refused write: cut the half-written record, close, keep the bag readable."""
         self.error = exc
         self.closed = True
-        self._chunks.channels.clear()
+        self._mcap.channels.clear()
         self._custom[INCOMPLETE_KEY] = (f'writing stopped: {exc.strerror or exc}; '
                                         f'{self.durable_count} messages kept')
         self._sink.cut()

@@ -39,7 +39,8 @@ import numpy as np
 
 from abb_ros.io.safe_yaml import YamlFileError, load_file
 from abb_ros.model.dynamics import kernels
-from abb_ros.model.dynamics.integrate import INITIAL_DECK, ConstantSpeed, SpindleMotor, TorqueMotor
+from abb_ros.model.dynamics.initial import INITIAL_DECK
+from abb_ros.model.dynamics.spindle import ConstantSpeed, SpindleMotor, TorqueMotor
 from abb_ros.model.parameters.params import PARAM_SPECS, DriveParams, ParamError, apply_settings
 
 __all__ = ['Scenario', 'load_scenario', 'scenario_dir', 'list_scenarios', 'SpeedCommand',
@@ -84,7 +85,7 @@ class Scenario:
     omega: float                     # initial spindle speed [rad/s]
     duration: float                  # [s]
     deck0: tuple = INITIAL_DECK
-    phi0: np.ndarray | None = None   # [rad], None: integrate.default_phi0
+    phi0: np.ndarray | None = None   # [rad], None: initial.default_phi0
     spindle: object = field(default_factory=ConstantSpeed)
     commands: list = field(default_factory=list)
 

@@ -22,7 +22,8 @@ from pathlib import Path
 
 import numpy as np
 
-from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation, SpindleMotor
+from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation
+from abb_ros.model.dynamics.spindle import SpindleMotor
 from abb_ros.model.parameters.params import DriveParams
 from abb_ros.model.sensors import imu
 from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuModel

@@ -5,7 +5,9 @@ Wiring only (the logic is in :mod:`abb_ros.model.sensors.speed_sensor`,
 :mod:`abb_ros.io.markers`). :class:`HilIO` attaches to a
 :class:`abb_ros.nodes.simulator.SimulatorNode`: it puts the FG and the fault filters into
 the node's PlantSampler, serves ``~/apply_shock`` and ``~/swap_disc``, publishes
-``visualization/markers`` and the ``faults and disturbances`` status on ``/diagnostics``.
+``visualization/markers`` and the ``faults and disturbances`` status on ``/diagnostics``
+through the node's one path of published messages (``send``: the middleware, the live view,
+the bag, the counters).
 Semantics: docs/ros_api.md, 'Bench: measured speed, faults, disturbances, markers'.
 """
 
@@ -32,7 +34,7 @@ class HilIO:
     """The HIL sensors, faults, disturbances and markers of a simulator node.
 
     See the module docstring. ``node`` must have ``sim``, ``sampler``, ``settings``,
-    ``drive``, ``stamp_ns()`` and ``pacer``.
+    ``drive``, ``stamp_ns()``, ``pacer`` and ``send(topic, data, stamp_ns)``.
     """
 
     def __init__(self, node, qos_depth: int):
@@ -47,8 +49,6 @@ class HilIO:
         self.counters = dict(shocks=0, disc_swaps=0)
         self._last_event = ''
         self._marker_slot = None
-        self._markers_pub = node._pubs[MARKERS]   # created from the topic list
-        self._diag_pub = node._pubs[DIAGNOSTICS]
         node.create_service(Trigger, '~/apply_shock', self._on_shock)
         node.create_service(Trigger, '~/swap_disc', self._on_swap)
         self._active = {}
@@ -132,8 +132,9 @@ class HilIO:
         if slot == self._marker_slot:
             return
         self._marker_slot = slot
-        self._markers_pub.publish(markers.marker_array(
-            stamp_ns, sample.y, self.node.sim.params, self.config.visualization_exaggeration))
+        self.node.send(MARKERS, markers.marker_array(
+            stamp_ns, sample.y, self.node.sim.params, self.config.visualization_exaggeration),
+            stamp_ns)
 
     def publish_diagnostics(self) -> None:
         """Publish the 'faults and disturbances' status: WARN with the active faults, else OK."""
@@ -142,7 +143,8 @@ class HilIO:
         message = ('active faults: ' + ', '.join(active)) if active else 'no fault injected'
         values = dict(active, **self.counters, last_disturbance=self._last_event,
                       speed_sensor_edges=self.speed.edges)
-        self._diag_pub.publish(cdr.diagnostics(
-            self.node.stamp_ns(),
+        stamp_ns = self.node.stamp_ns()
+        self.node.send(DIAGNOSTICS, cdr.diagnostics(
+            stamp_ns,
             f'{self.node.get_fully_qualified_name()}: faults and disturbances', level,
-            message, values))
+            message, values), stamp_ns)

@@ -27,7 +27,7 @@ from rcl_interfaces.msg import (
 )
 from rclpy.parameter import Parameter
 
-from abb_ros.model.dynamics.integrate import SpindleMotor, TorqueMotor
+from abb_ros.model.dynamics.spindle import SpindleMotor, TorqueMotor
 from abb_ros.model.parameters.param_spec import (
     DOUBLE,
     DOUBLE_ARRAY,

@@ -34,7 +34,8 @@ from std_srvs.srv import SetBool, Trigger
 
 from abb_ros.io import cdr, ros_messages
 from abb_ros.io.topics import CURRENT_CMD, DIAGNOSTICS, SPEED_CMD
-from abb_ros.model.dynamics.integrate import Simulation, StateError, initial_state
+from abb_ros.model.dynamics.initial import initial_state
+from abb_ros.model.dynamics.integrate import Simulation, StateError
 from abb_ros.model.parameters.params import ParamError
 from abb_ros.model.sensors.imu import ImuModel
 from abb_ros.model.sensors.sampling import PlantSampler
@@ -84,6 +85,7 @@ class SimulatorNode(Node):
         self.counters = self.commands.counters
         self.scheduling = FifoScheduling()   # of the thread that integrates (its timer's)
         self.published = dict.fromkeys(ros_messages.TOPIC_TYPES, 0)
+        self.live = None   # the live view, once started (below)
         self.recorder = InProcessRecording(self, PUBLISH_DEPTH, 'record.topics',
                                            RECORD_DISCOVERY_S)
         if s.spindle_mode == 'torque':
@@ -113,7 +115,6 @@ class SimulatorNode(Node):
             if error:
                 raise ParamError('record.path', path, 'a directory that does not exist yet, '
                                  'in a writable place', error)
-        self.live = None
         try:
             self.live = simulator_live_view.start(
                 self, {'pause': (SetBool, self._on_pause), 'step': (Trigger, self._on_step),
@@ -227,11 +228,16 @@ class SimulatorNode(Node):
         stamp_ns, encoded = cdr.sample_cdr(sample, pacer.dt_ns, self.imu.config,
                                            pacer.epoch_ns, pacer.owns_time)
         for topic, data in encoded:
-            self._send(topic, data, stamp_ns)
+            self.send(topic, data, stamp_ns)
         self.hil.on_sample(sample)
 
-    def _send(self, topic: str, data: bytes, stamp_ns: int) -> None:
-        """Publish the CDR bytes of one message (and record them when recording)."""
+    def send(self, topic: str, data: bytes, stamp_ns: int) -> None:
+        """Publish the CDR bytes of one message of ``topic`` (a key of the topic list).
+
+        The one path of every message the node publishes: the middleware, the
+        ``published <topic>`` counters of /diagnostics, the live view and the bag being
+        recorded get the same messages.
+        """
         try:
             self._pubs[topic].publish(data)
         except RCLError:
@@ -369,7 +375,7 @@ class SimulatorNode(Node):
         window = self.pacer.close_window(self.sim.steps, not (self.paused or self.fault))
         level, message, values = simulation_status(self, window)
         stamp_ns = self.stamp_ns()
-        self._send(DIAGNOSTICS, cdr.diagnostics(
+        self.send(DIAGNOSTICS, cdr.diagnostics(
             stamp_ns, f'{self.get_fully_qualified_name()}: simulation', level, message, values),
             stamp_ns)
         self.hil.publish_diagnostics()

@@ -16,8 +16,12 @@ What the viewer can do (the Foxglove WebSocket protocol's capabilities):
   own service callback, on the node's thread, and answers what a ROS client gets;
 * ``clientPublish``: ``spindle/speed_cmd`` and ``spindle/current_cmd`` (std_msgs/Float64,
   the Publish panel) are published on the ROS topic, as foxglove_bridge does, so the node
-  takes them through its subscription like any command (and a recording sees them); other
-  topics are refused, logged once each.
+  takes them through its subscription like any command (and a recording sees them). A message
+  is checked first, on the server's thread (:func:`message_problem`): one on another topic or
+  of another type, or whose payload is not exactly one CDR message of its type (12 bytes for
+  a Float64), is refused with a status to the viewer that sent it (logged once per topic and
+  reason) and never reaches the middleware or the plant; a service request is checked the
+  same way (its call fails with the reason).
 * ``parameters``: the node's parameters, named ``/abb_simulator.real_time_factor`` as
   foxglove_bridge names them (the Parameters panel), got and set as ``ros2 param`` does
   (:class:`ViewerParameters`): the plant's speed is ``real_time_factor``.
@@ -37,12 +41,13 @@ from rclpy.serialization import deserialize_message, serialize_message
 from std_msgs.msg import Float64
 
 from abb_ros.io import msgdefs, topics
-from abb_ros.io.live_view import LiveView, LiveViewError
+from abb_ros.io.live_view import DEFAULT_ALLOWED_ORIGINS, LiveView, LiveViewError
 from abb_ros.model.parameters.param_spec import ParamError
+from abb_ros.nodes.rclpy_access import RCLError
 from abb_ros.nodes.recording import DRAIN_PERIOD_S, GraphRecording
 
 __all__ = ['COMMAND_PERIOD_S', 'SERVICE_TIMEOUT_S', 'SimulatorLiveView', 'ViewerParameters',
-           'start']
+           'message_problem', 'start']
 
 COMMAND_PERIOD_S = 0.02
 """How often the viewer's commands are carried out on the node's thread [s]."""
@@ -70,21 +75,26 @@ class SimulatorLiveView:
         The node's topics (resolved names) -> message type name.
     others : list of str
         Other nodes' topics served too.
+    allowed_origins : sequence of str
+        Browser origins that may connect (``live_view.allowed_origins``).
     """
 
-    def __init__(self, node, host: str, port: int, services: dict, served: dict, others=()):
+    def __init__(self, node, host: str, port: int, services: dict, served: dict, others=(),
+                 allowed_origins=DEFAULT_ALLOWED_ORIGINS):
         self.node = node
         self._calls = queue.SimpleQueue()
         self._command_topics = {node.resolve_topic_name(t.name): t.name
                                 for t in topics.TOPICS if t.rate == topics.COMMAND}
         self._command_pubs = {}
-        self._refused: set[tuple[str, str]] = set()
+        self._refused: set[tuple[str, str, str]] = set()
         base = node.get_fully_qualified_name()
         handlers = {f'{base}/{name}': (_srv_type(cls), self._service(cls, callback))
                     for name, (cls, callback) in services.items()}
         self.parameters = ViewerParameters(node)
         self.view = LiveView(host, port, server_time=node.pacer.owns_time, services=handlers,
-                             on_client_message=self._client_message, parameters=self)
+                             on_client_message=self._client_message, parameters=self,
+                             check_client_message=self.check_client_message,
+                             allowed_origins=allowed_origins)
         for name, type_name in served.items():
             self.view.add_topic(name, type_name)
         steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -129,6 +139,9 @@ class SimulatorLiveView:
 
     def _service(self, cls, callback):
         def handle(payload: bytes) -> bytes:
+            why = message_problem(payload, cls.Request)
+            if why:
+                raise ValueError(f'request refused: {why}')
             request = deserialize_message(payload, cls.Request)
             response = self._on_node_thread(lambda: callback(request, cls.Response()))
             return serialize_message(response)
@@ -142,8 +155,31 @@ class SimulatorLiveView:
         """Set the node's parameters [(name, value)]; return the values then in force."""
         return self._on_node_thread(lambda: self.parameters.set(wanted))
 
+    def check_client_message(self, topic: str, schema_name: str, data: bytes) -> str:
+        """Return why a viewer's message may not be published ('' when it may).
+
+        Taken: a command topic's std_msgs/msg/Float64 whose payload is exactly one.
+        """
+        try:
+            name = self.node.resolve_topic_name(topic)
+            kind = msgdefs.normalize_type(schema_name)
+        except Exception:   # noqa: BLE001 - any bad name is refused below
+            name, kind = topic, schema_name
+        if name not in self._command_topics or kind != COMMAND_TYPE:
+            why = (f'only {", ".join(sorted(self._command_topics))} [{COMMAND_TYPE}] are taken '
+                   'from a viewer')
+        else:
+            why = message_problem(data, Float64)
+        if why and (name, kind, why) not in self._refused:
+            self._refused.add((name, kind, why))
+            self.node.get_logger().warning(
+                f'live view: not publishing {topic} [{schema_name}] from a viewer: {why}')
+        return why
+
     def _client_message(self, topic: str, schema_name: str, data: bytes) -> None:
-        self._calls.put(lambda: self._publish(topic, schema_name, data))
+        if self.check_client_message(topic, schema_name, data):
+            return   # the server asked already; refused twice over
+        self._calls.put(lambda: self._publish(topic, data))
 
     # ---- on the node's thread ---------------------------------------------------------------
     def _carry_out(self) -> None:
@@ -155,23 +191,15 @@ class SimulatorLiveView:
                 return
             call()
 
-    def _publish(self, topic: str, schema_name: str, data: bytes) -> None:
-        """Publish a viewer's command on its ROS topic; refuse any other topic."""
-        try:
-            name = self.node.resolve_topic_name(topic)
-            kind = msgdefs.normalize_type(schema_name)
-        except Exception:   # noqa: BLE001 - any bad name is refused below
-            name, kind = topic, schema_name
-        if name not in self._command_topics or kind != COMMAND_TYPE:
-            if (name, kind) not in self._refused:
-                self._refused.add((name, kind))
-                self.node.get_logger().warning(
-                    f'live view: not publishing {topic} [{schema_name}] from the viewer: only '
-                    f'{", ".join(sorted(self._command_topics))} [{COMMAND_TYPE}] are taken')
-            return
+    def _publish(self, topic: str, data: bytes) -> None:
+        """Publish a viewer's command (checked) on its ROS topic."""
+        name = self.node.resolve_topic_name(topic)
         if name not in self._command_pubs:
             self._command_pubs[name] = self.node.create_publisher(Float64, name, 10)
-        self._command_pubs[name].publish(data)
+        try:
+            self._command_pubs[name].publish(data)
+        except RCLError as exc:   # checked above: the middleware refused it all the same
+            self.node.get_logger().error(f'live view: {topic} not published: {exc}')
 
     def close(self) -> None:
         """Stop the server and the subscriptions; calls still queued are dropped."""
@@ -242,6 +270,26 @@ def _plain(value):
     return value if isinstance(value, (bool, int, float, str)) or value is None else list(value)
 
 
+def message_problem(data: bytes, cls) -> str:
+    """Return why ``data`` is not exactly one CDR-encoded message of class ``cls`` ('').
+
+    A message is a CDR encapsulation header (plain CDR, either byte order) and the fields;
+    one that does not decode, or with bytes left over after it, is refused (the middleware
+    refuses a payload of the wrong size when it is published, so the check comes first).
+    """
+    kind = msgdefs.type_name_of(cls())
+    if len(data) < 4 or data[0] != 0 or data[1] not in (0, 1):
+        return f'{len(data)} bytes that do not start with a CDR header: not a {kind}'
+    try:
+        message = deserialize_message(data, cls)
+    except Exception as exc:   # noqa: BLE001 - whatever the decoder says
+        return f'{len(data)} bytes that do not decode as a {kind} ({exc})'
+    size = len(serialize_message(message))
+    if len(data) != size:
+        return f'{len(data)} bytes where a {kind} of these values has {size}'
+    return ''
+
+
 def _srv_type(cls) -> str:
     """Return the ROS type name of a generated service class: std_srvs/srv/SetBool."""
     return f'{cls.__module__.split(".")[0]}/srv/{cls.__name__}'
@@ -259,12 +307,13 @@ def start(node, services: dict, served: dict) -> SimulatorLiveView | None:
     host = node.get_parameter('live_view.host').value
     port = node.get_parameter('live_view.port').value
     others = node.get_parameter('live_view.topics').value
+    origins = node.get_parameter('live_view.allowed_origins').value
     try:
-        live = SimulatorLiveView(node, host, port, services, served, others)
+        live = SimulatorLiveView(node, host, port, services, served, others, origins)
     except LiveViewError as exc:
         raise ParamError('live_view.port', port, 'a port free on live_view.host',
                          str(exc)) from None
-    node.get_logger().info(f'live view on {live.view.url} (Foxglove app: Open connection, '
-                           'Foxglove WebSocket)')
+    node.get_logger().info(f'live view on {live.view.url} (Foxglove app or Lichtblick: Open '
+                           'connection, Foxglove WebSocket)')
     return live
 

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import math
 
+from abb_ros.io.live_view import DEFAULT_ALLOWED_ORIGINS
 from abb_ros.io.topics import CURRENT_CMD, DIAGNOSTICS, SPEED_CMD, STABILITY_MARGIN
 from abb_ros.model.parameters.param_spec import (
     BOOL,
@@ -126,6 +127,12 @@ _LIVE_VIEW = (
               'too, taken from the middleware once a publisher offers them (the analysis '
               "node's stability/margin of the Foxglove layout, /diagnostics, the spindle "
               'commands)', STRING_ARRAY, read_only=True, applies='at start-up', nodes=_SIM),
+    ParamSpec('live_view.allowed_origins', list(DEFAULT_ALLOWED_ORIGINS), '', 'browser origins '
+              'that may connect to the live view (shell patterns, * = any; a handshake with '
+              'another Origin gets HTTP 403, one without Origin, from a client that is not a '
+              'browser, is taken): the Foxglove web app, desktop apps (file://) and pages '
+              'served from this machine', STRING_ARRAY, read_only=True, applies='at start-up',
+              nodes=_SIM),
 )
 
 SPINDLE_MODE = ParamSpec(

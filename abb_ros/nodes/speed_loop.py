@@ -12,7 +12,7 @@ tanh(omega / omega_c) + load (the theta row, the balls and the deck in the load)
 
 is the feedforward of the reference's acceleration and of the friction estimate plus a PI on
 the speed error, clipped to what the drive delivers at omega (+-I_max and the supply,
-:meth:`abb_ros.model.dynamics.integrate.TorqueMotor.current`). The gains place the crossover of the
+:meth:`abb_ros.model.dynamics.spindle.TorqueMotor.current`). The gains place the crossover of the
 loop at ``bandwidth`` wc: k_p = (J_z + I_r) wc / K_t [A s/rad], k_i = k_p wc / 4 [A/rad] (the
 PI zero a quarter of the crossover: about 76 deg of phase margin on the rigid rotor).
 Anti-windup by conditional integration: while the current is clipped, the integral does not
@@ -24,7 +24,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from abb_ros.model.dynamics.integrate import TorqueMotor
+from abb_ros.model.dynamics.spindle import TorqueMotor
 from abb_ros.model.parameters.params import DriveParams
 
 __all__ = ['rotor_inertia', 'SpeedLoop', 'PI_ZERO_RATIO']

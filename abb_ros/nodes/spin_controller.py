@@ -33,7 +33,7 @@ from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
 from abb_ros.io.topics import CURRENT_CMD, JOINT_STATES, SPEED_CMD, STABILITY_MARGIN
-from abb_ros.model.dynamics.integrate import TorqueMotor
+from abb_ros.model.dynamics.spindle import TorqueMotor
 from abb_ros.model.parameters.params import DriveParams, ParamError
 from abb_ros.model.stability import speed_bands
 from abb_ros.nodes import ros_params

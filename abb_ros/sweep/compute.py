@@ -182,7 +182,7 @@ def _runs(spec, params, groups, columns) -> dict:
 
 def _initial(scen, columns, idx, plist):
     """Return the initial states of the samples ``idx`` and which of them overlap."""
-    from abb_ros.model.dynamics.integrate import initial_state
+    from abb_ros.model.dynamics.initial import initial_state
     from abb_ros.model.parameters.params import ParamError
     n = plist[0].n
     phi0, deck0 = initial_states(scen, columns, idx, n)

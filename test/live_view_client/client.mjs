@@ -8,23 +8,33 @@
 //   calls:   [{"service", "data" (base64 CDR)}]              (services)
 //   wait_for: the topics that must have "messages" messages (default every channel's)
 //   get_parameters: [names], then set_parameters: [{"name", "value"}]  (parameters)
+//   subprotocol: the one offered (default: the client's own, FoxgloveClient.SUPPORTED_SUBPROTOCOL,
+//     "foxglove.websocket.v1"); origin: an Origin header to send, as a browser does
+//   statuses: how many status messages to wait for (they are kept in "statuses")
+// A handshake the server refuses ends the client at once with "handshake": the HTTP status.
 import protocol from "@foxglove/ws-protocol";
 import WebSocket from "ws";
+import { readFileSync } from "node:fs";
 
 const { FoxgloveClient } = protocol;
-// foxglove-sdk servers speak the protocol under the name "foxglove.sdk.v1" (this client
-// names it "foxglove.websocket.v1", which they refuse).
-const SUBPROTOCOL = "foxglove.sdk.v1";
 
-const [url, optionsText] = process.argv.slice(2);
+const [url, optionsArg] = process.argv.slice(2);
+const optionsText = optionsArg === "-" ? readFileSync(0, "utf8") : optionsArg;   // "-": from stdin
 const options = { messages: 3, timeout_s: 20, publish: [], calls: [], get_parameters: null,
-  set_parameters: null, ...JSON.parse(optionsText || "{}") };
+  set_parameters: null, subprotocol: FoxgloveClient.SUPPORTED_SUBPROTOCOL, origin: null, statuses: 0,
+  ...JSON.parse(optionsText || "{}") };
 const parameterRequests = (options.get_parameters ? 1 : 0) + (options.set_parameters ? 1 : 0);
 const b64 = (view) => Buffer.from(view.buffer, view.byteOffset, view.byteLength).toString("base64");
 
 const seen = { serverInfo: null, channels: [], services: [], messages: {}, counts: {}, time: [], responses: [], failures: [],
-  parameters: {} };
-const client = new FoxgloveClient({ ws: new WebSocket(url, [SUBPROTOCOL]) });
+  parameters: {}, statuses: [], subprotocol: null };
+const socket = new WebSocket(url, [options.subprotocol], options.origin ? { origin: options.origin } : {});
+socket.on("open", () => { seen.subprotocol = socket.protocol; });
+socket.on("unexpected-response", (request, response) => {
+  seen.handshake = response.statusCode;
+  finish(0);
+});
+const client = new FoxgloveClient({ ws: socket });
 const bySubscription = new Map();
 let finished = false;
 
@@ -32,7 +42,7 @@ function finish(code) {
   if (finished) return;
   finished = true;
   process.stdout.write(JSON.stringify(seen) + "\n");
-  client.close();
+  if (seen.handshake === undefined) client.close();
   process.exit(code);
 }
 
@@ -40,11 +50,12 @@ function done() {
   const topics = options.wait_for || seen.channels.map((c) => c.topic);
   const enough = seen.channels.length > 0 && topics.every(
     (topic) => (seen.messages[topic] || []).length >= options.messages);
-  return enough && seen.responses.length + seen.failures.length >= options.calls.length
+  return enough && seen.statuses.length >= options.statuses && seen.responses.length + seen.failures.length >= options.calls.length
     && Object.keys(seen.parameters).length >= parameterRequests;
 }
 
 setTimeout(() => finish(0), options.timeout_s * 1000);
+process.on("SIGTERM", () => finish(0));   // ended from outside: print what was seen
 client.on("error", (error) => { seen.error = String(error); finish(1); });
 client.on("serverInfo", (info) => { seen.serverInfo = info; });
 client.on("time", (event) => { if (seen.time.length < 10) seen.time.push(String(event.timestamp)); });
@@ -64,6 +75,7 @@ client.on("advertiseServices", (services) => {
   }
 });
 client.on("serviceCallResponse", (event) => { seen.responses.push({ serviceId: event.serviceId, data: b64(event.data) }); });
+client.on("status", (event) => { seen.statuses.push(event); if (done()) setTimeout(() => finish(0), 300); });
 client.on("serviceCallFailure", (event) => { seen.failures.push(event); });
 client.on("parameterValues", (event) => { seen.parameters[event.id] = event.parameters; });
 client.on("message", (event) => {

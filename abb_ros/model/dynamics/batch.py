@@ -110,7 +110,7 @@ class BatchRun:
     ----------
     params_list : sequence of DriveParams (same n)
     y0 : ndarray, shape (B, 2N)
-        Initial states (:func:`abb_ros.model.dynamics.integrate.initial_state` per run).
+        Initial states (:func:`abb_ros.model.dynamics.initial.initial_state` per run).
     S : ndarray, shape (B, N_SPINDLE)
         Packed spindle profiles (``ConstantSpeed().pack()``, ``SpindleMotor(...).pack(cmd)``).
     dt : float

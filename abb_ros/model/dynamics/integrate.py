@@ -2,15 +2,11 @@
 
 :class:`Simulation` advances the state of :mod:`abb_ros.model.dynamics.equations` with the compiled
 classical RK4 of :mod:`abb_ros.model.dynamics.kernels`, many steps per call; time is the integer
-step count times ``dt`` (no drift). :func:`reference_solution` integrates the same
-right-hand side with scipy's adaptive DOP853 at tight tolerances.
+step count times ``dt`` (no drift). :func:`abb_ros.model.dynamics.reference.reference_solution`
+integrates the same right-hand side with scipy's adaptive DOP853 at tight tolerances.
 
-The spindle speed is an input: :class:`ConstantSpeed` (the paper's case), :class:`Ramp`
-(constant angular acceleration over an interval) or :class:`SpindleMotor` (tracks a
-commanded speed as a first-order lag with an acceleration limit, as a speed-controlled
-spindle motor does); or the spindle is free and driven by torque: :class:`TorqueMotor` (a
-current-commanded DC/BLDC motor, docs/torque_mode.md), with :meth:`Simulation.set_command`
-the current command.
+The spindle is one of the models of :mod:`abb_ros.model.dynamics.spindle` (a prescribed
+speed profile or a torque-driven motor); :meth:`Simulation.set_command` sets its command.
 """
 
 from __future__ import annotations
@@ -22,6 +18,7 @@ import numpy as np
 
 from abb_ros.model.dynamics import kernels
 from abb_ros.model.dynamics.equations import solver_buffers
+from abb_ros.model.dynamics.initial import initial_state
 from abb_ros.model.dynamics.kernels.layout import (
     STAT_MOST_SUBSTEPS,
     STAT_REFINED,
@@ -29,15 +26,15 @@ from abb_ros.model.dynamics.kernels.layout import (
     STAT_SWITCHES,
     W_STATS,
 )
-from abb_ros.model.dynamics.state import StateLayout, wrap_angle
+from abb_ros.model.dynamics.spindle import ConstantSpeed, SpindleMotor, TorqueMotor
+from abb_ros.model.dynamics.state import StateLayout
 from abb_ros.model.parameters.params import DriveParams, ParamError
-from abb_ros.model.parameters.plant_spec import MOTOR_DEFAULTS
 
-__all__ = ['DEFAULT_DT', 'MAX_RUN_STEPS', 'ConstantSpeed', 'Ramp', 'SpindleMotor', 'StateError',
-           'Simulation', 'initial_state', 'reference_solution', 'Trajectory', 'simulate',
-           'TorqueMotor']
+__all__ = ['DEFAULT_DT', 'MAX_RUN_STEPS', 'StateError', 'Simulation', 'Trajectory', 'simulate']
 
 DEFAULT_DT = 1.0 / 10000.0
+"""Default fixed step [s] (10 kHz); see docs/verification.md for the accuracy
+study that chose it."""
 
 MAX_RUN_STEPS = 100_000_000
 """Most fixed steps of one run (duration / dt): 10^4 simulated seconds at 10 kHz, hours of
@@ -60,108 +57,6 @@ def contact_step_note(params, dt: float) -> str:
         return ''
     return (f'integration step {dt:.3g} s outside {lo:g}..{hi:g} s, where the contact '
             'impacts\' accuracy is verified (docs/ball_size_contact_rolling.md)')
-"""Default fixed step [s] (10 kHz); see docs/verification.md for the accuracy
-study that chose it."""
-
-INITIAL_DECK = (0.3e-3, 0.3e-3, 0.3e-3, 0.0, 0.0, 0.0)
-"""Section 5 initial conditions: X = Y = Z = 0.3 mm, alpha = beta = gamma = 0."""
-
-INITIAL_PHI_DEG = 60.0
-"""Section 5: phi_1(0) = -phi_2(0) = 60 deg."""
-CONTACT_START_GAP_DEG = 0.1
-"""With contact, neighbouring balls of a default start are this far beyond touching [deg]."""
-
-
-@dataclass(frozen=True)
-class ConstantSpeed:
-    """theta'' = 0: the paper's constant omega."""
-
-    def pack(self, omega_cmd: float = 0.0) -> np.ndarray:
-        """Return the packed profile S (:mod:`abb_ros.model.dynamics.kernels.layout`)."""
-        return np.array([kernels.SPINDLE_CONSTANT, omega_cmd, 0, 1, 0, 0, 0], dtype=float)
-
-
-@dataclass(frozen=True)
-class Ramp:
-    """theta'' = accel [rad/s^2] for t0 <= t < t1 [s], zero otherwise."""
-
-    t0: float
-    t1: float
-    accel: float
-
-    def pack(self, omega_cmd: float = 0.0) -> np.ndarray:
-        """Return the packed profile S (:mod:`abb_ros.model.dynamics.kernels.layout`)."""
-        return np.array([kernels.SPINDLE_RAMP, omega_cmd, 0, 1, self.t0, self.t1, self.accel],
-                        dtype=float)
-
-
-@dataclass(frozen=True)
-class SpindleMotor:
-    """Speed-controlled spindle: theta'' = clip((omega_cmd - omega)/tau, +-max_accel).
-
-    max_accel [rad/s^2] > 0, tau [s] > 0.
-    """
-
-    max_accel: float = 1000.0
-    tau: float = 0.05
-
-    def __post_init__(self):
-        for name, value in (('max_accel', self.max_accel), ('tau', self.tau)):
-            if not (isinstance(value, (int, float)) and math.isfinite(value) and value > 0):
-                raise ParamError(f'spindle.{name}', value, '(0, inf)')
-
-    def pack(self, omega_cmd: float = 0.0) -> np.ndarray:
-        """Return the packed profile S (:mod:`abb_ros.model.dynamics.kernels.layout`)."""
-        return np.array([kernels.SPINDLE_MOTOR, omega_cmd, self.max_accel, self.tau, 0, 0, 0],
-                        dtype=float)
-
-
-@dataclass(frozen=True)
-class TorqueMotor:
-    """Free spindle driven by a current-commanded DC/BLDC motor (docs/torque_mode.md).
-
-    The command of :meth:`pack` is the winding current [A]. K_t [N m/A] (= K_e [V s/rad]),
-    R_w [ohm], I_max [A], V_s [V] > 0; bearing friction b_v [N m s] and T_c [N m] >= 0,
-    smoothed over omega_c [rad/s] > 0.
-    """
-
-    K_t: float = MOTOR_DEFAULTS['torque_constant']
-    R_w: float = MOTOR_DEFAULTS['resistance']
-    I_max: float = MOTOR_DEFAULTS['current_limit']
-    b_v: float = MOTOR_DEFAULTS['viscous_friction']
-    T_c: float = MOTOR_DEFAULTS['coulomb_friction']
-    omega_c: float = MOTOR_DEFAULTS['friction_smoothing']
-    V_s: float = MOTOR_DEFAULTS['voltage_limit']
-
-    FIELDS = dict(K_t='torque_constant', R_w='resistance', I_max='current_limit',
-                  b_v='viscous_friction', T_c='coulomb_friction', omega_c='friction_smoothing',
-                  V_s='voltage_limit')
-    """Field -> parameter name (``motor.<name>``, plant_spec.MOTOR_DEFAULTS)."""
-
-    @classmethod
-    def from_values(cls, values) -> 'TorqueMotor':
-        """From {``motor.<name>``: value}; missing names take their defaults."""
-        return cls(**{f: float(values.get('motor.' + name, MOTOR_DEFAULTS[name]))
-                      for f, name in cls.FIELDS.items()})
-
-    def __post_init__(self):
-        for name in ('K_t', 'R_w', 'I_max', 'b_v', 'T_c', 'omega_c', 'V_s'):
-            value = getattr(self, name)
-            positive = name not in ('b_v', 'T_c')
-            if not (isinstance(value, (int, float)) and math.isfinite(value)
-                    and (value > 0 or (not positive and value == 0))):
-                raise ParamError(f'motor.{self.FIELDS[name]}', value,
-                                 '(0, inf)' if positive else '[0, inf)')
-
-    def pack(self, current_cmd: float = 0.0) -> np.ndarray:
-        """Return the packed profile S of torque mode (:mod:`~.dynamics.kernels.layout`)."""
-        return np.array([kernels.SPINDLE_TORQUE, current_cmd, self.K_t, self.R_w, self.I_max,
-                         self.b_v, self.T_c, self.omega_c, self.V_s], dtype=float)
-
-    def current(self, omega: float, current_cmd: float) -> float:
-        """Winding current [A] at speed omega for the command (limits applied)."""
-        return float(kernels.PY.motor_current(float(omega), self.pack(current_cmd)))
-
 
 class StateError(RuntimeError):
     """The state became non-finite or left the sane envelope; integration stopped.
@@ -177,54 +72,6 @@ class StateError(RuntimeError):
                 '|phi_i\'| <= %g rad/s)' % (kernels.MAX_TRANSLATION, kernels.MAX_ANGLE,
                                              kernels.MAX_BALL_RATE))
         super().__init__(f'state {what} after t = {t:.6f} s; integration stopped')
-
-
-def default_phi0(n: int, separation: float = 0.0) -> np.ndarray:
-    """Return the initial ball angles [rad].
-
-    Section 5's +-60 deg; for n > 2 the balls alternate
-    between the two groups, each group spread by 1 deg steps (identical balls started at the
-    same angle would move as one), or, with contact, by the balls' contact
-    ``separation`` [rad] plus 0.1 deg when that is wider: the balls then start side by side,
-    just apart.
-    """
-    step = 1.0
-    if math.degrees(separation) + CONTACT_START_GAP_DEG > step:
-        step = math.degrees(separation) + CONTACT_START_GAP_DEG
-    phi = np.empty(n)
-    for i in range(n):
-        group, rank = i % 2, i // 2
-        sign = 1.0 if group == 0 else -1.0
-        phi[i] = sign * (INITIAL_PHI_DEG + rank * step)
-    return np.radians(phi)
-
-
-def initial_state(params: DriveParams, omega: float, phi0=None, deck0=INITIAL_DECK,
-                  theta0: float = 0.0) -> np.ndarray:
-    """Return the state y0 of Section 5 at spindle speed omega [rad/s]; shape (2N,)."""
-    n = params.n
-    if phi0 is None:
-        phi = default_phi0(n, params.contact_separation if params.contact_E > 0 else 0.0)
-    else:
-        phi = np.asarray(phi0, dtype=float)
-    if phi.shape != (n,):
-        raise ParamError('phi0', list(np.degrees(phi)), f'{n} ball angles (n = {n})')
-    _check_no_overlap(params, phi)
-    return StateLayout(n).pack(theta=theta0, deck=deck0, phi=phi, omega=omega)
-
-
-def _check_no_overlap(params: DriveParams, phi) -> None:
-    """With contact balls may not start closer than 2 asin(r_ball / R)."""
-    if params.contact_E <= 0 or params.n < 2:
-        return
-    d = np.subtract.outer(phi, phi)
-    d = np.abs(wrap_angle(d))
-    d[np.diag_indices(params.n)] = math.inf
-    if d.min() < params.contact_separation * (1 - 1e-12):
-        raise ParamError('phi0', f'{math.degrees(d.min()):.4f} deg between the closest balls',
-                         f'at least 2 asin(r_ball / R) = '
-                         f'{math.degrees(params.contact_separation):.4f} deg',
-                         'with contact the balls cannot overlap')
 
 
 def _check_torque_terms(params: DriveParams, spindle) -> None:
@@ -535,28 +382,3 @@ def simulate(params: DriveParams, omega: float, duration: float, dt: float = DEF
     y = np.concatenate(rows)
     t = sim.t0 + np.arange(len(y)) * every * dt
     return Trajectory(params, t, y)
-
-
-def reference_solution(params: DriveParams, y0, t_span, spindle=None, t_eval=None,
-                       rtol: float = 1e-10, atol: float = 1e-13, method: str = 'DOP853',
-                       kern=None):
-    """Integrate the same equations by scipy's adaptive ``solve_ivp``; return its OdeResult.
-
-    Default DOP853, tight tolerances; the right-hand side from ``kern`` (default the compiled
-    kernels).
-    """
-    from scipy.integrate import solve_ivp
-    n = params.n
-    layout = StateLayout(n)
-    P = kernels.pack_params(params)
-    S = (spindle or ConstantSpeed()).pack(float(layout.omega(y0)))
-    kern = kern or kernels.JIT
-    bufs = solver_buffers(n)
-
-    def fun(t, y):
-        dy = np.empty(layout.size)
-        kern.deriv(t, np.ascontiguousarray(y), n, P, S, dy, bufs)
-        return dy
-
-    return solve_ivp(fun, t_span, np.asarray(y0, dtype=float), method=method, rtol=rtol,
-                     atol=atol, t_eval=t_eval)

@@ -1,7 +1,7 @@
 """Disturbances of the plant's state for tests: a shock to the deck and a disc swap.
 
 Pure numpy: each function returns a new state y = [q, q'] (see
-:func:`abb_ros.model.dynamics.integrate.initial_state`); the caller puts it into the simulation
+:func:`abb_ros.model.dynamics.initial.initial_state`); the caller puts it into the simulation
 between two steps.
 
 Shock (:func:`apply_shock`): an impulse on the deck changes its velocities at once and not its
