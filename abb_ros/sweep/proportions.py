@@ -27,4 +27,7 @@ def wilson(k: int, n: int, z: float = Z95) -> tuple[float, float]:
     denom = n + z * z
     centre = (k + z * z / 2.0) / denom
     half = z * math.sqrt(k * (n - k) / n + z * z / 4.0) / denom
-    return (max(0.0, centre - half), min(1.0, centre + half))
+    # at k = 0 and k = n the interval ends at 0 and 1 exactly (round-off would leave 1 - 1e-16)
+    low = 0.0 if k == 0 else max(0.0, centre - half)
+    high = 1.0 if k == n else min(1.0, centre + half)
+    return (low, high)
