@@ -28,6 +28,9 @@ STEEL = ['r_ball=2.3559716663050265e-3', 'contact_E=2e11']   # steel balls of m 
 CASES = {
     # P3 without rolling resistance (the benchmark's study: same arguments)
     'p3': ['--res', '32x32', '--duration', '3'],
+    # the same drive from uniform random starts: two balls, and three balls (n >= 3 family)
+    'p3_samples': ['--samples', '256', '--seed', '1', '--duration', '3'],
+    'p3_n3_samples': ['--set', 'n=3', '--samples', '256', '--seed', '1', '--duration', '3'],
     # in the unbalanced band below the first resonances
     'band_wbar0.9': ['--res', '12x12', '--duration', '3', '--set', 'wbar=0.9'],
     # steel balls with contact, rolling resistance off and on
@@ -185,6 +188,7 @@ def main(argv=None) -> int:
         return 0
     shutil.copy(work / 'p3' / 'basin.png', FIGURES / 'p3_grid.png')
     shutil.copy(work / 'band_wbar0.9' / 'basin.png', FIGURES / 'band_wbar0.9.png')
+    shutil.copy(work / 'p3_n3_samples' / 'basin.png', FIGURES / 'p3_n3_samples.png')
     shutil.copy(work / 'steel_mu3e-6' / 'basin.png', FIGURES / 'steel_mu3e-6.png')
     shutil.copy(work / 'profile_plateau' / 'basin.png', FIGURES / 'profile_plateau.png')
     rolling_figure(work, results)
