@@ -190,3 +190,14 @@ def test_no_balls_is_refused(tmp_path, capsys):
                  '--serial']) == 2
     assert 'at least 2 balls' in capsys.readouterr().err
     assert DriveParams().n == 2
+
+
+def test_balls_with_contact_are_not_started_inside_each_other(tmp_path, capsys):
+    """With contact the grid's diagonal starts overlap: class 'overlap', not run, not counted."""
+    out, summary = _basin(tmp_path, capsys, '--res', '2x2', '--duration', '0.05',
+                          '--set', 'r_ball=2.3559716663050265e-3', '--set', 'contact_E=2e11')
+    table = read_table(out).to_pydict()
+    diagonal = [a == b for a, b in zip(table['phi1_deg'], table['phi2_deg'])]
+    assert [o == 'overlap' for o in table['outcome']] == diagonal == [True, False, False, True]
+    assert summary['runs'] == 2 and summary['outcomes']['overlap'] == 2
+    assert all(math.isnan(r) for r, d in zip(table['final_rbar'], diagonal) if d)

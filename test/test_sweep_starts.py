@@ -29,9 +29,19 @@ def _doc(**parameters):
             'compute': {'run': {'duration': 0.2, 'rbar_limit': 1e-2}}}
 
 
-def test_runs_start_at_the_drawn_ball_angles_and_deck_displacement():
-    """A drawn start runs as abb-sim run's integration from that start does, to the bit."""
-    spec = parse_spec(_doc())
+STEEL_ROLLING = {'r_ball': 2.3559716663050265e-3, 'contact_E': 2e11, 'rolling_mu': 1e-6}
+
+
+@pytest.mark.parametrize('base', [{}, STEEL_ROLLING], ids=['paper', 'steel_rolling'])
+def test_runs_start_at_the_drawn_ball_angles_and_deck_displacement(base):
+    """A drawn start runs as abb-sim run's integration from that start does, to the bit.
+
+    Also with steel balls in contact and rolling resistance: a sweep over friction and
+    starts integrates what abb-sim run does.
+    """
+    doc = _doc()
+    doc['base'] = base
+    spec = parse_spec(doc)
     samples = draw_samples(spec)
     result = compute_partition(dataclasses.replace(spec, partition_size=6), 0, samples)
     for i in (0, 4):
