@@ -29,6 +29,7 @@ SUBCOMMANDS = {
     'plot': 'time-response figures (PNG) from a recorded bag',
     'sweep': 'design study over many drives with tolerances, on Dask (Parquet dataset)',
     'sweep-report': 'figures (PNG) and a JSON summary of a sweep directory',
+    'basin': 'probability of balancing from many initial ball positions, on Dask (PNG, Parquet)',
 }
 
 

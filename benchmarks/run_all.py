@@ -68,6 +68,7 @@ BENCHMARKS: dict[str, Benchmark] = {
     'bench_startup': Benchmark('bench_startup', ('--repeat', '5')),
     'bench_contact': Benchmark('bench_contact', ('--seconds', '2')),
     'bench_contact_node': Benchmark('bench_contact_node', ('--duration', '10', '--runs', '3')),
+    'bench_basin': Benchmark('bench_basin', (), ('--quick',)),
     'bench_live_view': Benchmark('bench_live_view', ('--messages', '50000', '--duration', '30'),
                                  ('--messages', '20000', '--duration', '10')),
     'bench_viewer_calls': Benchmark('bench_viewer_calls', ('--calls', '200')),

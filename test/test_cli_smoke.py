@@ -109,6 +109,15 @@ def test_abb_sim_plot(p3_bag, tmp_path):
     assert len(summary['figures']) == 2 and all(os.path.exists(f) for f in summary['figures'])
 
 
+@pytest.mark.slow
+def test_abb_sim_basin_writes_its_table_summary_and_picture(tmp_path):
+    summary, _ = abb_sim('basin', '--res', '2x2', '--duration', '0.05', '--serial',
+                         '--no-progress', '--out', str(tmp_path / 'basin'))
+    assert summary['runs'] == 4 and summary['integrator'] == 'rk4'
+    assert {p.name for p in (tmp_path / 'basin').iterdir()} == {
+        'basin.parquet', 'basin.json', 'basin.png', 'parts'}
+
+
 def test_a_bad_input_is_one_line_and_exit_code_2():
     t0 = time.perf_counter()
     proc = subprocess.run([ABB_SIM, 'run', '--duration', 'ten'], capture_output=True, text=True,

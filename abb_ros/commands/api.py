@@ -26,7 +26,9 @@ from abb_ros.model.parameters.params import (
 __all__ = ['UsageError', 'CommandFailed', 'Terminated', 'stop_signals', 'signals_deferred',
            'stop_point',
            'parse_settings', 'parse_spec_value', 'drive_params', 'check_output', 'output_files',
-           'stage_directory', 'commit_directory']
+           'stage_directory', 'commit_directory', 'run_scenario_from_args',
+           'dask_client']
+
 
 
 class UsageError(Exception):
@@ -256,3 +258,101 @@ def commit_directory(path, staged) -> None:
             os.replace(staged, path)
             shutil.rmtree(old, ignore_errors=True)
         shutil.rmtree(staged.parent, ignore_errors=True)
+
+
+def run_scenario_from_args(name: str, config, set_items, no_abb: bool = False,
+                           duration: float | None = None):
+    """Return the scenario of ``--scenario``/``--config``/``--set`` and run_scenario's options.
+
+    As ``abb-sim run`` takes them: drive settings (SI, Eq. 39, omega) change the scenario's
+    drive, ``spindle.*`` its spindle, the node parameters that apply headless its options
+    (``dt``, ``publish_dt``, ``imu_config``, ``seed``); ``duration`` [s] (None: the
+    scenario's) replaces its duration. Errors are one line naming the option.
+    """
+    import math
+
+    from abb_ros.app.headless import PUBLISH_DT, check_duration
+    from abb_ros.app.run_settings import apply_settings
+    from abb_ros.io.scenario import load_scenario
+    base = drive_params(config) if config else None
+    try:
+        scenario = load_scenario(name, base=base)
+    except ParamError as exc:
+        if exc.name == 'scenario':     # names the file already
+            raise
+        raise UsageError(f'--scenario {name}: {exc}') from None
+    settings = parse_settings(set_items, 'run')
+    if no_abb:
+        settings['n'] = 0
+    scenario, options = apply_settings(scenario, settings)   # checked before any file is made
+    if duration is not None:
+        if not (math.isfinite(duration) and duration > 0):
+            raise ParamError('duration', duration, '(0, inf) s')
+        scenario.duration = float(duration)
+    try:
+        check_duration(scenario.duration, options.get('publish_dt', PUBLISH_DT), options.get('dt'))
+    except ParamError as exc:
+        if duration is not None:
+            raise
+        raise UsageError(f'--scenario {name}: {exc}') from None
+    return scenario, options
+
+
+@contextlib.contextmanager
+def dask_client(command: str, scheduler=None, workers=None, serial: bool = False,
+                check_only: bool = False):
+    """Yield a distributed.Client (None with ``serial``), closed (and its cluster) at the end.
+
+    ``scheduler`` tcp://HOST:PORT connects to a running cluster; otherwise a LocalCluster of
+    ``workers`` processes (default the CPU count) is started on 127.0.0.1. The options are
+    checked first (UsageError, exit 2); with ``check_only`` nothing else is done (None).
+    """
+    import sys
+    if workers is not None and scheduler:
+        raise UsageError('--workers applies to the local cluster only; leave it out with '
+                         '--scheduler')
+    if serial and (scheduler or workers is not None):
+        raise UsageError('--serial runs in this process: leave out --scheduler and --workers')
+    if workers is not None and not 1 <= workers <= 256:
+        raise UsageError(f'--workers {workers}: valid range is 1..256')
+    if serial or check_only:
+        yield None
+        return
+    from distributed import Client
+
+    from abb_ros.sweep.runner import has_bokeh, local_cluster
+    cluster = client = None
+    try:
+        if scheduler:
+            try:
+                client = Client(scheduler, timeout='20s')
+            except (OSError, TimeoutError, ValueError) as exc:
+                raise UsageError(f'--scheduler {scheduler}: cannot connect ({exc})') from None
+        else:
+            # a signal while the cluster starts is held until it stands, then unwinds through
+            # the finally below, which closes it (never a half-made cluster that
+            # distributed's atexit hook trips over)
+            with signals_deferred():
+                cluster = local_cluster(workers or os.cpu_count() or 1, dashboard=True)
+                client = Client(cluster)
+        if has_bokeh() and _has_dashboard(client):
+            print(f'abb-sim {command}: Dask dashboard at {client.dashboard_link}',
+                  file=sys.stderr)
+        yield client
+    finally:
+        if client is not None:
+            client.close()
+        if cluster is not None:
+            cluster.close()
+
+
+def _has_dashboard(client) -> bool:
+    """Return whether the scheduler serves the Dask dashboard.
+
+    A scheduler serves the dashboard on its HTTP server only with bokeh installed; for a
+    remote scheduler this machine's bokeh is the best guess there is.
+    """
+    try:
+        return 'dashboard' in client.scheduler_info().get('services', {})
+    except Exception:  # noqa: BLE001 - an old scheduler without the field: say nothing
+        return False

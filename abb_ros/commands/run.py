@@ -12,8 +12,6 @@ import os
 import shutil
 import sys
 
-import numpy as np
-
 DEFAULT_SCENARIO = 'p3'
 
 
@@ -94,35 +92,11 @@ def _scenario(args):
     """Return the scenario of the options and run_scenario's keyword arguments.
 
     ``--config``, ``--set``, ``--no-abb`` and ``--duration`` applied to ``--scenario``, all
-    checked before a file is made.
+    checked before a file is made (:func:`abb_ros.commands.api.run_scenario_from_args`).
     """
-    from abb_ros.app.headless import check_duration
-    from abb_ros.app.run_settings import apply_settings
-    from abb_ros.commands.api import UsageError, drive_params, parse_settings
-    from abb_ros.io.scenario import load_scenario
-    from abb_ros.model.parameters.params import ParamError
-    base = drive_params(args.config) if args.config else None
-    try:
-        scenario = load_scenario(args.scenario, base=base)
-    except ParamError as exc:
-        if exc.name == 'scenario':     # names the file already
-            raise
-        raise UsageError(f'--scenario {args.scenario}: {exc}') from None
-    settings = parse_settings(args.set, 'run')
-    if args.no_abb:
-        settings['n'] = 0
-    scenario, options = apply_settings(scenario, settings)
-    if args.duration is not None:
-        if not (np.isfinite(args.duration) and args.duration > 0):
-            raise ParamError('duration', args.duration, '(0, inf) s')
-        scenario.duration = float(args.duration)
-    try:
-        check_duration(scenario.duration, dt=options.get('dt'))
-    except ParamError as exc:
-        if args.duration is not None:
-            raise
-        raise UsageError(f'--scenario {args.scenario}: {exc}') from None
-    return scenario, options
+    from abb_ros.commands.api import run_scenario_from_args
+    return run_scenario_from_args(args.scenario, args.config, args.set, args.no_abb,
+                                  args.duration)
 
 
 def _open_bag(args, staged, params, live):

@@ -9,10 +9,9 @@ finishes an interrupted sweep without recomputing the partitions already written
 
 from __future__ import annotations
 
-import os
 import sys
 
-from abb_ros.commands.api import UsageError, signals_deferred
+from abb_ros.commands.api import UsageError
 
 
 def add_arguments(parser) -> None:
@@ -30,60 +29,14 @@ def add_arguments(parser) -> None:
     parser.add_argument('--no-progress', action='store_true', help='no progress bar')
 
 
-def _check_options(args) -> None:
-    """Refuse option combinations that contradict each other (UsageError)."""
-    if args.workers is not None and args.scheduler:
-        raise UsageError('--workers applies to the local cluster only; leave it out with '
-                         '--scheduler')
-    if args.serial and (args.scheduler or args.workers is not None):
-        raise UsageError('--serial runs in this process: leave out --scheduler and --workers')
-    if args.workers is not None and not 1 <= args.workers <= 256:
-        raise UsageError(f'--workers {args.workers}: valid range is 1..256')
-
-
-def _connect(args):
-    """Return (cluster, client) of the options: (None, None) with --serial.
-
-    Returns
-    -------
-    cluster : distributed.LocalCluster or None
-        The local cluster started here (None for --scheduler or --serial).
-    client : distributed.Client or None
-        The client of the sweep's tasks.
-    """
-    if args.serial:
-        return None, None
-    from distributed import Client
-
-    from abb_ros.sweep.runner import local_cluster
-    cluster = None
-    if args.scheduler:
-        try:
-            client = Client(args.scheduler, timeout='20s')
-        except (OSError, TimeoutError, ValueError) as exc:
-            raise UsageError(f'--scheduler {args.scheduler}: cannot connect ({exc})') from None
-    else:
-        # a signal while the cluster starts is held until it stands, then unwinds through the
-        # close below (never a half-made cluster that distributed's atexit hook trips over)
-        try:
-            with signals_deferred():
-                cluster = local_cluster(args.workers or os.cpu_count() or 1, dashboard=True)
-                client = Client(cluster)
-        except BaseException:
-            if cluster is not None:
-                cluster.close()
-            raise
-    if _has_dashboard(client):
-        print(f'abb-sim sweep: Dask dashboard at {client.dashboard_link}', file=sys.stderr)
-    return cluster, client
-
-
 def run(args) -> dict:
     """Run the spec's sweep on a Dask cluster into the output directory; return the summary."""
+    from abb_ros.commands.api import dask_client
     from abb_ros.sweep.runner import SweepError, check_out_dir, run_sweep
     from abb_ros.sweep.spec import load_spec
 
-    _check_options(args)
+    with dask_client('sweep', args.scheduler, args.workers, args.serial, check_only=True):
+        pass
     spec = load_spec(args.spec)
     try:
         check_out_dir(spec, args.out, args.resume)   # before a cluster is started
@@ -94,36 +47,18 @@ def run(args) -> dict:
         from tqdm import tqdm
         bar = tqdm(total=spec.total, unit='drive', file=sys.stderr, desc=f'sweep {spec.name}',
                    smoothing=0.1)
-    cluster = client = None
     try:
-        cluster, client = _connect(args)
-        try:
-            result = run_sweep(spec, args.out, client, resume=args.resume,
-                               progress=bar.update if bar else None)
-        except SweepError as exc:
-            raise UsageError(str(exc)) from None
-        workers = len(client.scheduler_info()['workers']) if client is not None else 0
+        with dask_client('sweep', args.scheduler, args.workers, args.serial) as client:
+            try:
+                result = run_sweep(spec, args.out, client, resume=args.resume,
+                                   progress=bar.update if bar else None)
+            except SweepError as exc:
+                raise UsageError(str(exc)) from None
+            workers = len(client.scheduler_info()['workers']) if client is not None else 0
     finally:
         if bar is not None:
             bar.close()
-        if client is not None:
-            client.close()
-        if cluster is not None:
-            cluster.close()
     return _summary(spec, result, args, workers)
-
-
-def _has_dashboard(client) -> bool:
-    """Return whether the scheduler serves the Dask dashboard.
-
-    A scheduler serves the dashboard on its HTTP server only with bokeh installed; for a
-    remote scheduler this machine's bokeh is the best guess there is.
-    """
-    from abb_ros.sweep.runner import has_bokeh
-    try:
-        return has_bokeh() and 'dashboard' in client.scheduler_info().get('services', {})
-    except Exception:  # noqa: BLE001 - an old scheduler without the field: say nothing
-        return False
 
 
 def _summary(spec, result, args, workers) -> dict:

@@ -32,18 +32,22 @@ import numpy as np
 from abb_ros.model.dynamics import kernels
 from abb_ros.model.dynamics.state import StateLayout, wrap_degrees
 from abb_ros.model.parameters.params import DIMENSIONLESS_NAMES, apply_settings
+from abb_ros.sweep.starts import initial_states, is_start
 
 __all__ = ['compute_partition', 'STATUS_NAMES', 'partition_params', 'warm_up']
 
-STATUS_NAMES = {kernels.OK: 'ok', kernels.NONFINITE: 'nonfinite', kernels.ENVELOPE: 'envelope'}
+OVERLAP = -1
+"""Status of a run not started: its drawn ball angles overlap (balls with contact)."""
+STATUS_NAMES = {kernels.OK: 'ok', kernels.NONFINITE: 'nonfinite', kernels.ENVELOPE: 'envelope',
+                OVERLAP: 'overlap'}
 DERIVED = ('omega0',) + tuple(n for n in DIMENSIONLESS_NAMES if n != 'wbar') + ('n',)
 
 
 def partition_params(spec, columns) -> list:
     """Return each sample's DriveParams: the nominal drive (scenario + base) with its draws."""
     nominal = spec.scenario.params
-    names = list(columns)
-    count = len(columns[names[0]])
+    names = [k for k in columns if not is_start(k)]
+    count = len(next(iter(columns.values())))
     out = []
     for i in range(count):
         settings = {k: (int(columns[k][i]) if k == 'n' else float(columns[k][i]))
@@ -78,7 +82,7 @@ def compute_partition(spec, index: int, columns: dict) -> dict:
     if spec.speeds is not None:
         out.update(_stability(spec, params, groups))
     if spec.run is not None:
-        out.update(_runs(spec, params, groups))
+        out.update(_runs(spec, params, groups, columns))
     if spec.speeds is not None:
         out['balanced'] = out['balanced_op'].copy()
     else:
@@ -131,7 +135,7 @@ def _stability(spec, params, groups) -> dict:
     }
 
 
-def _runs(spec, params, groups) -> dict:
+def _runs(spec, params, groups, columns) -> dict:
     from abb_ros.model.dynamics.batch import (
         FAIL_TIME,
         PEAK_RBAR,
@@ -139,7 +143,6 @@ def _runs(spec, params, groups) -> dict:
         AdaptiveRuns,
         BatchRun,
     )
-    from abb_ros.model.dynamics.initial import initial_state
     from abb_ros.model.dynamics.integrate import StateError
     scen = spec.scenario
     dt = spec.run['dt']
@@ -157,13 +160,13 @@ def _runs(spec, params, groups) -> dict:
     fail_time = np.empty(count)
     for n, idx in groups.items():
         plist = [params[i] for i in idx]
-        phi0 = scen.phi0 if scen.phi0 is not None and len(scen.phi0) == n else None
-        y0 = np.array([initial_state(p, scen.omega, phi0, scen.deck0) for p in plist])
+        y0, overlap = _initial(scen, columns, idx, plist)
         S = np.array([scen.spindle.pack(scen.omega)] * idx.size)
         if spec.run.get('integrator', 'rk4') == 'adaptive':
             br = AdaptiveRuns(plist, y0, scen.spindle, scen.omega, dt, limit)
         else:
             br = BatchRun(plist, y0, S, dt, limit)
+        br.status[overlap] = OVERLAP       # never advanced
         for step, omega in cmd_steps:
             br.advance(step - br.steps)
             br.set_omega_cmd(omega)
@@ -180,12 +183,31 @@ def _runs(spec, params, groups) -> dict:
         status[idx] = br.status
         fail_time[idx] = br.metrics[:, FAIL_TIME]
     failed = status != kernels.OK
-    cause = [str(StateError(int(s), float(t))) if s != kernels.OK else ''
+    cause = [str(StateError(int(s), float(t))) if s not in (kernels.OK, OVERLAP) else
+             'the drawn ball angles overlap (contact on): not run' if s == OVERLAP else ''
              for s, t in zip(status, fail_time)]
     return {**res, 'phi_final_deg': phi_final,
             'status': np.asarray([STATUS_NAMES[int(s)] for s in status], dtype=object),
             'failed': failed, 'cause': np.asarray(cause, dtype=object), 'fail_time': fail_time,
             'run_balanced': ~failed & (res['final_rbar'] <= limit)}
+
+
+def _initial(scen, columns, idx, plist):
+    """Return the initial states of the samples ``idx`` and which of them overlap."""
+    from abb_ros.model.dynamics.initial import initial_state
+    from abb_ros.model.parameters.params import ParamError
+    n = plist[0].n
+    phi0, deck0 = initial_states(scen, columns, idx, n)
+    y0 = []
+    overlap = np.zeros(len(plist), dtype=bool)
+    for j, p in enumerate(plist):
+        phi = None if phi0 is None else phi0[j]
+        try:
+            y0.append(initial_state(p, scen.omega, phi, tuple(deck0[j])))
+        except ParamError:            # balls that touch started inside each other
+            overlap[j] = True
+            y0.append(StateLayout.of(n).pack(deck=tuple(deck0[j]), phi=phi, omega=scen.omega))
+    return np.array(y0), overlap
 
 
 def warm_up(spec) -> None:

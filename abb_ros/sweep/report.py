@@ -6,7 +6,8 @@ writes:
 - ``hist_final_rbar.png``, ``hist_settle_time.png`` (with ``compute.run``);
 - ``hist_lambda_op.png``: |lambda|max at the operating speed (with ``compute.stability``);
 - ``balanced_vs_<parameter>.png``: the fraction of drives balanced against each varied
-  parameter (quantile bins, or the distinct values of a list or grid);
+  parameter (quantile bins, or the distinct values of a list or grid), with the 95 % Wilson
+  interval of ``balanced`` per bin (also in the summary, ``balanced_by_bin``);
 - ``scatter_<p1>_<p2>.png``: the drives over the two most influential parameters, balanced
   and unbalanced apart;
 - ``summary.json``: the yield (fraction balanced at the operating speed: both |lambda|max < 1
@@ -172,10 +173,15 @@ def make_report(sweep_dir, out_dir) -> dict:
         frac = {key: np.array([_col(table, key)[idx == i].mean() if np.any(idx == i) else np.nan
                                for i in range(centres.size)])
                 for key in ('balanced_op', 'balanced_all_speeds', 'run_balanced') if key in names}
+        bins = _bin_intervals(table, idx, centres)
+        summary.setdefault('balanced_by_bin', {})[name] = bins
 
-        def draw(ax, centres=centres, frac=frac, name=name):
+        def draw(ax, centres=centres, frac=frac, name=name, bins=bins):
             for key, f in frac.items():
                 ax.plot(centres, f, 'o-', label=key)
+            lo, hi = (np.array([b['ci95'][k] for b in bins], dtype=float) for k in (0, 1))
+            ax.fill_between(centres, lo, hi, color='0.5', alpha=0.25,
+                            label='balanced: 95 % Wilson interval')
             ax.set_ylim(-0.02, 1.02)
             ax.set_xlabel(_unit(name))
             ax.set_ylabel('fraction balanced')
@@ -205,6 +211,26 @@ def make_report(sweep_dir, out_dir) -> dict:
         json.dump(summary, f, indent=1)
         f.write('\n')
     return summary
+
+
+def _bin_intervals(table, idx, centres) -> list:
+    """Return per bin: centre, runs, balanced count, fraction and its 95 % Wilson interval.
+
+    Runs whose drawn ball angles overlap (status 'overlap') are left out: they never ran.
+    """
+    from abb_ros.sweep.proportions import wilson
+    balanced = _col(table, 'balanced').astype(bool)
+    ran = np.ones(balanced.size, dtype=bool)
+    if 'status' in table.column_names:
+        ran = _col(table, 'status') != 'overlap'
+    out = []
+    for i, centre in enumerate(centres):
+        sel = (idx == i) & ran
+        k, n = int(balanced[sel].sum()), int(sel.sum())
+        out.append({'centre': _jsonable(centre), 'runs': n, 'balanced': k,
+                    'fraction': k / n if n else None,
+                    'ci95': list(wilson(k, n)) if n else [None, None]})
+    return out
 
 
 def _quantiles(x):

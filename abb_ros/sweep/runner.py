@@ -77,16 +77,18 @@ def prepare_out_dir(spec, out_dir, resume: bool) -> Path:
 
 
 def run_sweep(spec, out_dir, client=None, resume: bool = False, progress=None,
-              on_written=None) -> SweepResult:
+              on_written=None, compute=compute_partition, samples=None) -> SweepResult:
     """Compute the partitions of ``spec`` that ``out_dir`` lacks and write them.
 
     client : distributed.Client or None (in-process); progress(k): called with the number of
     samples of each partition written; on_written(index): called after each partition is
-    written (tests use it to interrupt or kill a worker).
+    written (tests use it to interrupt or kill a worker). ``compute(spec, index, columns)``
+    computes one partition and ``samples`` are all the drawn columns (default: a sweep's,
+    :func:`draw_samples`; a basin study passes its own, docs/basin.md).
     """
     t0 = time.perf_counter()
     out = prepare_out_dir(spec, out_dir, resume)
-    samples = draw_samples(spec)
+    samples = draw_samples(spec) if samples is None else samples
     done = store.finished_partitions(out, spec.partitions)
     todo = [i for i in range(spec.partitions) if i not in done]
     if progress is not None and done:
@@ -101,12 +103,12 @@ def run_sweep(spec, out_dir, client=None, resume: bool = False, progress=None,
 
     if client is None:
         for i in todo:
-            written(i, compute_partition(spec, i, _slice(samples, *spec.partition_bounds(i))))
+            written(i, compute(spec, i, _slice(samples, *spec.partition_bounds(i))))
     else:
         from distributed import as_completed
         # unique per call: a result another client left on a shared cluster is never reused
         token = uuid.uuid4().hex[:12]
-        futures = {client.submit(compute_partition, spec, i,
+        futures = {client.submit(compute, spec, i,
                                  _slice(samples, *spec.partition_bounds(i)),
                                  key=f'abb-sweep-{token}-{i:05d}', retries=2): i
                    for i in todo}

@@ -42,12 +42,9 @@ import numpy as np
 from abb_ros.io import fields
 from abb_ros.io.safe_yaml import YamlFileError, load_file
 from abb_ros.model.parameters.drive_spec import MAX_OMEGA
-from abb_ros.model.parameters.params import (
-    DIMENSIONLESS_NAMES,
-    PARAM_SPECS,
-    ParamError,
-    apply_settings,
-)
+from abb_ros.model.parameters.param_spec import ParamError
+from abb_ros.model.parameters.params import DIMENSIONLESS_NAMES, PARAM_SPECS, apply_settings
+from abb_ros.sweep.starts import START_PARAMETERS, check_start_value, check_starts, is_start
 
 __all__ = ['MAX_SAMPLES', 'MAX_SPEC_BYTES', 'MAX_SPEEDS', 'SweepSpec', 'load_spec', 'parse_spec',
            'SAMPLEABLE', 'DISTRIBUTIONS', 'METHODS']
@@ -67,9 +64,10 @@ MAX_SPEC_BYTES = 1 << 20
 MAX_DURATION = 1000.0
 """Longest run in ``compute.run.duration`` [s]."""
 
-SAMPLEABLE = tuple(PARAM_SPECS) + tuple(n for n in DIMENSIONLESS_NAMES if n != 'wbar')
+_DRIVE = tuple(PARAM_SPECS) + tuple(n for n in DIMENSIONLESS_NAMES if n != 'wbar')
+SAMPLEABLE = _DRIVE + START_PARAMETERS
 """Parameters a spec may vary: the SI drive parameters and the Eq. (39) names but wbar (speeds
-belong to ``compute``)."""
+belong to ``compute``), and the start of the runs (:mod:`abb_ros.sweep.starts`)."""
 
 _SAME_FIELD = {'mbar': 'm', 'epsbar': 'eps', 'zeta': 'c', 'Dbar': 'D'}
 """Eq. (39) names and the SI field each sets: a spec may vary one of the two."""
@@ -199,6 +197,7 @@ def parse_spec(doc, base_dir=None) -> SweepSpec:
     if 'stability' in compute:
         speeds = _speeds(compute['stability'] or {}, nominal.omega0, operating)
     run = _run(compute['run'], scenario) if 'run' in compute else None
+    check_starts(parameters, parameters.get('n', {'values': [nominal.n]})['values'], run)
     doc.update(name=name, description=description, scenario=scen_name, base=base,
                parameters=parameters, samples=samples,
                sampling={'method': method, 'seed': seed}, partition_size=partition_size)
@@ -220,8 +219,8 @@ def _scenario(doc, base_dir):
     if not isinstance(base, dict):
         raise ParamError('base', base, 'a mapping name: value of SI or Eq. (39) names')
     for key, value in base.items():
-        if key not in SAMPLEABLE:
-            raise ParamError(f'base.{key}', value, 'one of ' + ', '.join(SAMPLEABLE),
+        if key not in _DRIVE:
+            raise ParamError(f'base.{key}', value, 'one of ' + ', '.join(_DRIVE),
                              'unknown parameter')
     return scen_name, scenario.with_settings(base), base
 
@@ -360,6 +359,8 @@ def _check_value(where, name, value, nominal):
     if isinstance(value, bool) or not isinstance(value, (int, float)) \
             or not math.isfinite(value):
         raise ParamError(where, value, 'a finite number')
+    if is_start(name):
+        return check_start_value(where, name, value)
     try:
         apply_settings(nominal, {name: value})
     except ParamError as exc:

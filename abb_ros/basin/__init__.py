@@ -1,0 +1,1 @@
+"""Basins of attraction: the probability of balancing from many starts (docs/basin.md)."""
