@@ -5,7 +5,7 @@ Run: ``.venv/bin/python benchmarks/bench_floquet.py [--res 100,200]``. Prints:
 1. wall time of a res x res (each of ``--res``) in-plane wbar-mbar map for each ball count
    of ``--balls``
    (default 2 and 10; zeta = 0.025, Fig. 7b ranges; for n >= 3 with the balanced family's
-   neutral multipliers removed, floquet.py), everything included (parameter conversion,
+   neutral multipliers removed, floquet_batch.py), everything included (parameter conversion,
    equilibria, harmonics, kernel, eigenvalues)
    except the one-off numba compilation (cached on disk, timed separately), the ratio of
    each map's time to the first one's, and, for n > 3, the multipliers of the same points

@@ -48,7 +48,7 @@ MAPS = {
     # mbar from below mbar_lim (0.0083) to the heavy balls of the parametric resonance.
     'fig8': ('Fig. 8', ['--x', 'wbar', '--y', 'mbar', '--set', 'zeta=0.025', '--plane', 'out',
                         '--range-x', '0.2:4', '--range-y', '0.005:2.5']),
-    # ten balls (each of mbar): the balanced family's neutral modes removed (floquet.py)
+    # ten balls (each of mbar): the balanced family's neutral modes removed (floquet_batch.py)
     'fig7b_n10': ('Fig. 7(b) with n = 10', ['--x', 'wbar', '--y', 'mbar', '--set', 'zeta=0.025',
                                              '--set', 'n=10']),
 }

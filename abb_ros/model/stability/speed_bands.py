@@ -95,7 +95,7 @@ class SpeedTable:
 
     ``lam_in``/``lam_out`` are +inf everywhere when no balanced equilibrium exists
     (``exists`` False, ``reason`` says why). ``compute_s`` is the wall time it took;
-    ``neutral`` the family's neutral in-plane multipliers removed (floquet.py).
+    ``neutral`` the family's neutral in-plane multipliers removed (floquet_batch.py).
     """
 
     params: DriveParams
