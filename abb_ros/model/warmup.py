@@ -16,6 +16,9 @@ or update of ``abb_ros/model`` (scripts/ensure-venv does).
 
 from __future__ import annotations
 
+import hashlib
+import inspect
+import os
 import sys
 import time
 from pathlib import Path
@@ -67,22 +70,44 @@ def warm_up() -> dict[str, float]:
     return took
 
 
+def kernel_cache_dir(source: str | os.PathLike) -> Path:
+    """Return the directory numba (``cache=True``) keeps the kernels of the file ``source`` in.
+
+    numba's order of places: ``$NUMBA_CACHE_DIR`` (``numba.config.CACHE_DIR``) when set, else
+    ``__pycache__`` beside the source when it is writable, else the user-wide cache
+    (``$XDG_CACHE_HOME/numba``, default ``~/.cache/numba``). In the first and last, numba keeps
+    each source directory apart in a sub-directory named after it and the SHA-1 of its absolute
+    path. Computed from the source's path, without reading numba's private state; a test checks
+    the answer against the files numba writes.
+    """
+    import numba
+    folder = os.path.dirname(os.path.abspath(source))
+    sub = os.path.basename(folder) + '_' + hashlib.sha1(folder.encode()).hexdigest()
+    if numba.config.CACHE_DIR:
+        return Path(numba.config.CACHE_DIR) / sub
+    in_tree = Path(folder) / '__pycache__'
+    if os.access(in_tree if in_tree.is_dir() else folder, os.W_OK):
+        return in_tree
+    user = os.environ.get('XDG_CACHE_HOME') or os.path.join(os.path.expanduser('~'), '.cache')
+    return Path(user) / 'numba' / sub
+
+
 def cache_locations() -> list[str]:
     """Return the directories numba caches this package's kernels in (none without numba).
 
     One per source directory that holds kernels: the dynamics' kernels package, the dynamics
-    (batch), the sensors and the stability analysis.
+    (batch), the sensors and the stability analysis (the monodromy kernels).
     """
     from abb_ros.model.dynamics import batch, kernels
-    from abb_ros.model.stability import floquet
+    from abb_ros.model.stability import monodromy
     paths = []
-    for entry in (kernels.JIT.advance, batch.JIT.rk4_metrics_batch, imu.JIT.deck_pose_twist,
-                  floquet.JIT.monodromy_many_serial):
-        cache = getattr(entry, '_cache', None)
-        if cache is None or not hasattr(cache, '_cache_path'):
+    for kern, entry in ((kernels.JIT, 'advance'), (batch.JIT, 'rk4_metrics_batch'),
+                        (imu.JIT, 'deck_pose_twist'), (monodromy.JIT, 'monodromy_many_serial')):
+        if not kern.compiled:
             return []
-        if cache._cache_path not in paths:
-            paths.append(cache._cache_path)
+        where = str(kernel_cache_dir(inspect.getfile(getattr(kern, entry).py_func)))
+        if where not in paths:
+            paths.append(where)
     return paths
 
 
