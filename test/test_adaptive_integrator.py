@@ -12,7 +12,8 @@ from abb_ros.model.dynamics.initial import initial_state
 from abb_ros.model.dynamics.reference import reference_solution
 from abb_ros.model.parameters.params import ParamError
 from abb_ros.sweep.compute import compute_partition
-from abb_ros.sweep.spec import draw_samples, parse_spec
+from abb_ros.sweep.sampling import draw_samples
+from abb_ros.sweep.spec import parse_spec
 
 X0 = 0.3e-3
 """The initial deck displacement [m] the errors are relative to (Section 5)."""

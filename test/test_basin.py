@@ -72,6 +72,26 @@ def test_basin_rows_reproduce_abb_sim_run_from_the_same_start_bit_for_bit(
         assert text.params == scen.params
 
 
+@pytest.mark.slow
+def test_adaptive_basin_rows_are_abb_sim_runs_with_the_adaptive_integrator(tmp_path, capsys):
+    """--integrator adaptive: each row is abb-sim run --integrator adaptive from its start."""
+    out, summary = _basin(tmp_path, capsys, '--res', '2x2', '--duration', '0.3',
+                          '--integrator', 'adaptive')
+    assert summary['integrator'] == 'adaptive'
+    table = read_table(out).to_pydict()
+    for row in range(4):
+        start = [table['phi1_deg'][row], table['phi2_deg'][row]]
+        path = tmp_path / f'start{row}.yaml'
+        path.write_text('name: p3\nset: {mbar: 0.03, c: 0.66, wbar: 2.7}\n'
+                        'initial:\n  deck: [0.3e-3, 0.3e-3, 0.3e-3, 0.0, 0.0, 0.0]\n'
+                        f'  phi_deg: [{start[0]!r}, {start[1]!r}]\nduration: 0.3\n')
+        assert main(['run', '--scenario', str(path), '--no-progress', '--json',
+                     '--integrator', 'adaptive']) == 0
+        run = json.loads(capsys.readouterr().out)
+        assert run['integrator'] == 'adaptive'
+        assert _bits(run['final_rbar']) == _bits(table['final_rbar'][row])
+
+
 def test_fraction_and_interval_are_those_of_the_rows(small_study):
     """balanced_fraction is balanced rows / runs, ci95 the Wilson interval of that count."""
     out, summary = small_study

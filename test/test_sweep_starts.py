@@ -17,7 +17,8 @@ from abb_ros.sweep.compute import compute_partition
 from abb_ros.sweep.proportions import wilson
 from abb_ros.sweep.report import make_report
 from abb_ros.sweep.runner import run_sweep
-from abb_ros.sweep.spec import draw_samples, parse_spec
+from abb_ros.sweep.sampling import draw_samples
+from abb_ros.sweep.spec import parse_spec
 
 
 def _doc(**parameters):

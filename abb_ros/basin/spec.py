@@ -56,7 +56,7 @@ class BasinSpec:
     """A basin study (module docstring). ``res`` for a grid, else ``samples`` and ``seed``."""
 
     scenario: object             # io.scenario.Scenario, settings applied
-    options: dict                # run_scenario's dt, publish_dt
+    options: dict                # run_scenario's dt, publish_dt, integrator
     settings: dict               # the --set values (for doc)
     rbar_limit: float
     rest_tol_deg: float
@@ -122,9 +122,15 @@ class BasinSpec:
                 'deck0': [float(v) for v in scen.deck0],
                 'options': {k: float(v) for k, v in sorted(self.options.items())
                             if k in ('dt', 'publish_dt')},
+                'integrator': self.integrator,
                 'res': list(self.res) if self.res else None, 'samples': self.samples,
                 'seed': self.seed, 'sampler': self.sampler, 'rbar_limit': self.rbar_limit,
                 'rest_tol_deg': self.rest_tol_deg, 'partition_size': self.partition_size}
+
+    @property
+    def integrator(self) -> str:
+        """The integrator of every start, as ``abb-sim run --integrator`` names it."""
+        return self.options.get('integrator', 'rk4')
 
     def draw(self) -> dict:
         """Return every start: {'phi1_deg': array, ...} in start order (module docstring)."""

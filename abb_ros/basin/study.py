@@ -78,7 +78,7 @@ def summarise(spec, table) -> dict:
     frac = fraction_summary(outcomes)
     return {'scenario': spec.scenario.name, 'n': spec.n, 'starts': spec.total,
             'sampler': spec.sampler, 'duration_s': spec.scenario.duration,
-            'integrator': 'rk4', 'dt_s': spec.options.get('dt', _default_dt()),
+            'integrator': spec.integrator, 'dt_s': spec.options.get('dt', _default_dt()),
             'rbar_limit': spec.rbar_limit, 'rest_tol_deg': spec.rest_tol_deg,
             **frac, 'floquet_balanced': floquet['balanced'], 'floquet': floquet}
 

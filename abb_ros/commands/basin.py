@@ -28,6 +28,10 @@ def add_arguments(parser) -> None:
                         help='K starts, every ball angle uniform on [-180, 180) deg')
     parser.add_argument('--seed', type=int, default=0, help='seed of --samples (numpy '
                         'default_rng, PCG64; default: %(default)s)')
+    parser.add_argument('--integrator', choices=('rk4', 'adaptive'), default='rk4',
+                        help='as abb-sim run --integrator: rk4, the fixed step (default), or '
+                        'adaptive, Dormand-Prince 5(4) with error control (the fixed step '
+                        'with contact or rolling resistance)')
     parser.add_argument('--rbar-limit', type=float, default=1e-3,
                         help='largest final rbar of a balanced end (default: %(default)g)')
     parser.add_argument('--rest-tol', type=float, metavar='DEG',
@@ -60,6 +64,7 @@ def run(args) -> dict:
     scenario, options = run_scenario_from_args(args.scenario, args.config, args.set,
                                                duration=args.duration)
     options = {k: v for k, v in options.items() if k in ('dt', 'publish_dt')}
+    options['integrator'] = args.integrator
     rest_tol = REST_TOL_DEG if args.rest_tol is None else args.rest_tol
     spec = BasinSpec(scenario, options, sorted(args.set), args.rbar_limit, rest_tol,
                      res=parse_res(args.res) if args.res else None, samples=args.samples,
