@@ -24,6 +24,7 @@ from abb_ros.model.dynamics.kernels.adaptive import (
     AD_LIVE,
     AD_NFEV,
     AD_REJECTS,
+    AdaptiveState,
     adaptive_buffers,
 )
 from abb_ros.model.dynamics.kernels.layout import (
@@ -326,7 +327,7 @@ class Simulation:
         """Sample the adaptive integrator every ``every`` of nsteps steps; return the rows."""
         done, got, status = self.kern.adaptive_trajectory(
             self.y, self.t0, self.dt, self.steps, nsteps, every, self._P, self._S,
-            ADAPTIVE_RTOL, self._atol, self._ad, self._aw, out)
+            AdaptiveState(ADAPTIVE_RTOL, self._atol, self._ad, self._aw), out)
         self.steps += int(done)
         if status != kernels.OK:
             raise StateError(int(status), self.t)

@@ -25,6 +25,7 @@ its last step; a sample is the continuous extension on the step that contains it
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 
@@ -68,6 +69,11 @@ AW_Y = 8          # the integrator's state at ad[AD_T]
 AW_YNEW = 9       # a step's candidate state
 AW_DENSE = 10     # rows 10..14: the continuous extension's coefficients of the last step
 AW_ROWS = 15
+
+
+AdaptiveState = namedtuple('AdaptiveState', ['rtol', 'atol', 'ad', 'aw'])
+"""What the integrator keeps between calls: its tolerances (``rtol``, ``atol`` per
+component) and its state arrays ``ad`` and ``aw`` (module docstring)."""
 
 
 def adaptive_buffers(n: int):
@@ -217,14 +223,15 @@ def adaptive_step(n, P, S, rtol, atol, ad, aw, solver):
 
 
 @kernel
-def adaptive_trajectory(y, t0, dt, step0, nsteps, every, P, S, rtol, atol, ad, aw, out):
+def adaptive_trajectory(y, t0, dt, step0, nsteps, every, P, S, state, out):
     """Sample the solution every ``every`` steps of dt over nsteps, from t = t0 + step0 dt.
 
     The samples (at t0 + (step0 + k every) dt, k = 1, 2, ...) go into ``out`` rows and the
     last into y. With ``ad[AD_LIVE]`` 0 the integrator starts from y at the first time. Returns
     (steps done, rows written, status); after a bad state y is the last good sample and the
-    integrator is not live.
+    integrator is not live. ``state``: an :data:`AdaptiveState`.
     """
+    rtol, atol, ad, aw = state.rtol, state.atol, state.ad, state.aw
     n = y.shape[0] // 2 - PHI
     m = y.shape[0]
     solver = solver_scratch(n)
