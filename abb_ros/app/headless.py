@@ -96,7 +96,7 @@ def run_scenario(  # noqa: C901
     """Integrate ``scenario`` for its duration.
 
     ``integrator``: ``rk4`` (the fixed step of dt, as the live node) or ``adaptive``
-    (:data:`abb_ros.model.integrate.INTEGRATORS`: the states at the same publish stamps from
+    (:data:`abb_ros.model.dynamics.integrate.INTEGRATORS`: the states at the same publish stamps from
     its dense output, the IMU and FG read from those states).
 
     The FG speed sensor (``spindle/speed``) has ``speed_config`` (default the node's) and the

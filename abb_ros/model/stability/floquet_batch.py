@@ -117,7 +117,7 @@ class _Chunk:
     """The harmonics of a chunk of points and their fastest rates.
 
     ``Q`` (B, n, 3): the ball basis of the reduced in-plane system
-    (:mod:`abb_ros.model.floquet_reduction`), None when the system is the whole one; ``decay``
+    (:mod:`abb_ros.model.stability.floquet_reduction`), None when the system is the whole one; ``decay``
     (B,): then the decoupled directions' decay per radian of tau.
     """
 
@@ -223,7 +223,7 @@ def multipliers_batch(params_list, omegas, plane='in', phi_star=None, progress=N
     (equilibrium.py). ``progress(k)`` is called with the number of points done after each
     chunk. Raises :class:`FamilyInvarianceError` when a point fails the self-check.
     ``reduce``: integrate the in-plane system of n > 3 balls reduced to six coordinates
-    (:mod:`abb_ros.model.floquet_reduction`; the same multipliers to round-off); False
+    (:mod:`abb_ros.model.stability.floquet_reduction`; the same multipliers to round-off); False
     integrates all 3 + n.
     """
     builder, tau_end = PLANES[plane]
