@@ -96,8 +96,8 @@ def run_scenario(  # noqa: C901
     """Integrate ``scenario`` for its duration.
 
     ``integrator``: ``rk4`` (the fixed step of dt, as the live node) or ``adaptive``
-    (:data:`abb_ros.model.dynamics.integrate.INTEGRATORS`: the states at the same publish stamps from
-    its dense output, the IMU and FG read from those states).
+    (:data:`abb_ros.model.dynamics.integrate.INTEGRATORS`: the states at the same publish
+    stamps from its dense output, the IMU and FG read from those states).
 
     The FG speed sensor (``spindle/speed``) has ``speed_config`` (default the node's) and the
     same ``seed`` as the IMU, so a node with the same settings publishes the same readings.

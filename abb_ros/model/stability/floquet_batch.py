@@ -117,8 +117,8 @@ class _Chunk:
     """The harmonics of a chunk of points and their fastest rates.
 
     ``Q`` (B, n, 3): the ball basis of the reduced in-plane system
-    (:mod:`abb_ros.model.stability.floquet_reduction`), None when the system is the whole one; ``decay``
-    (B,): then the decoupled directions' decay per radian of tau.
+    (:mod:`abb_ros.model.stability.floquet_reduction`), None when the system is the whole
+    one; ``decay`` (B,): then the decoupled directions' decay per radian of tau.
     """
 
     Mh: np.ndarray
