@@ -18,7 +18,7 @@ from pathlib import Path
 from abb_ros.basin.compute import compute_partition
 from abb_ros.basin.summary import floquet_verdict, fraction_summary, operating_omega
 from abb_ros.sweep import store
-from abb_ros.sweep.runner import SweepError, check_out_dir, run_sweep
+from abb_ros.sweep.runner import SweepError, check_out_dir, held_work, run_sweep
 
 __all__ = ['PARTS', 'TABLE', 'SUMMARY', 'PICTURE', 'check_out', 'run_basin', 'read_table']
 
@@ -30,13 +30,8 @@ PICTURE = 'basin.png'
 
 def check_out(spec, out_dir, resume: bool) -> Path:
     """Return the output directory, if it can take this study (SweepError says why not)."""
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():
-        raise SweepError(f'--out {out}: exists and is not a directory')
-    if out.exists() and any(out.iterdir()):
-        if not resume:
-            raise SweepError(f'--out {out}: exists and is not empty (pass --resume to finish '
-                             'the basin study it holds, or choose a new directory)')
+    out, held = held_work(out_dir, resume, 'basin study')
+    if held:
         if not (out / PARTS).is_dir():
             raise SweepError(f'--out {out}: holds no {PARTS}/, so no basin study to resume')
         check_out_dir(spec, out / PARTS, True)

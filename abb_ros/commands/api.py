@@ -27,7 +27,7 @@ __all__ = ['UsageError', 'CommandFailed', 'Terminated', 'stop_signals', 'signals
            'stop_point',
            'parse_settings', 'parse_spec_value', 'drive_params', 'check_output', 'output_files',
            'stage_directory', 'commit_directory', 'run_scenario_from_args',
-           'dask_client']
+           'dask_client', 'add_dask_arguments', 'check_dask_options']
 
 
 
@@ -298,16 +298,24 @@ def run_scenario_from_args(name: str, config, set_items, no_abb: bool = False,
     return scenario, options
 
 
-@contextlib.contextmanager
-def dask_client(command: str, scheduler=None, workers=None, serial: bool = False,
-                check_only: bool = False):
-    """Yield a distributed.Client (None with ``serial``), closed (and its cluster) at the end.
+def add_dask_arguments(parser, work: str) -> None:
+    """Add the options of a command that computes partitions on Dask (sweep, basin).
 
-    ``scheduler`` tcp://HOST:PORT connects to a running cluster; otherwise a LocalCluster of
-    ``workers`` processes (default the CPU count) is started on 127.0.0.1. The options are
-    checked first (UsageError, exit 2); with ``check_only`` nothing else is done (None).
+    ``work`` names what ``--resume`` finishes (e.g. 'sweep', 'study').
     """
-    import sys
+    parser.add_argument('--workers', type=int, default=None,
+                        help='worker processes of the local cluster (default: CPU count)')
+    parser.add_argument('--scheduler', help='address of a running Dask scheduler, '
+                        'tcp://HOST:PORT (default: start a local cluster)')
+    parser.add_argument('--resume', action='store_true',
+                        help=f'finish the {work} in --out: compute only the missing partitions')
+    parser.add_argument('--serial', action='store_true',
+                        help='no Dask: compute the partitions in this process, in order')
+    parser.add_argument('--no-progress', action='store_true', help='no progress bar')
+
+
+def check_dask_options(scheduler=None, workers=None, serial: bool = False) -> None:
+    """Refuse ``--scheduler``, ``--workers`` and ``--serial`` that contradict each other."""
     if workers is not None and scheduler:
         raise UsageError('--workers applies to the local cluster only; leave it out with '
                          '--scheduler')
@@ -315,7 +323,19 @@ def dask_client(command: str, scheduler=None, workers=None, serial: bool = False
         raise UsageError('--serial runs in this process: leave out --scheduler and --workers')
     if workers is not None and not 1 <= workers <= 256:
         raise UsageError(f'--workers {workers}: valid range is 1..256')
-    if serial or check_only:
+
+
+@contextlib.contextmanager
+def dask_client(command: str, scheduler=None, workers=None, serial: bool = False):
+    """Yield a distributed.Client (None with ``serial``), closed (and its cluster) at the end.
+
+    ``scheduler`` tcp://HOST:PORT connects to a running cluster; otherwise a LocalCluster of
+    ``workers`` processes (default the CPU count) is started on 127.0.0.1. The options are
+    checked first (:func:`check_dask_options`).
+    """
+    import sys
+    check_dask_options(scheduler, workers, serial)
+    if serial:
         yield None
         return
     from distributed import Client

@@ -13,6 +13,7 @@ import sys
 
 def add_arguments(parser) -> None:
     """Add the options of `abb-sim basin` to ``parser``."""
+    from abb_ros.commands.api import add_dask_arguments
     parser.add_argument('--scenario', default='p3',
                         help='a shipped scenario or a YAML file (default: %(default)s)')
     parser.add_argument('--config', help='ROS 2 parameter file with drive.* parameters')
@@ -40,27 +41,23 @@ def add_arguments(parser) -> None:
     parser.add_argument('--partition-size', type=int, default=32,
                         help='starts per Dask task and per part file (default: %(default)s)')
     parser.add_argument('--out', required=True, help='output directory')
-    parser.add_argument('--workers', type=int, default=None,
-                        help='worker processes of the local cluster (default: CPU count)')
-    parser.add_argument('--scheduler', help='address of a running Dask scheduler, '
-                        'tcp://HOST:PORT (default: start a local cluster)')
-    parser.add_argument('--resume', action='store_true',
-                        help='finish the study in --out: compute only the missing partitions')
-    parser.add_argument('--serial', action='store_true',
-                        help='no Dask: compute the partitions in this process, in order')
-    parser.add_argument('--no-progress', action='store_true', help='no progress bar')
+    add_dask_arguments(parser, 'study')
 
 
 def run(args) -> dict:
     """Run the basin study into --out and return its summary."""
     from abb_ros.basin.spec import BasinSpec, parse_res
     from abb_ros.basin.study import check_out, run_basin
-    from abb_ros.commands.api import UsageError, dask_client, run_scenario_from_args
+    from abb_ros.commands.api import (
+        UsageError,
+        check_dask_options,
+        dask_client,
+        run_scenario_from_args,
+    )
     from abb_ros.model.stability.outcomes import REST_TOL_DEG
     from abb_ros.sweep.runner import SweepError
 
-    with dask_client('basin', args.scheduler, args.workers, args.serial, check_only=True):
-        pass
+    check_dask_options(args.scheduler, args.workers, args.serial)
     scenario, options = run_scenario_from_args(args.scenario, args.config, args.set,
                                                duration=args.duration)
     options = {k: v for k, v in options.items() if k in ('dt', 'publish_dt')}

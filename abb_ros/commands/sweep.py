@@ -11,22 +11,14 @@ from __future__ import annotations
 
 import sys
 
-from abb_ros.commands.api import UsageError
+from abb_ros.commands.api import UsageError, add_dask_arguments, check_dask_options
 
 
 def add_arguments(parser) -> None:
     """Add the options of `abb-sim sweep` to ``parser``."""
     parser.add_argument('spec', help='sweep spec (YAML), e.g. config/sweeps/tolerance_p3.yaml')
     parser.add_argument('--out', required=True, help='output directory (Parquet dataset)')
-    parser.add_argument('--workers', type=int, default=None,
-                        help='worker processes of the local cluster (default: CPU count)')
-    parser.add_argument('--scheduler', help='address of a running Dask scheduler, '
-                        'tcp://HOST:PORT (default: start a local cluster)')
-    parser.add_argument('--resume', action='store_true',
-                        help='finish the sweep in --out: compute only the missing partitions')
-    parser.add_argument('--serial', action='store_true',
-                        help='no Dask: compute the partitions in this process, in order')
-    parser.add_argument('--no-progress', action='store_true', help='no progress bar')
+    add_dask_arguments(parser, 'sweep')
 
 
 def run(args) -> dict:
@@ -35,8 +27,7 @@ def run(args) -> dict:
     from abb_ros.sweep.runner import SweepError, check_out_dir, run_sweep
     from abb_ros.sweep.spec import load_spec
 
-    with dask_client('sweep', args.scheduler, args.workers, args.serial, check_only=True):
-        pass
+    check_dask_options(args.scheduler, args.workers, args.serial)
     spec = load_spec(args.spec)
     try:
         check_out_dir(spec, args.out, args.resume)   # before a cluster is started

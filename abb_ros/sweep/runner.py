@@ -44,15 +44,27 @@ def _slice(samples: dict, start: int, stop: int) -> dict:
     return {k: v[start:stop] for k, v in samples.items()}
 
 
-def check_out_dir(spec, out_dir, resume: bool) -> Path:
-    """Return the output directory, if it can take this sweep (SweepError says why not)."""
+def held_work(out_dir, resume: bool, work: str = 'sweep') -> tuple[Path, bool]:
+    """Return (the output directory, whether it holds ``work`` to resume).
+
+    An absent or empty directory takes new work; one holding anything takes only ``--resume``
+    (SweepError says why not), whose caller then checks what it holds.
+    """
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
         raise SweepError(f'--out {out}: exists and is not a directory')
-    if out.exists() and any(out.iterdir()):
-        if not resume:
-            raise SweepError(f'--out {out}: exists and is not empty (pass --resume to finish '
-                             'the sweep it holds, or choose a new directory)')
+    if not (out.exists() and any(out.iterdir())):
+        return out, False
+    if not resume:
+        raise SweepError(f'--out {out}: exists and is not empty (pass --resume to finish '
+                         f'the {work} it holds, or choose a new directory)')
+    return out, True
+
+
+def check_out_dir(spec, out_dir, resume: bool) -> Path:
+    """Return the output directory, if it can take this sweep (SweepError says why not)."""
+    out, held = held_work(out_dir, resume)
+    if held:
         try:
             manifest = store.read_manifest(out)
         except store.SweepFileError as exc:
