@@ -139,3 +139,20 @@ def test_stop_ends_a_thread_that_ticks_as_fast_as_it_can():
     count = len(tick.times)
     time.sleep(0.05)
     assert len(tick.times) == count
+
+
+def test_the_kernel_knows_the_thread_by_its_name():
+    """``top -H`` and ``ps -L`` show the plant's thread as abb_plant (Linux)."""
+    names = []
+
+    def tick(_t):
+        native = threading.get_native_id()
+        with open(f'/proc/self/task/{native}/comm') as f:
+            names.append(f.read().strip())
+        return IDLE
+    thread = running(Ticks(answer=tick))
+    try:
+        wait_until(lambda: names, 'the first tick')
+    finally:
+        thread.stop()
+    assert names == ['abb_plant']

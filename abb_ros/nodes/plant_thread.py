@@ -20,12 +20,14 @@ No rclpy here: the thread is tested with a plain tick (test/test_plant_thread.py
 
 from __future__ import annotations
 
+import ctypes
+import ctypes.util
 import functools
 import threading
 import time
 from typing import Callable
 
-__all__ = ['AGAIN', 'IDLE', 'PlantThread', 'locked']
+__all__ = ['AGAIN', 'IDLE', 'PlantThread', 'locked', 'name_os_thread']
 
 AGAIN = -1
 """``tick``'s answer: tick again at once."""
@@ -34,6 +36,22 @@ IDLE = None
 YIELD_S = 0.0
 """Between two as-fast-as-possible ticks the thread sleeps this long with the lock released,
 so that a callback waiting for it gets it (a 0 s sleep releases the GIL)."""
+
+
+PR_SET_NAME = 15
+"""prctl(2) option that names the calling thread (Linux; 15 bytes at most)."""
+
+
+def name_os_thread(name: str) -> bool:
+    """Give the calling thread ``name`` in the kernel (``top -H``, ``ps -L``, /proc/.../comm).
+
+    Python names its threads only for itself; returns whether the kernel took the name.
+    """
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library('c'), use_errno=True)
+        return libc.prctl(PR_SET_NAME, name.encode()[:15], 0, 0, 0) == 0
+    except (OSError, AttributeError):   # no libc prctl (not Linux)
+        return False
 
 
 def locked(lock, callback: Callable) -> Callable:
@@ -95,6 +113,7 @@ class PlantThread:
         return self._thread.is_alive()
 
     def _run(self) -> None:
+        name_os_thread(self._thread.name)
         while not self._stopping:
             with self.lock:
                 if self._stopping:
