@@ -11,7 +11,8 @@ old path) and ``thread`` (the plant's own thread, the default), one after the ot
   ``-r joint_states_throttle:=joint_states``), the new one ``joint_states_throttle`` (50 Hz);
 - **subscriber**: the simulator and a subscriber of ``joint_states`` in this process (rclpy's
   EventsExecutor, reliable, depth 1000): the publish-period jitter it sees (|arrival interval
-  - 1 ms|), and stamps missing (lost).
+  - 1 ms|), and stamps missing (lost); once more with the plant's thread under SCHED_FIFO
+  (``realtime_priority`` 50) where the system allows it.
 
 For each: CPU of each process (/proc utime + stime over the window, % of one core), the
 simulator's overruns and slips over the window (/diagnostics), and for the recording the
@@ -53,6 +54,7 @@ ROOT = Path(__file__).resolve().parents[1]
 PERIOD_NS = 1_000_000
 SETTLE_S = 3.0
 PACINGS = ('timer', 'thread')
+FIFO_PRIORITY = 50
 OTHER_TOPICS = "['stability/margin', '/diagnostics', 'spindle/speed_cmd', 'spindle/current_cmd']"
 
 
@@ -121,14 +123,14 @@ def lost(stamps) -> int:
     return int(np.sum(np.maximum(gaps // PERIOD_NS - 1, 0)))
 
 
-def measure(setting: str, pacing: str, seconds: float, work: Path) -> dict:
-    """Run one setting with one pacing; return its figures."""
-    ns = f'/bench_{setting}_{pacing}'
-    sim_args = []
+def measure(setting: str, pacing: str, seconds: float, work: Path, priority: int = 0) -> dict:
+    """Run one setting with one pacing (and SCHED_FIFO ``priority``); return its figures."""
+    ns = f'/bench_{setting}_{pacing}_{priority}'
+    sim_args = ['-p', f'realtime_priority:={priority}']
     bag = work / f'{setting}_{pacing}'
     if setting == 'recording':
-        sim_args = ['-p', 'record.start:=true', '-p', f'record.path:={bag}',
-                    '-p', f'record.topics:={OTHER_TOPICS}']
+        sim_args += ['-p', 'record.start:=true', '-p', f'record.path:={bag}',
+                     '-p', f'record.topics:={OTHER_TOPICS}']
     procs = {'simulator': start('simulator', pacing, ns, *sim_args)}
     if setting == 'recording':
         remap = ['-r', 'joint_states_throttle:=joint_states'] if pacing == 'timer' else []
@@ -151,6 +153,7 @@ def measure(setting: str, pacing: str, seconds: float, work: Path) -> dict:
         codes = {name: stop_node(p) for name, p in procs.items()}
         probe.close()
     out = dict(cpu={name: (after[name] - before[name]) / (w1 - w0) for name in procs},
+               scheduling=status1.get('scheduling', '?'),
                overruns=int(status1['overruns']) - int(status0['overruns']),
                slips=int(status1['slips']) - int(status0['slips']), codes=codes,
                load=os.getloadavg()[0])
@@ -190,6 +193,8 @@ def main() -> int:
     with tempfile.TemporaryDirectory(prefix='abb_bench_plant_') as tmp:
         results = {(setting, pacing): measure(setting, pacing, args.duration, Path(tmp))
                    for setting in ('alone', 'recording', 'subscriber') for pacing in PACINGS}
+        results['subscriber', 'fifo'] = measure('subscriber', 'thread', args.duration,
+                                                Path(tmp), priority=FIFO_PRIORITY)
     print('\n  CPU, % of one core        old: executor timer        new: plant thread       '
           'new/old')
     row('simulator alone', results['alone', 'timer'], results['alone', 'thread'])
@@ -201,10 +206,13 @@ def main() -> int:
     row('sim + 1 kHz subscriber', results['subscriber', 'timer'],
         results['subscriber', 'thread'])
     print('\n  publish-period jitter seen by the subscriber (|interval - 1 ms|)')
-    for pacing in PACINGS:
+    for pacing in (*PACINGS, 'fifo'):
         r = results['subscriber', pacing]
-        print(f'  {pacing:7s} p50 {1e3 * r["p50"]:.3f} ms  p99 {1e3 * r["p99"]:.3f} ms  max '
-              f'{1e3 * r["jitter_max"]:.3f} ms  ({r["received"]} received, {r["lost"]} lost)')
+        label = f'thread, {r["scheduling"]}' if pacing == 'fifo' else pacing
+        print(f'  {label}: p50 {1e3 * r["p50"]:.3f} ms  p99 {1e3 * r["p99"]:.3f} ms  max '
+              f'{1e3 * r["jitter_max"]:.3f} ms  ({r["received"]} received, {r["lost"]} lost, '
+              f'{r["overruns"]} overruns, {r["slips"]} slips, CPU '
+              f'{100 * r["cpu"]["simulator"]:.1f} %)')
     print('  targets: simulator alone <= 10 %, sim (recording) + analysis <= 18 %, p99 < 0.5 ms')
     return 0
 
