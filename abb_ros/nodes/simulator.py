@@ -46,7 +46,6 @@ from abb_ros.nodes import ros_params, simulation_interfaces_server, simulator_li
 from abb_ros.nodes.entry_point import make_executor, run_node, spin
 from abb_ros.nodes.hil_io import HilIO
 from abb_ros.nodes.pacing import Pacer
-from abb_ros.nodes.rclpy_access import RCLError
 from abb_ros.nodes.realtime import FifoScheduling
 from abb_ros.nodes.recording import InProcessRecording, refuse_bad_topics, resolve_topics
 from abb_ros.nodes.sim_state import RunState, Transition
@@ -259,7 +258,7 @@ class SimulatorNode(Node):
         """
         try:
             self._pubs[topic].publish(data)
-        except RCLError:
+        except RuntimeError:   # rcl's error: publishing on a context that was shut down
             if self.context.ok():
                 raise
             return  # the context was shut down by its owner (tests): nothing to publish to
