@@ -39,7 +39,8 @@ def defined_private_names(trees) -> set[str]:
     """Return every private name the modules ``trees`` define.
 
     Functions, classes, module and class attributes, attributes assigned on any object
-    (``self._x = ...``), and the name-mangled form of a class's ``__x``.
+    (``self._x = ...``) and import aliases. A name-mangled ``_Class__x`` is never one of them,
+    so reading one through an attribute is always found.
     """
     names = set()
     for tree in trees:
