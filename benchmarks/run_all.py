@@ -60,6 +60,8 @@ BENCHMARKS: dict[str, Benchmark] = {
     'bench_bag_writer': Benchmark('bench_bag_writer'),
     'bench_simulator_node': Benchmark('bench_simulator_node',
                                       ('--duration', '60', '--fast-duration', '10')),
+    'bench_plant_thread': Benchmark('bench_plant_thread', ('--duration', '20'),
+                                    ('--duration', '10')),
     'bench_hil_io': Benchmark('bench_hil_io', ('--duration', '15', '--repeat', '2')),
     'bench_analysis': Benchmark('bench_analysis'),
     'bench_lockstep': Benchmark('bench_lockstep', ('--periods', '1000', '--seconds', '5')),

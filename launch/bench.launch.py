@@ -1,9 +1,12 @@
 """The abb_ros bench with one command: ros2 launch abb_ros bench.launch.py [name:=value ...].
 
 Starts, under the ROS namespace ``namespace``, the simulator (abb_simulator) and as chosen the
-analysis (abb_analysis), the example controller (abb_spin_controller) and the recorder
-(abb_recorder, every bench topic to ``record_dir``). Every node loads ``params_file`` (the
-drive's parameters; default the installed Table 1 file). Arguments: docs/ros_api.md.
+analysis (abb_analysis) and the example controller (abb_spin_controller). ``record`` makes the
+simulator record the whole bench in process to ``record_dir``: its own topics as it publishes
+them and the other nodes' topics from the middleware (a separate recorder reading the 1 kHz
+topics would cost the simulator about 30 us per message and reader, docs/time_under_load.md).
+Every node loads ``params_file`` (the drive's parameters; default the installed Table 1
+file). Arguments: docs/ros_api.md.
 Imports only launch and launch_ros, as the ROS 2 Jazzy launch documentation prescribes.
 """
 
@@ -26,25 +29,21 @@ ARGUMENTS = {
                           'needs CAP_SYS_NICE or an rtprio limit)'),
     'analysis': ('true', 'run the stability analysis node (stability/margin)'),
     'controller': ('false', 'run the example controller spin_controller'),
-    'record': ('false', 'record every bench topic to record_dir (recorder node)'),
+    'record': ('false', "record every bench topic to record_dir, in the simulator's process"),
     'record_dir': ('', 'bag directory of the recording (default abb_bag_<date>-<time> in '
-                   'the working directory)'),
+                   'the working directory); must not exist'),
     'live_view': ('false', "serve the simulator's topics to the Foxglove app on "
                   'ws://127.0.0.1:live_view_port (Foxglove WebSocket)'),
     'live_view_port': ('8765', 'port of the live view (0 = any free port, logged)'),
 }
-BENCH_TOPICS = ['joint_states', 'deck/pose', 'deck/twist', 'deck/imu', 'spindle/speed', '/clock',
-                'visualization/markers', '/diagnostics', 'spindle/speed_cmd',
-                'spindle/current_cmd', 'stability/margin']
-"""Every topic of the bench (relative names: in the namespace); /clock exists with
-real_time_factor other than 1."""
 OTHER_NODES_TOPICS = ['stability/margin', '/diagnostics', 'spindle/speed_cmd',
                       'spindle/current_cmd']
-"""The bench topics other nodes publish: the simulator's in-process recording (its service
-~/start_recording) takes them into its bag too (record.topics), so that it holds the bench."""
+"""The bench topics other nodes publish: the simulator's in-process recording (``record``, or
+its service ~/start_recording) takes them into its bag too (record.topics), so that it holds
+the bench."""
 SHUTDOWN_S = '30'
 """Seconds a node gets to end after SIGINT before launch escalates to SIGTERM (launch's default,
-5 s, is short for a loaded machine and for the recorder closing its bag)."""
+5 s, is short for a loaded machine and for the simulator closing its bag)."""
 
 
 def generate_launch_description():
@@ -62,6 +61,10 @@ def generate_launch_description():
                                                      value_type=bool),
                  'live_view.port': ParameterValue(LaunchConfiguration('live_view_port'),
                                                   value_type=int),
+                 'record.start': ParameterValue(LaunchConfiguration('record'),
+                                                value_type=bool),
+                 'record.path': ParameterValue(LaunchConfiguration('record_dir'),
+                                               value_type=str),
                  'record.topics': OTHER_NODES_TOPICS}]),
         Node(package='abb_ros', executable='analysis', name='abb_analysis',
              output='screen', sigterm_timeout=SHUTDOWN_S, parameters=[params_file],
@@ -69,12 +72,6 @@ def generate_launch_description():
         Node(package='abb_ros', executable='spin_controller', name='abb_spin_controller',
              output='screen', sigterm_timeout=SHUTDOWN_S, parameters=[params_file],
              condition=IfCondition(LaunchConfiguration('controller'))),
-        Node(package='abb_ros', executable='recorder', name='abb_recorder',
-             output='screen', sigterm_timeout=SHUTDOWN_S,
-             parameters=[{'output': ParameterValue(LaunchConfiguration('record_dir'),
-                                                   value_type=str),
-                          'topics': BENCH_TOPICS}],
-             condition=IfCondition(LaunchConfiguration('record'))),
     ])
     return LaunchDescription(
         [DeclareLaunchArgument(name, default_value=default, description=text)

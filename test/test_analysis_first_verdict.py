@@ -1,10 +1,11 @@
 """Until its first verdict the analysis node says why it has none (STALE), then answers.
 
 The analysis node runs as a subprocess with a large table (slow first verdict). The test
-publishes joint_states at a fixed speed only once it has received a first status, so on a
-loaded machine a slow DDS discovery cannot let the verdict overtake every earlier status.
+publishes joint_states_throttle (what the node reads) at a fixed speed only once it has
+received a first status, so on a loaded machine a slow DDS discovery cannot let the verdict
+overtake every earlier status.
 Every status before the first stability/margin must be STALE and name the reason (the table
-being computed, or no joint_states yet); the first verdict must come, with a margin.
+being computed, or no joint_states_throttle yet); the first verdict must come, with a margin.
 """
 
 import signal
@@ -33,7 +34,7 @@ def test_statuses_before_the_first_verdict_are_stale_and_say_why(tmp_path):
     probe = Probe()
     margin_at = []
     try:
-        pub = probe.node.create_publisher(JointState, 'joint_states', 10)
+        pub = probe.node.create_publisher(JointState, 'joint_states_throttle', 10)
         msg = JointState(name=['spindle', 'ball_1', 'ball_2'], position=[0.0, 1.0, -1.0],
                          velocity=[2.7 * OMEGA0, 0.0, 0.0])
         probe.wait_for(lambda: probe.statuses, 60.0, 'a first status of the analysis node')
@@ -65,7 +66,7 @@ def test_statuses_before_the_first_verdict_are_stale_and_say_why(tmp_path):
               if s[0] < max(first_publish_at, margin_at[0] - 0.05)]
     assert before, 'no status before the first verdict'
     assert all(s[2] == DiagnosticStatus.STALE for s in before), [s[2:4] for s in before]
-    reasons = ('computing the stability table', 'no joint_states yet')
+    reasons = ('computing the stability table', 'no joint_states_throttle yet')
     assert all(any(r in s[3] for r in reasons) for s in before), sorted({s[3] for s in before})
     computing = [s for s in before if 'no verdict yet' in s[3]]
     assert all('stability table' in s[3] for s in computing), [s[3] for s in computing]

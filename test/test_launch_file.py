@@ -1,8 +1,9 @@
 """launch/bench.launch.py: read as Python source, it imports only launch and launch_ros,
-declares the documented arguments, and starts the package's own console scripts under the
-nodes' own names; launched with the launch library (where launch and launch_ros are
-importable: launch_ros has no PyPI wheel, so the test is skipped without them), its four nodes
-run, are seen over DDS, and end with exit code 0 when the launch shuts down. (That colcon
+declares the documented arguments, starts the package's own console scripts under the
+nodes' own names, and records the bench in the simulator's process; launched with the launch
+library (where launch and launch_ros are importable: launch_ros has no PyPI wheel, so the test
+is skipped without them), its three nodes run, are seen over DDS, and end with exit code 0
+when the launch shuts down, the bag closed. (That colcon
 installs it to share/abb_ros/launch: test_installed_layout.py.)"""
 
 import ast
@@ -73,15 +74,19 @@ def test_launch_file_declares_its_arguments_and_documents_each():
     assert (ROOT / 'config' / 'cdrom_table1.yaml').is_file()
 
 
-def test_the_recording_covers_every_topic_the_bench_nodes_publish():
+def test_the_recording_is_the_simulators_own_and_covers_every_topic_of_the_bench():
+    """record:=true sets the simulator's record.start and record_dir its record.path (no
+    recorder node reads the 1 kHz topics from another process); its bag holds what the
+    simulator publishes and OTHER_NODES_TOPICS, which together cover the recorder's defaults."""
     from abb_ros.io.ros_messages import TOPIC_TYPES
     from abb_ros.io.topics import recorded_topics
-    DEFAULT_TOPICS = [t.name for t in recorded_topics()]
+    text = LAUNCH.read_text()
+    assert "'record.start': ParameterValue(LaunchConfiguration('record')" in text
+    assert "'record.path': ParameterValue(LaunchConfiguration('record_dir')" in text
     (topics,) = [n.value for n in tree().body if isinstance(n, ast.Assign)
-                 and n.targets[0].id == 'BENCH_TOPICS']
-    recorded = set(ast.literal_eval(topics))
-    assert recorded >= set(TOPIC_TYPES) | set(DEFAULT_TOPICS)
-    assert recorded >= {'spindle/speed_cmd', 'stability/margin'}
+                 and n.targets[0].id == 'OTHER_NODES_TOPICS']
+    recorded = set(TOPIC_TYPES) | set(ast.literal_eval(topics))
+    assert recorded >= {t.name for t in recorded_topics()}
 
 
 def test_every_node_in_the_launch_file_is_a_console_script_of_this_package():
@@ -91,8 +96,7 @@ def test_every_node_in_the_launch_file_is_a_console_script_of_this_package():
     assert all(entry[name] == name for name in NODE_MODULES), entry
     scripts = {name: NODE_MODULES[name] for name in entry}
     calls = node_calls()
-    assert {c['executable'] for c in calls} == {'simulator', 'analysis', 'spin_controller',
-                                                'recorder'}
+    assert {c['executable'] for c in calls} == {'simulator', 'analysis', 'spin_controller'}
     for call in calls:
         assert call['package'] == 'abb_ros'
         module = scripts[call['executable']]
@@ -112,8 +116,8 @@ def test_the_simulators_own_recording_takes_the_other_nodes_topics_of_the_bench(
 # ---- launched ---------------------------------------------------------------------------------
 
 NAMESPACE = 'launch_test'
-BENCH_NODES = {'abb_simulator', 'abb_analysis', 'abb_spin_controller', 'abb_recorder'}
-EXECUTABLES = ('simulator', 'analysis', 'spin_controller', 'recorder')
+BENCH_NODES = {'abb_simulator', 'abb_analysis', 'abb_spin_controller'}
+EXECUTABLES = ('simulator', 'analysis', 'spin_controller')
 # Upper bounds for a loaded 2-core machine: the nodes start in seconds with the kernels cached.
 FIRST_MESSAGES_TIMEOUT_S = 90.0
 SHUTDOWN_TIMEOUT_S = 60.0      # launch's own escalation to SIGTERM comes after 30 s
@@ -208,12 +212,12 @@ class _Observer:
 @pytest.mark.slow
 @pytest.mark.ros
 @pytest.mark.usefixtures('ament_prefix')
-def test_the_launched_bench_runs_its_four_nodes_and_shuts_them_down_cleanly(tmp_path):
+def test_the_launched_bench_runs_its_three_nodes_and_shuts_them_down_cleanly(tmp_path):
     """ros2 launch abb_ros bench.launch.py namespace:=launch_test controller:=true record:=true,
     done with LaunchService: the simulator's joint_states, the analysis' stability/margin and
-    the controller's speed commands arrive in the namespace over DDS, the four nodes are in
-    the graph; after shutdown every process has ended with exit code 0 and the recorder's bag
-    is closed and holds the joint states."""
+    the controller's speed commands arrive in the namespace over DDS, the three nodes are in
+    the graph; after shutdown every process has ended with exit code 0 and the simulator's
+    bag is closed and holds the joint states and the analysis' stability/margin."""
     (LaunchDescription, LaunchService, IncludeLaunchDescription, RegisterEventHandler,
      OnProcessExit, OnProcessStart, PythonLaunchDescriptionSource) = _launch_library()
     bag = tmp_path / 'bench_bag'
@@ -261,4 +265,5 @@ def test_the_launched_bench_runs_its_four_nodes_and_shuts_them_down_cleanly(tmp_
     assert sorted(exited) == sorted(started)
     assert set(exited.values()) == {0}, exited
     assert is_finished(bag)
-    assert sum(1 for _ in iter_raw(bag, [f'/{NAMESPACE}/joint_states'])) >= MIN_MESSAGES
+    for topic in ('joint_states', 'stability/margin'):
+        assert sum(1 for _ in iter_raw(bag, [f'/{NAMESPACE}/{topic}'])) >= MIN_MESSAGES, topic

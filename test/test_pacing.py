@@ -1,6 +1,7 @@
 """The real-time pacing of the simulator (abb_ros.nodes.pacing) on a fake clock, without DDS.
 
-The node's timer calls :meth:`Pacer.due` once per publish period of wall time; here the
+The node's plant thread calls :meth:`Pacer.due` once per publish period of wall time, at the
+deadlines :meth:`Pacer.deadline_ns` gives; here the
 steady and the wall clock are one hand-moved counter, so every tick's timing is exact.
 """
 
@@ -83,6 +84,40 @@ def test_jitter_below_half_a_period_either_way_still_gives_one_period_per_tick()
         steps += periods * EVERY
         assert periods == 1
     assert p.overruns == 0
+
+
+@pytest.mark.parametrize('factor', [1.0, 0.5, 4.0])
+def test_ticks_at_the_deadlines_integrate_one_period_each_and_stamps_never_lead_the_wall(
+        factor):
+    """The plant thread sleeps until deadline_ns: each wake-up there integrates one period,
+    and on the wall clock that period's last stamp is not after the wake-up (no stamp in the
+    future), and at most a period before it."""
+    p, clock = pacer(factor)
+    p.start(0)
+    steps = 0
+    for _ in range(300):
+        deadline = p.deadline_ns(steps)
+        assert deadline > clock.now
+        clock.now = deadline
+        assert p.due(steps) == 1
+        steps += EVERY
+        if factor == 1.0:
+            assert 0 <= clock.now - p.stamp_ns(steps) <= PERIOD_NS
+    assert p.overruns == 0 and p.slips == 0
+    assert clock.now - START_NS == pytest.approx(300 * PERIOD_NS / factor, abs=2)
+
+
+def test_the_deadline_after_a_slip_follows_the_new_schedule():
+    p, clock = pacer(1.0, max_lag_ns=3 * PERIOD_NS)
+    p.start(0)
+    steps = run(p, clock, 10)
+    clock.advance(20 * PERIOD_NS)            # a stall: dropped as a slip
+    assert p.due(steps) == 1 and p.slips == 1
+    steps += EVERY
+    deadline = p.deadline_ns(steps)
+    assert 0 < deadline - clock.now <= PERIOD_NS
+    clock.now = deadline
+    assert p.due(steps) == 1
 
 
 def test_a_late_tick_catches_up_and_counts_overruns():

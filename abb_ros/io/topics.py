@@ -11,11 +11,11 @@ from __future__ import annotations
 import importlib
 from dataclasses import dataclass
 
-__all__ = ['JOINT_STATES', 'DECK_POSE', 'DECK_TWIST', 'DECK_IMU', 'SPINDLE_SPEED', 'CLOCK_TOPIC',
-           'MARKERS', 'STABILITY_MARGIN', 'DIAGNOSTICS', 'SPEED_CMD', 'CURRENT_CMD', 'FRAME_BASE',
-           'FRAME_DECK', 'STATE', 'IMU', 'CLOCK', 'EVENT', 'SPEED', 'COMMAND', 'SAMPLED', 'Topic',
-           'TOPICS', 'by_name', 'published_by', 'sampled_topics', 'recorded_topics',
-           'message_class']
+__all__ = ['JOINT_STATES', 'JOINT_STATES_THROTTLE', 'DECK_POSE', 'DECK_TWIST', 'DECK_IMU',
+           'SPINDLE_SPEED', 'CLOCK_TOPIC', 'MARKERS', 'STABILITY_MARGIN', 'DIAGNOSTICS',
+           'SPEED_CMD', 'CURRENT_CMD', 'FRAME_BASE', 'FRAME_DECK', 'STATE', 'IMU', 'CLOCK',
+           'EVENT', 'SPEED', 'COMMAND', 'THROTTLED', 'SAMPLED', 'Topic', 'TOPICS', 'by_name',
+           'published_by', 'sampled_topics', 'recorded_topics', 'message_class']
 
 FRAME_BASE = 'base'
 """Fixed frame of the drive's base (the deck's rest position)."""
@@ -35,6 +35,9 @@ SPEED = 'speed'
 """Rate role: with the state samples, when the speed sensor has a reading."""
 COMMAND = 'command'
 """Rate role: an input, published by the user and subscribed by the simulator."""
+THROTTLED = 'throttled'
+"""Rate role: a copy of a state topic at a lower rate (``joint_states_throttle_hz``), for
+readers in other processes that need the latest state, not every one (the analysis node)."""
 
 SAMPLED = (CLOCK, STATE, IMU, SPEED)
 """Roles of the topics a simulation sample produces (what a headless bag holds)."""
@@ -42,6 +45,9 @@ SAMPLED = (CLOCK, STATE, IMU, SPEED)
 
 JOINT_STATES = 'joint_states'
 """Spindle and ball angles and rates (sensor_msgs/JointState)."""
+JOINT_STATES_THROTTLE = 'joint_states_throttle'
+"""Every joint_states message that opens a slot of 1 / joint_states_throttle_hz (topic_tools'
+name for a throttled topic)."""
 DECK_POSE = 'deck/pose'
 """The deck's pose in the base frame."""
 DECK_TWIST = 'deck/twist'
@@ -90,6 +96,8 @@ TOPICS = (
           ('simulator', 'analysis')),
     Topic(SPEED_CMD, 'std_msgs/msg/Float64', None, COMMAND, ()),
     Topic(CURRENT_CMD, 'std_msgs/msg/Float64', None, COMMAND, ()),
+    Topic(JOINT_STATES_THROTTLE, 'sensor_msgs/msg/JointState', '', THROTTLED, ('simulator',),
+          recorded=False),
 )
 """Every topic. The simulator creates its publishers, a headless bag its topics (the order is
 part of the bag's bytes) and the recorder lists its defaults in this order."""

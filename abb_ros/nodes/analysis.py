@@ -13,10 +13,13 @@ balanced. A thin rclpy adapter over :mod:`abb_ros.model.stability.speed_bands`:
 * a worker thread computes the |lambda|max-vs-speed table over 0..max_spindle_speed whenever
   the parameters change (about 0.3 s for 300 speeds), and refines the current point exactly
   when it is idle; the executor only interpolates, so it never waits on a computation.
-* the latest ``joint_states`` (the velocity of joint ``spindle`` = omega) updates the
-  verdict at ``publish_rate_hz``: it is taken from a depth-1 best-effort subscription
-  (:mod:`abb_ros.nodes.taps`) by the publishing timer and read from its CDR bytes
-  (:mod:`abb_ros.io.joint_speed`), so the 1 kHz topic costs no Python callback per message.
+* the latest ``joint_states_throttle`` (the simulator's ``joint_states`` at
+  ``joint_states_throttle_hz``, 50 Hz by default: the velocity of joint ``spindle`` = omega)
+  updates the verdict at ``publish_rate_hz``: it is taken from a depth-1 best-effort
+  subscription (:mod:`abb_ros.nodes.taps`) by the publishing timer and read from its CDR bytes
+  (:mod:`abb_ros.io.joint_speed`). Reading the 1 kHz ``joint_states`` would cost the
+  simulator's process about 30 us per message for this reader alone
+  (docs/time_under_load.md).
   The verdict is published at most at ``publish_rate_hz`` and at least every ``heartbeat_s``:
   ``stability/margin`` (Float64, 1 - max of the in- and out-of-plane |lambda|max; -inf while
   no balanced equilibrium exists) and ``/diagnostics`` (status ``<node>: stability``). The
@@ -25,7 +28,8 @@ balanced. A thin rclpy adapter over :mod:`abb_ros.model.stability.speed_bands`:
   Eq. 26 at their ``joint_states`` angles below ``speed_bands.NEAR_BALANCE``) the exact point
   evaluates the member nearest them; ``/diagnostics`` says which (``family_member``,
   ``phi_star_deg``, ``neutral_modes_removed``). Until the first verdict the status is STALE
-  and says why (table being computed, kernels compiled on a first start, no joint_states yet);
+  and says why (table being computed, kernels compiled on a first start, no
+  joint_states_throttle yet);
   ``stability/margin`` is published from the first verdict on.
 """
 
@@ -48,7 +52,7 @@ from std_msgs.msg import Float64
 
 from abb_ros.io import cdr, ros_messages
 from abb_ros.io.joint_speed import JointSpeedReader
-from abb_ros.io.topics import DIAGNOSTICS, JOINT_STATES, STABILITY_MARGIN
+from abb_ros.io.topics import DIAGNOSTICS, JOINT_STATES_THROTTLE, STABILITY_MARGIN
 from abb_ros.model.parameters.param_spec import DRIVE_PREFIX
 from abb_ros.model.parameters.params import DriveParams, ParamError
 from abb_ros.model.stability import speed_bands
@@ -116,7 +120,7 @@ class AnalysisNode(Node):
                                                DIAGNOSTICS, QOS_DEPTH)
         self._taps = Taps(self)
         self._joint_states = self._taps.subscribe(
-            JointState, JOINT_STATES, QoSProfile(depth=1,
+            JointState, JOINT_STATES_THROTTLE, QoSProfile(depth=1,
                                                    reliability=ReliabilityPolicy.BEST_EFFORT))
         self.create_subscription(ParameterEvent, '/parameter_events', self._on_parameter_event,
                                  qos_profile_parameter_events)
@@ -248,8 +252,8 @@ class AnalysisNode(Node):
             return speed_bands.Assessment(speed_bands.STALE, why, math.nan, {'omega': omega})
         if omega is None:
             a = speed_bands.assess(table, 0.0)
-            return speed_bands.Assessment(speed_bands.STALE, 'no joint_states yet (spindle '
-                                          'speed unknown); ' + _first_clause(a.message),
+            return speed_bands.Assessment(speed_bands.STALE, 'no joint_states_throttle yet '
+                                          '(spindle speed unknown); ' + _first_clause(a.message),
                                           math.nan, a.values)
         exact = worker.exact
         if exact is not None and abs(exact.omega - omega) > REFINE_TOL_RAD_S:

@@ -26,6 +26,7 @@ from abb_ros.model.sensors import disturbances
 from abb_ros.model.sensors.faults import ImuFaults, SpeedFaults
 from abb_ros.model.sensors.speed_sensor import SpeedSensor
 from abb_ros.nodes.hil_settings import HilSettings
+from abb_ros.nodes.rate_slots import RateSlots
 
 __all__ = ['HilIO']
 
@@ -48,7 +49,7 @@ class HilIO:
         sampler.speed_faults = self.speed_faults
         self.counters = dict(shocks=0, disc_swaps=0)
         self._last_event = ''
-        self._marker_slot = None
+        self._marker_slots = RateSlots()
         node.create_service(Trigger, '~/apply_shock', self._on_shock)
         node.create_service(Trigger, '~/swap_disc', self._on_swap)
         self._active = {}
@@ -124,14 +125,11 @@ class HilIO:
 
         The slots are 1 / visualization.rate_hz long, in simulated time.
         """
-        rate = self.config.visualization_rate_hz
-        if rate <= 0.0 or sample is None or sample.y is None:
+        if sample is None or sample.y is None:
             return
         stamp_ns = sample.stamp_ns(self.node.pacer.dt_ns, self.node.pacer.epoch_ns)
-        slot = stamp_ns // round(1e9 / rate)
-        if slot == self._marker_slot:
+        if not self._marker_slots.opens(stamp_ns, self.config.visualization_rate_hz):
             return
-        self._marker_slot = slot
         self.node.send(MARKERS, markers.marker_array(
             stamp_ns, sample.y, self.node.sim.params, self.config.visualization_exaggeration),
             stamp_ns)

@@ -19,6 +19,7 @@ fake clock (test/test_pacing.py); no rclpy here.
 
 from __future__ import annotations
 
+import math
 import time
 from dataclasses import dataclass
 from typing import Callable
@@ -102,6 +103,20 @@ class Pacer:
     def tick_period_s(self) -> float:
         """Wall time between two paced ticks: one publish period at real_time_factor [s]."""
         return self.publish_every * self.dt_ns / self.real_time_factor * 1e-9
+
+    def deadline_ns(self, steps: int) -> int:
+        """Steady time of the next tick on schedule, from ``steps`` [ns].
+
+        Half a period after the next publish period falls due (:meth:`_anchor_at`): the tick
+        of the plant thread, as a timer of the publish period started at the anchor would
+        tick, so that a wake-up late or early by less than half a period integrates exactly
+        one period.
+        """
+        wall0, steps0 = self._anchor
+        every = self.publish_every
+        following = (steps // every + 1) * every
+        due_in_ns = (following - steps0 + every / 2) * self.dt_ns / self.real_time_factor
+        return wall0 + math.ceil(due_in_ns)
 
     def stamp_ns(self, steps: int) -> int:
         """Stamp of the state after ``steps`` steps [ns]."""

@@ -11,7 +11,8 @@ refuses, the thread stays as it was and :attr:`state` says why (one warning, not
 the plant still runs, as ros2_control does).
 
 Only the thread that calls :meth:`apply` is affected (Linux applies a policy per thread):
-the node calls it from its integration timer, so the middleware's threads and the rest of
+the node calls it from the thread that integrates (the plant's own thread,
+:mod:`abb_ros.nodes.plant_thread`), so the executor, the middleware's threads and the rest of
 the process keep the normal policy. The node asks for 0 when it runs as fast as possible
 (``real_time_factor`` 0): a FIFO thread that never sleeps would hold a core.
 """

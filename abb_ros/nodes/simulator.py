@@ -9,16 +9,22 @@ Time (:class:`abb_ros.nodes.pacing.Pacer`): stamps are ``epoch + steps * dt`` in
 nanoseconds, the wall clock while ``/clock`` is silent; from the first time simulated time
 departs from the wall clock (a real_time_factor other than 1, a pause, a step, a fault) the
 node publishes ``/clock`` with every sample, for good (:mod:`abb_ros.nodes.sim_clock` states
-the rule). A steady-clock timer paces integration: each tick integrates every publish period
+the rule). The plant runs on its own thread (:class:`abb_ros.nodes.plant_thread.PlantThread`),
+woken at absolute deadlines one publish period apart: each tick integrates every publish period
 that is due by then (catching up when late, counted as overruns; dropped as a slip beyond
 ``max_stamp_lag``, docs/time_under_load.md); with real_time_factor 0 each tick integrates as
-many periods as fit in ``BATCH_WALL_S`` and the executor serves topics and services in
-between. The /diagnostics status: :mod:`abb_ros.nodes.simulator_diagnostics`.
+many periods as fit in ``BATCH_WALL_S``. The executor serves services, parameters and
+subscriptions; each of its callbacks holds the plant's lock (:meth:`SimulatorNode.create_timer`
+and the like wrap them), so that it sees and changes the plant between two ticks.
+``ABB_ROS_PACING=timer`` paces the plant with an rclpy timer in the executor instead (the
+earlier way, kept for comparison: benchmarks/bench_plant_thread.py). The /diagnostics status:
+:mod:`abb_ros.nodes.simulator_diagnostics`.
 
-``record.path`` or ``~/start_recording`` / ``~/stop_recording`` write the published bytes to
-a bag in process (:class:`abb_ros.nodes.recording.Recording`; log time = stamp, as the
-headless run writes them), with the other nodes' topics ``record.topics``; ``live_view.*``
-serve the same bytes to the Foxglove app (:mod:`abb_ros.nodes.simulator_live_view`).
+``record.path``, ``record.start`` or ``~/start_recording`` / ``~/stop_recording`` write the
+published bytes to a bag in process (:class:`abb_ros.nodes.recording.Recording`; log time =
+stamp, as the headless run writes them), with the other nodes' topics ``record.topics``;
+``live_view.*`` serve the same bytes to the Foxglove app
+(:mod:`abb_ros.nodes.simulator_live_view`).
 """
 
 from __future__ import annotations
@@ -27,6 +33,8 @@ if __name__ == '__main__':   # python -m: the stop handlers first, then the impo
     from abb_ros.nodes.script import run_module
     run_module('abb_ros.nodes.simulator')
 
+import os
+import threading
 import time
 
 from rclpy.clock import Clock, ClockType
@@ -35,7 +43,14 @@ from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 
 from abb_ros.io import cdr, ros_messages
-from abb_ros.io.topics import CLOCK_TOPIC, CURRENT_CMD, DIAGNOSTICS, SPEED_CMD
+from abb_ros.io.topics import (
+    CLOCK_TOPIC,
+    CURRENT_CMD,
+    DIAGNOSTICS,
+    JOINT_STATES,
+    JOINT_STATES_THROTTLE,
+    SPEED_CMD,
+)
 from abb_ros.model.dynamics.initial import initial_state
 from abb_ros.model.dynamics.integrate import Simulation, StateError
 from abb_ros.model.parameters.params import ParamError
@@ -46,8 +61,15 @@ from abb_ros.nodes import ros_params, simulation_interfaces_server, simulator_li
 from abb_ros.nodes.entry_point import make_executor, run_node, spin
 from abb_ros.nodes.hil_io import HilIO
 from abb_ros.nodes.pacing import Pacer
+from abb_ros.nodes.plant_thread import AGAIN, IDLE, PlantThread, locked
+from abb_ros.nodes.rate_slots import RateSlots
 from abb_ros.nodes.realtime import FifoScheduling
-from abb_ros.nodes.recording import InProcessRecording, refuse_bad_topics, resolve_topics
+from abb_ros.nodes.recording import (
+    InProcessRecording,
+    default_output,
+    refuse_bad_topics,
+    resolve_topics,
+)
 from abb_ros.nodes.sim_state import RunState, Transition
 from abb_ros.nodes.simulator_diagnostics import simulation_status
 from abb_ros.nodes.spindle_commands import SpindleCommands
@@ -63,6 +85,9 @@ DIAGNOSTICS_PERIOD_S = 1.0
 BATCH_WALL_S = 0.005
 """As fast as possible: wall time spent integrating per timer tick before yielding."""
 WARN_THROTTLE_S = 1.0
+PACING_ENV = 'ABB_ROS_PACING'
+PACINGS = ('thread', 'timer')
+"""Values of :data:`PACING_ENV`: the plant's own thread (default) or an rclpy timer."""
 
 __all__ = ['SimulatorNode', 'main', 'make_executor', 'spin']
 
@@ -71,7 +96,12 @@ class SimulatorNode(Node):
     """The ABB drive simulator node (see the module docstring)."""
 
     def __init__(self, **kwargs):
+        self.plant_lock = threading.RLock()   # first: Node.__init__ creates callbacks
+        self.plant = None
         super().__init__(NODE_NAME, **kwargs)
+        pacing = os.environ.get(PACING_ENV, PACINGS[0])
+        if pacing not in PACINGS:
+            raise ParamError(PACING_ENV, pacing, ' or '.join(PACINGS), 'environment variable')
         self.drive, self.settings = ros_params.declare_all(self)
         s = self.settings
         self._steady = Clock(clock_type=ClockType.STEADY_TIME)
@@ -81,7 +111,8 @@ class SimulatorNode(Node):
         self.sampler = PlantSampler(self.sim, self.imu, s.publish_every, s.imu_every)
         _warm_up(self.sim)
         self.pacer = Pacer(s.dt_ns, s.publish_every, s.real_time_factor,
-                           self._max_stamp_lag_ns(), lambda: self._steady.now().nanoseconds)
+                           self._max_stamp_lag_ns(), time.monotonic_ns)
+        self._running = False   # integrating (not paused, no fault)
         self.pending_drive = self.drive
         self.fault = ''
         self.run_state = RunState(s.start_paused)
@@ -89,8 +120,10 @@ class SimulatorNode(Node):
         if s.start_paused:
             self.pacer.hold()
         self.commands = SpindleCommands(s.initial_speed)
+        self._throttle_slots = RateSlots()
+        self._throttle_hz = self.get_parameter('joint_states_throttle_hz').value
         self.counters = self.commands.counters
-        self.scheduling = FifoScheduling()   # of the thread that integrates (its timer's)
+        self.scheduling = FifoScheduling()   # of the thread that integrates
         self.published = dict.fromkeys(ros_messages.TOPIC_TYPES, 0)
         self.live = None   # the live view, once started (below)
         self.recorder = InProcessRecording(self, PUBLISH_DEPTH, 'record.topics',
@@ -119,7 +152,8 @@ class SimulatorNode(Node):
 
         resolve_topics(self, self.get_parameter('record.topics').value, 'record.topics')
         path = self.get_parameter('record.path').value
-        if path:
+        if path or self.get_parameter('record.start').value:
+            path = path or default_output()
             error = self.recorder.start(path, self.get_parameter('record.topics').value,
                                         self._prepare_bag)
             if error:
@@ -144,8 +178,12 @@ class SimulatorNode(Node):
         # Last: the pacing is anchored now (the first log line alone can take ~80 ms, which
         # the first tick would otherwise owe, or drop as a slip on a loaded machine).
         self._timer = None
+        if pacing == 'thread':
+            self.plant = PlantThread(self._plant_tick, self.plant_lock, self._on_plant_error)
         self._publish(self.sampler.sample_now())
         self._restart_pacing()
+        if self.plant is not None:
+            self.plant.start()
 
     @property
     def paused(self) -> bool:
@@ -172,18 +210,21 @@ class SimulatorNode(Node):
         return self.get_parameter('max_stamp_lag').value * 1e9
 
     def _restart_pacing(self) -> None:
-        """(Re)create the integration timer for the current mode, anchored now."""
+        """(Re)start the integration for the current mode, anchored now."""
         if self._timer is not None:
             self.destroy_timer(self._timer)
             self._timer = None
         self._want_scheduling()
-        if self.paused or self.fault:
+        self._running = not (self.paused or self.fault)
+        if not self._running:
             if self.pacer.hold():   # /clock starts now, at the held time
                 stamp_ns = self.stamp_ns()
                 self.send(CLOCK_TOPIC, cdr.clock(*divmod(stamp_ns, 1_000_000_000)), stamp_ns)
             return
         self.pacer.start(self.sim.steps)
-        if self.pacer.real_time_factor == 0.0:
+        if self.plant is not None:
+            self.plant.wake()
+        elif self.pacer.real_time_factor == 0.0:
             self._timer = self.create_timer(0.0, self._tick_fast, clock=self._steady)
         else:
             self._timer = self.create_timer(self.pacer.tick_period_s, self._tick_paced,
@@ -201,15 +242,36 @@ class SimulatorNode(Node):
     def _tick_starts(self) -> bool:
         """Apply what changed since the last tick; whether the plant still runs."""
         self._apply_parameters()
-        if self._timer is None:
+        if not self._running:
             return False
         if self.scheduling.pending:   # in this (the integrating) thread
             self.scheduling.apply_logged(self.get_logger())
         return True
 
+    def _plant_tick(self):
+        """Tick the plant (on its thread, under the lock).
+
+        Return the deadline of the next tick, AGAIN or IDLE (:mod:`abb_ros.nodes.plant_thread`).
+        """
+        if self.pacer.real_time_factor == 0.0:
+            self._tick_fast()
+        else:
+            self._tick_paced()
+        if not self._running:   # the factor, the pause or a fault may have changed in the tick
+            return IDLE
+        if self.pacer.real_time_factor == 0.0:
+            return AGAIN
+        return self.pacer.deadline_ns(self.sim.steps)
+
+    def _on_plant_error(self, exc: Exception) -> None:
+        """Stop the plant after a tick raised (a bug), log why, and end the node with exit 1."""
+        self._running = False
+        self.get_logger().fatal(f'the plant thread failed: {exc!r}; stopping')
+        self.exit_code = 1
+
     def _tick_paced(self) -> None:
         """Integrate the publish periods due on the wall clock."""
-        if not self._tick_starts():
+        if not self._tick_starts() or self.pacer.real_time_factor == 0.0:
             return
         for _ in range(self.pacer.due(self.sim.steps)):
             if not self._integrate_period():
@@ -217,7 +279,7 @@ class SimulatorNode(Node):
 
     def _tick_fast(self) -> None:
         """Integrate publish periods for ``BATCH_WALL_S`` of wall time."""
-        if not self._tick_starts():
+        if not self._tick_starts() or self.pacer.real_time_factor != 0.0:
             return
         end = time.perf_counter() + BATCH_WALL_S
         while time.perf_counter() < end:
@@ -247,6 +309,8 @@ class SimulatorNode(Node):
                                            pacer.epoch_ns, pacer.publishes_clock)
         for topic, data in encoded:
             self.send(topic, data, stamp_ns)
+            if topic == JOINT_STATES and self._throttle_slots.opens(stamp_ns, self._throttle_hz):
+                self.send(JOINT_STATES_THROTTLE, data, stamp_ns)
         self.hil.on_sample(sample)
 
     def send(self, topic: str, data: bytes, stamp_ns: int) -> None:
@@ -280,8 +344,29 @@ class SimulatorNode(Node):
     def _prepare_bag(self, bag) -> None:
         bag.set_drive_params(self.drive)
 
+    # ---- the executor's callbacks hold the plant's lock --------------------------------
+    def create_subscription(self, msg_type, topic, callback, *args, **kwargs):
+        """Create the subscription as rclpy does, its callback run under the plant's lock."""
+        return super().create_subscription(msg_type, topic, locked(self.plant_lock, callback),
+                                           *args, **kwargs)
+
+    def create_service(self, srv_type, srv_name, callback, *args, **kwargs):
+        """Create the service as rclpy does, its callback run under the plant's lock."""
+        return super().create_service(srv_type, srv_name, locked(self.plant_lock, callback),
+                                      *args, **kwargs)
+
+    def create_timer(self, timer_period_sec, callback, *args, **kwargs):
+        """Create the timer as rclpy does, its callback run under the plant's lock."""
+        return super().create_timer(timer_period_sec, locked(self.plant_lock, callback),
+                                    *args, **kwargs)
+
     def close(self) -> None:
-        """Finish a bag being written, stop the live view (entry_point: before destroy_node)."""
+        """Stop the plant thread, finish a bag being written, stop the live view.
+
+        entry_point calls it before destroy_node.
+        """
+        if self.plant is not None:
+            self.plant.stop()
         if self.recorder.current is not None:
             self.get_logger().info(self.recorder.stop())
         if self.live is not None:
@@ -339,6 +424,7 @@ class SimulatorNode(Node):
         self.pacer.reconfigure(s.real_time_factor, self.sampler.publish_every,
                                self._max_stamp_lag_ns())
         self.hil.apply(s.hil)
+        self._throttle_hz = self.get_parameter('joint_states_throttle_hz').value
         self._want_scheduling()
         if (s.real_time_factor, s.publish_rate_hz) != (old.real_time_factor,
                                                        old.publish_rate_hz):

@@ -93,6 +93,10 @@ _BENCH = (
               'time; 0 = off', low=0.0, high=1000.0, applies=_AT_STEP),
     ParamSpec('visualization.exaggeration', 100.0, '', 'deck displacement and tilt scale '
               'factor in visualization/markers', low=0.0, high=1.0e6, applies=_AT_STEP),
+    ParamSpec('joint_states_throttle_hz', 50.0, 'Hz', 'joint_states_throttle rate, simulated '
+              'time: every joint_states message opening a slot of 1 / rate (for readers that '
+              'need the latest state, not each: the analysis node); 0 = off', low=0.0,
+              high=1000.0, applies=_AT_STEP),
     ParamSpec('max_stamp_lag', 0.1, 's', 'largest lag of a stamp behind its schedule (the wall '
               'clock at real_time_factor 1); a later plant drops the excess (counted in slips) '
               'and reports ERROR', low=0.001, high=3600.0, applies=_AT_STEP),
@@ -103,6 +107,9 @@ _BENCH = (
     ParamSpec('record.path', '', '', 'bag directory the node records what it publishes to '
               '(must not exist); empty: no recording at start (~/start_recording uses it, or '
               'abb_bag_<date>-<time>)', STRING, applies='at start-up'),
+    ParamSpec('record.start', False, '', 'record from start-up, to record.path, else to '
+              'abb_bag_<date>-<time> (a non-empty record.path records from start-up too)',
+              BOOL, read_only=True, applies='at start-up'),
     ParamSpec('record.topics', [], '', "other topics recorded into the node's bag, taken from "
               'the middleware as the recorder node takes them (e.g. stability/margin, '
               '/diagnostics, spindle/speed_cmd); a topic this node also publishes is then '

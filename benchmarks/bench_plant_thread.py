@@ -1,0 +1,213 @@
+"""The simulator's plant paced by its own thread against the executor's timer (prints figures).
+
+The Table 1 drive (n = 2) at 10 kHz steps, 1 kHz publish, real_time_factor 1, every node in its
+own process, each setting with ``ABB_ROS_PACING=timer`` (the rclpy timer in the executor, the
+old path) and ``thread`` (the plant's own thread, the default), one after the other:
+
+- **alone**: the simulator with no reader of its 1 kHz topics;
+- **recording + analysis**: the simulator recording in process (``record.start``, with the
+  analysis' topics in ``record.topics``, as ``bench.launch.py record:=true`` runs it) and the
+  analysis node. The old path's analysis reads ``joint_states`` at 1 kHz (remapped:
+  ``-r joint_states_throttle:=joint_states``), the new one ``joint_states_throttle`` (50 Hz);
+- **subscriber**: the simulator and a subscriber of ``joint_states`` in this process (rclpy's
+  EventsExecutor, reliable, depth 1000): the publish-period jitter it sees (|arrival interval
+  - 1 ms|), and stamps missing (lost).
+
+For each: CPU of each process (/proc utime + stime over the window, % of one core), the
+simulator's overruns and slips over the window (/diagnostics), and for the recording the
+joint_states of the window missing from the bag (gaps in its 1 ms stamps; a slip's dropped
+periods count too, never having been published). Load average beside each row.
+
+    .venv/bin/python benchmarks/bench_plant_thread.py [--duration 20]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import random
+import subprocess
+import sys
+import tempfile
+import threading
+import time
+from pathlib import Path
+
+os.environ.setdefault('ROS_DOMAIN_ID', str(random.randint(1, 101)))
+os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
+
+import numpy as np  # noqa: E402
+import rclpy  # noqa: E402
+from bench_simulator_node import stop_node  # noqa: E402
+from diagnostic_msgs.msg import DiagnosticArray  # noqa: E402
+from rclpy.node import Node  # noqa: E402
+from rclpy.qos import QoSProfile  # noqa: E402
+from sensor_msgs.msg import JointState  # noqa: E402
+from std_msgs.msg import Float64  # noqa: E402
+
+from abb_ros.io.bag_reader import iter_raw  # noqa: E402
+from abb_ros.nodes.entry_point import make_executor  # noqa: E402
+from abb_ros.testing.procstat import cpu_seconds  # noqa: E402
+
+ROOT = Path(__file__).resolve().parents[1]
+PERIOD_NS = 1_000_000
+SETTLE_S = 3.0
+PACINGS = ('timer', 'thread')
+OTHER_TOPICS = "['stability/margin', '/diagnostics', 'spindle/speed_cmd', 'spindle/current_cmd']"
+
+
+def start(module: str, pacing: str, ns: str, *ros_args: str) -> subprocess.Popen:
+    env = dict(os.environ, ABB_ROS_PACING=pacing)
+    return subprocess.Popen([sys.executable, '-m', f'abb_ros.nodes.{module}', '--ros-args',
+                             '-r', f'__ns:={ns}', *ros_args], cwd=ROOT, env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
+
+
+class Probe:
+    """This process's node: the simulator's status, the analysis' margin, optionally the
+    joint_states arrival times and stamps."""
+
+    def __init__(self, ns: str, states: bool):
+        self.ctx = rclpy.Context()
+        rclpy.init(context=self.ctx)
+        self.node = Node('bench_probe', context=self.ctx)
+        self.status, self.margins, self.arrivals, self.stamps = None, 0, [], []
+        self.name = f'{ns}/abb_simulator: simulation'
+        self.node.create_subscription(DiagnosticArray, '/diagnostics', self._on_diag, 10)
+        self.node.create_subscription(Float64, f'{ns}/stability/margin', self._on_margin, 10)
+        if states:
+            self.node.create_subscription(JointState, f'{ns}/joint_states', self._on_state,
+                                          QoSProfile(depth=1000))
+        self.executor = make_executor(self.ctx)
+        self.executor.add_node(self.node)
+        self._stop = threading.Event()
+        self._thread = threading.Thread(target=self._spin, daemon=True)
+        self._thread.start()
+
+    def _spin(self):
+        while not self._stop.is_set() and self.ctx.ok():
+            self.executor.spin_once(timeout_sec=0.05)
+
+    def _on_diag(self, msg):
+        for s in msg.status:
+            if s.name == self.name:
+                self.status = {kv.key: kv.value for kv in s.values}
+
+    def _on_margin(self, _msg):
+        self.margins += 1
+
+    def _on_state(self, msg):
+        self.arrivals.append(time.perf_counter())
+        self.stamps.append(msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec)
+
+    def wait(self, predicate, what: str, timeout_s: float = 120.0):
+        end = time.monotonic() + timeout_s
+        while not predicate():
+            if time.monotonic() > end:
+                raise SystemExit(f'timed out after {timeout_s} s waiting for {what}')
+            time.sleep(0.05)
+
+    def close(self):
+        self._stop.set()
+        self._thread.join(10)
+        self.executor.shutdown()
+        self.node.destroy_node()
+        rclpy.shutdown(context=self.ctx)
+
+
+def lost(stamps) -> int:
+    """Stamps missing from a 1 ms sequence (gaps of k ms lose k - 1)."""
+    gaps = np.diff(np.asarray(stamps, dtype=np.int64))
+    return int(np.sum(np.maximum(gaps // PERIOD_NS - 1, 0)))
+
+
+def measure(setting: str, pacing: str, seconds: float, work: Path) -> dict:
+    """Run one setting with one pacing; return its figures."""
+    ns = f'/bench_{setting}_{pacing}'
+    sim_args = []
+    bag = work / f'{setting}_{pacing}'
+    if setting == 'recording':
+        sim_args = ['-p', 'record.start:=true', '-p', f'record.path:={bag}',
+                    '-p', f'record.topics:={OTHER_TOPICS}']
+    procs = {'simulator': start('simulator', pacing, ns, *sim_args)}
+    if setting == 'recording':
+        remap = ['-r', 'joint_states_throttle:=joint_states'] if pacing == 'timer' else []
+        procs['analysis'] = start('analysis', pacing, ns, *remap)
+    probe = Probe(ns, states=setting == 'subscriber')
+    try:
+        probe.wait(lambda: probe.status is not None, 'the simulator status')
+        if 'analysis' in procs:
+            probe.wait(lambda: probe.margins > 0, 'the first stability/margin')
+        time.sleep(SETTLE_S)
+        before = {name: cpu_seconds(p.pid) for name, p in procs.items()}
+        status0, arrivals0, w0 = dict(probe.status), len(probe.arrivals), time.perf_counter()
+        wall0 = time.time_ns()
+        time.sleep(seconds)
+        after = {name: cpu_seconds(p.pid) for name, p in procs.items()}
+        status1, w1, wall1 = dict(probe.status), time.perf_counter(), time.time_ns()
+        arrivals = np.array(probe.arrivals[arrivals0:])
+        stamps = list(probe.stamps[arrivals0:])
+    finally:
+        codes = {name: stop_node(p) for name, p in procs.items()}
+        probe.close()
+    out = dict(cpu={name: (after[name] - before[name]) / (w1 - w0) for name in procs},
+               overruns=int(status1['overruns']) - int(status0['overruns']),
+               slips=int(status1['slips']) - int(status0['slips']), codes=codes,
+               load=os.getloadavg()[0])
+    if setting == 'subscriber' and arrivals.size > 2:
+        jitter = np.abs(np.diff(arrivals) - PERIOD_NS * 1e-9)
+        out.update(received=int(arrivals.size), lost=lost(stamps),
+                   p50=float(np.percentile(jitter, 50)), p99=float(np.percentile(jitter, 99)),
+                   jitter_max=float(jitter.max()))
+    if setting == 'recording':
+        name = f'{ns}/joint_states'
+        in_bag = [int.from_bytes(data[4:8], 'little') * 1_000_000_000
+                  + int.from_bytes(data[8:12], 'little')
+                  for _, _, data, _ in iter_raw(bag, [name])]
+        in_window = [t for t in in_bag if wall0 <= t <= wall1]   # wall-clock stamps
+        out.update(recorded=len(in_window), lost=lost(in_window))
+    return out
+
+
+def row(label: str, old: dict, new: dict) -> None:
+    cpu_old, cpu_new = sum(old['cpu'].values()), sum(new['cpu'].values())
+    parts = ' + '.join(f'{100 * v:.1f}' for v in new['cpu'].values())
+    parts_old = ' + '.join(f'{100 * v:.1f}' for v in old['cpu'].values())
+    print(f'  {label:24s} {100 * cpu_old:6.1f} % ({parts_old})  {100 * cpu_new:6.1f} % '
+          f'({parts})  x {cpu_new / cpu_old:.2f}   load {old["load"]:.2f} / {new["load"]:.2f}')
+    print(f'  {"":24s} overruns {old["overruns"]}, slips {old["slips"]}, lost '
+          f'{old.get("lost", "-")}  |  overruns {new["overruns"]}, slips {new["slips"]}, '
+          f'lost {new.get("lost", "-")}   exit codes {old["codes"]} / {new["codes"]}')
+
+
+def main() -> int:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument('--duration', type=float, default=20.0, help='measured window [s]')
+    args = ap.parse_args()
+    print(f'plant thread benchmark: Table 1 drive (n = 2), 10 kHz steps, 1 kHz publish, '
+          f'{args.duration:g} s windows, load average {os.getloadavg()[0]:.2f} on '
+          f'{os.cpu_count()} cores')
+    with tempfile.TemporaryDirectory(prefix='abb_bench_plant_') as tmp:
+        results = {(setting, pacing): measure(setting, pacing, args.duration, Path(tmp))
+                   for setting in ('alone', 'recording', 'subscriber') for pacing in PACINGS}
+    print('\n  CPU, % of one core        old: executor timer        new: plant thread       '
+          'new/old')
+    row('simulator alone', results['alone', 'timer'], results['alone', 'thread'])
+    row('sim (recording) + analysis', results['recording', 'timer'],
+        results['recording', 'thread'])
+    print(f'  {"":24s} joint_states of the window in the bag: '
+          f'{results["recording", "timer"]["recorded"]} / '
+          f'{results["recording", "thread"]["recorded"]}')
+    row('sim + 1 kHz subscriber', results['subscriber', 'timer'],
+        results['subscriber', 'thread'])
+    print('\n  publish-period jitter seen by the subscriber (|interval - 1 ms|)')
+    for pacing in PACINGS:
+        r = results['subscriber', pacing]
+        print(f'  {pacing:7s} p50 {1e3 * r["p50"]:.3f} ms  p99 {1e3 * r["p99"]:.3f} ms  max '
+              f'{1e3 * r["jitter_max"]:.3f} ms  ({r["received"]} received, {r["lost"]} lost)')
+    print('  targets: simulator alone <= 10 %, sim (recording) + analysis <= 18 %, p99 < 0.5 ms')
+    return 0
+
+
+if __name__ == '__main__':
+    sys.exit(main())
