@@ -4,10 +4,12 @@ Also the simulator's validated settings. The specs are collected by
 :mod:`abb_ros.nodes.parameter_table`.
 
 :func:`declare` declares a node's parameters with descriptors derived from their specs. It
-checks the start-up values (``-p``, ``--params-file``) against the spec before rclpy sees
-them: an integer literal for a double (``-p drive.k:=4000``) is taken as that double (4000.0);
-any other wrong type or bad value raises ParamError naming the ROS parameter, which ends the
-node with exit code 2 (:func:`abb_ros.nodes.entry_point.run_node`). At run time
+reads the start-up values (``-p``, ``--params-file``, a node's ``parameter_overrides``) first
+(:func:`start_up_values`, through rclpy's public API) and checks each against its spec before
+declaring it: an integer literal for a double (``-p drive.k:=4000``) is taken as that
+double (4000.0), an empty list (``-p topics:=[]``) as an empty array; any other wrong type
+or bad value raises ParamError naming the ROS parameter, which ends the node with exit code
+2 (:func:`abb_ros.nodes.entry_point.run_node`). At run time
 :func:`coerce_on_set` does the same int -> double conversion before rclpy's type check, and
 the nodes' set-parameters callbacks refuse bad values with the ParamError text.
 :func:`settings_from` turns the simulator's values into validated (DriveParams, SimSettings).
