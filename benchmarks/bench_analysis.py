@@ -81,8 +81,14 @@ def bench_latency(accel, assess_s):
         return msg.header.stamp.sec * 1_000_000_000 + msg.header.stamp.nanosec
 
     def on_diag(msg):
+        # Verdicts on the simulator's parameters only: until the analysis has copied them
+        # (GetParameters, once it sees the simulator) it judges its own, and the copy then
+        # recomputes the table (STALE meanwhile), which is not a latency of the verdicts.
         for s in msg.status:
-            if s.name.endswith('abb_analysis: stability') and s.level != DiagnosticStatus.STALE:
+            synced = any(kv.key == 'parameters_from' and not kv.value.startswith('own')
+                         for kv in s.values)
+            if (s.name.endswith('abb_analysis: stability') and s.level != DiagnosticStatus.STALE
+                    and synced):
                 st.append((time.monotonic(), stamp(msg)))
 
     with tempfile.TemporaryDirectory() as tmp:

@@ -150,7 +150,8 @@ class SimulationInterfacesServer:
         from simulation_interfaces.action import SimulateSteps
 
         result = SimulateSteps.Result()
-        refusal = self._refuse_step()
+        with self.node.plant_lock:   # rclpy runs actions outside the node's wrapped callbacks
+            refusal = self._refuse_step()
         if refusal is not None:
             result.result = refusal
             goal_handle.abort()
