@@ -213,7 +213,7 @@ def bag_statuses(bag: Path) -> dict:
     return statuses
 
 
-def main() -> int:  # noqa: C901 (16: not split yet)
+def arguments() -> argparse.ArgumentParser:
     ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('--duration', type=float, default=60.0, help='measured seconds [60]')
     ap.add_argument('--hog', action='store_true', help='a busy loop pinned to CPU 0')
@@ -230,71 +230,96 @@ def main() -> int:  # noqa: C901 (16: not split yet)
                          "(no integration, sampling or encoding)")
     ap.add_argument('--role', choices=['bench', 'subscriber', 'floor'], default='bench')
     ap.add_argument('--out', type=Path, help=argparse.SUPPRESS)
-    args = ap.parse_args()
+    return ap
+
+
+def main() -> int:
+    args = arguments().parse_args()
     if args.role == 'subscriber':
         return run_subscriber(args.out)
     if args.role == 'floor':
         return run_floor(args.out)
-
     work = Path(tempfile.mkdtemp(prefix='abb_bench_'))
     sub_out = work / 'subscriber.json'
-    sim_params = [f'drive.n:={N_BALLS}', 'integration_rate_hz:=10000', 'publish_rate_hz:=1000']
-    if args.realtime_priority:
-        sim_params.append(f'realtime_priority:={args.realtime_priority}')
-    if args.record_in_process:
-        sim_params += [f'record.path:={work / "inproc_bag"}',
-                       f'record.topics:=[{", ".join(OTHER_TOPICS)}]']
-    procs = {}
-    hog = None
+    procs, hogs = {}, []
     try:
         if args.hog:
-            hog = start([sys.executable, '-c', 'while True: pass'], work, 'hog', {0})
-        procs['subscriber'] = start([sys.executable, __file__, '--role', 'subscriber',
-                                     '--out', str(sub_out)], work, 'subscriber')
-        if not args.no_recorder_node:
-            procs['recorder'] = start(node('recorder', f'output:={work / "bag"}'), work,
-                                      'recorder')
-        procs['analysis'] = start(node('analysis'), work, 'analysis')
-        if args.floor:
-            floor = [sys.executable, __file__, '--role', 'floor']
-            if args.record_in_process:
-                floor += ['--out', str(work / 'inproc_bag')]
-            procs['simulator'] = start(floor, work, 'simulator')
-        else:
-            procs['simulator'] = start(node('simulator', *sim_params), work, 'simulator')
+            hogs.append(start([sys.executable, '-c', 'while True: pass'], work, 'hog', {0}))
+        start_bench(args, work, sub_out, procs)
         first = wait_for(work / 'subscriber.json.ready', procs, 300.0)
         print(f'first joint_states at the subscriber {first:.2f} s after the simulator started')
         time.sleep(SETTLE_S)
-        t0 = time.monotonic()
-        cpu0 = {name: cpu_seconds(p.pid) for name, p in procs.items()}
-        rss = {name: [] for name in procs}
-        while time.monotonic() - t0 < args.duration:
-            now = time.monotonic() - t0
-            for name, p in procs.items():
-                rss[name].append((now, rss_bytes(p.pid)))
-            time.sleep(min(RSS_SAMPLE_S, max(0.0, args.duration - now)))
-        wall = time.monotonic() - t0
-        cpu = {name: (cpu_seconds(p.pid) - cpu0[name]) / wall for name, p in procs.items()}
-        for name, p in procs.items():
-            rss[name].append((wall, rss_bytes(p.pid)))
+        cpu, rss, wall = measure(procs, args.duration)
     finally:
-        codes = {}
-        for name in ('simulator', 'analysis', 'recorder', 'subscriber'):
-            p = procs.get(name)
-            if p is None:
-                continue
-            time.sleep(0.5 if name == 'analysis' else 0.0)
-            p.send_signal(signal.SIGINT)
-            try:
-                codes[name] = p.wait(timeout=60)
-            except subprocess.TimeoutExpired:
-                p.kill()
-                codes[name] = f'killed (no exit 60 s after SIGINT: {p.wait()})'
-        if hog is not None:
+        codes = stop_bench(procs)
+        for hog in hogs:
             hog.kill()
             hog.wait()
     report(args, work, sub_out, cpu, rss, codes, wall)
     return 0
+
+
+def simulator_params(args, work: Path) -> list[str]:
+    """The simulator's -p values: n = N_BALLS at 10 kHz, with the options' extras."""
+    params = [f'drive.n:={N_BALLS}', 'integration_rate_hz:=10000', 'publish_rate_hz:=1000']
+    if args.realtime_priority:
+        params.append(f'realtime_priority:={args.realtime_priority}')
+    if args.record_in_process:
+        params += [f'record.path:={work / "inproc_bag"}',
+                   f'record.topics:=[{", ".join(OTHER_TOPICS)}]']
+    return params
+
+
+def start_bench(args, work: Path, sub_out: Path, procs: dict) -> None:
+    """Start the bench's processes into ``procs`` (by name), the plant last."""
+    procs['subscriber'] = start([sys.executable, __file__, '--role', 'subscriber',
+                                 '--out', str(sub_out)], work, 'subscriber')
+    if not args.no_recorder_node:
+        procs['recorder'] = start(node('recorder', f'output:={work / "bag"}'), work,
+                                  'recorder')
+    procs['analysis'] = start(node('analysis'), work, 'analysis')
+    if args.floor:
+        floor = [sys.executable, __file__, '--role', 'floor']
+        if args.record_in_process:
+            floor += ['--out', str(work / 'inproc_bag')]
+        procs['simulator'] = start(floor, work, 'simulator')
+    else:
+        procs['simulator'] = start(node('simulator', *simulator_params(args, work)), work,
+                                   'simulator')
+
+
+def measure(procs: dict, duration: float) -> tuple[dict, dict, float]:
+    """Return CPU per process (share of one core), RSS samples per process, the wall time."""
+    t0 = time.monotonic()
+    cpu0 = {name: cpu_seconds(p.pid) for name, p in procs.items()}
+    rss = {name: [] for name in procs}
+    while time.monotonic() - t0 < duration:
+        now = time.monotonic() - t0
+        for name, p in procs.items():
+            rss[name].append((now, rss_bytes(p.pid)))
+        time.sleep(min(RSS_SAMPLE_S, max(0.0, duration - now)))
+    wall = time.monotonic() - t0
+    cpu = {name: (cpu_seconds(p.pid) - cpu0[name]) / wall for name, p in procs.items()}
+    for name, p in procs.items():
+        rss[name].append((wall, rss_bytes(p.pid)))
+    return cpu, rss, wall
+
+
+def stop_bench(procs: dict) -> dict:
+    """Stop every process with SIGINT, simulator first; return their exit codes by name."""
+    codes = {}
+    for name in ('simulator', 'analysis', 'recorder', 'subscriber'):
+        p = procs.get(name)
+        if p is None:
+            continue
+        time.sleep(0.5 if name == 'analysis' else 0.0)
+        p.send_signal(signal.SIGINT)
+        try:
+            codes[name] = p.wait(timeout=60)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            codes[name] = f'killed (no exit 60 s after SIGINT: {p.wait()})'
+    return codes
 
 
 def report(args, work, sub_out, cpu, rss, codes, wall) -> None:

@@ -246,25 +246,3 @@ def test_checker_refuses_a_layer_without_a_row_and_imports_of_the_dispatcher(rul
     assert len(violations(rules, 'nodes/fake.py', 'from abb_ros.cli import main\n')) == 1
     assert violations(rules, 'cli.py', 'from abb_ros.nodes import simulator\n') == []
 
-
-MANGLED = re.compile(r'\._[A-Z]\w*__\w+')
-"""An attribute name as Python mangles a class's ``__private`` one: ``obj._Class__name``."""
-
-
-def mangled_reads(source: str) -> list[int]:
-    """Return the lines of ``source`` that reach a class's name-mangled private state."""
-    return [node.lineno for node in ast.walk(ast.parse(source))
-            if isinstance(node, ast.Attribute) and MANGLED.fullmatch('.' + node.attr)]
-
-
-def test_no_module_reads_another_class_s_name_mangled_state():
-    """Private state of another library (``writer._Writer__statistics``) can change in any
-    release; the package owns its formats instead (io/mcap_file.py writes the MCAP bytes)."""
-    found = [f'{path.relative_to(PACKAGE)}:{line}' for path in sorted(PACKAGE.rglob('*.py'))
-             for line in mangled_reads(path.read_text(encoding='utf-8'))]
-    assert not found, f'name-mangled private state read at {found}'
-
-
-def test_the_mangled_name_check_finds_a_read_and_passes_plain_attributes():
-    assert mangled_reads('s = writer._Writer__statistics\n') == [1]
-    assert mangled_reads('s = writer.statistics\nt = self._cache\n') == []

@@ -129,13 +129,13 @@ def test_a_map_title_too_wide_for_the_figure_goes_on_lines_that_fit():
     matplotlib.use('Agg')
     import matplotlib.pyplot as plt
 
-    from abb_ros.plots.maps import _fitting_title
+    from abb_ros.plots.labels import fit_title
 
     fig, ax = plt.subplots(figsize=(6.0, 5.4))
     try:
         long = (r'Fig. 7(b) with n = 10. In-plane stability: $\zeta$ = 0.025 (metal washers), '
                 r'$\bar{\epsilon}$ = 0.0167, n = 10, $\bar{D}$ = 0.474, $\bar{m}$ = 0.006')
-        _fitting_title(fig, ax, long)
+        fit_title(fig, ax, long)
         lines = ax.get_title().split('\n')
         assert lines[0] == 'Fig. 7(b) with n = 10.' and len(lines) >= 3
         assert ' '.join(lines) == long
@@ -143,7 +143,35 @@ def test_a_map_title_too_wide_for_the_figure_goes_on_lines_that_fit():
         for line in lines:
             ax.set_title(line, fontsize=10)
             assert ax.title.get_window_extent(renderer).width <= fig.get_figwidth() * fig.dpi
-        _fitting_title(fig, ax, 'Fig. 7(b). Short')
+        fit_title(fig, ax, 'Fig. 7(b). Short')
         assert ax.get_title() == 'Fig. 7(b). Short'
+    finally:
+        plt.close(fig)
+
+
+def test_a_basin_title_too_wide_keeps_its_lines_and_breaks_after_a_semicolon():
+    """The basin picture's second line (P(balance); Floquet verdict) ran off the right edge:
+    its given line break stays, and the too-wide line is broken after '; ' into lines that
+    each fit the figure."""
+    import matplotlib
+    matplotlib.use('Agg')
+    import matplotlib.pyplot as plt
+
+    from abb_ros.plots.labels import fit_title
+
+    fig, ax = plt.subplots(figsize=(6.4, 6.2))
+    try:
+        head = 'p3, n = 2, 1024 runs of 3 s'
+        verdict = ('P(balance) = 0.969 [0.956, 0.978] 95 %; Floquet at wbar 2.7: balanced '
+                   '(|lambda|max in 0.9443, out 0.9711)')
+        fit_title(fig, ax, f'{head}\n{verdict}', fontsize=8)
+        lines = ax.get_title().split('\n')
+        assert lines[0] == head and len(lines) >= 3
+        assert lines[1].endswith('95 %;')
+        assert ' '.join(lines[1:]) == verdict
+        renderer = fig.canvas.get_renderer()
+        for line in lines:
+            ax.set_title(line, fontsize=8)
+            assert ax.title.get_window_extent(renderer).width <= fig.get_figwidth() * fig.dpi
     finally:
         plt.close(fig)

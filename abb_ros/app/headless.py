@@ -87,8 +87,7 @@ def _steps_per(period: float, dt: float, what: str) -> int:
     return k
 
 
-# C901 at 15: the per-period and the batched path in one loop; not split yet.
-def run_scenario(  # noqa: C901
+def run_scenario(
         scenario: Scenario, dt: float = DEFAULT_DT, publish_dt: float = PUBLISH_DT,
         imu_config: ImuConfig | None = None, seed: int = 0, bag=None,
         progress=None, speed_config: SpeedSensorConfig | None = None,
@@ -107,77 +106,121 @@ def run_scenario(  # noqa: C901
     progress : callable(float), optional
         Called with the simulated seconds done after each chunk (for a progress bar).
     """
-    from abb_ros.io import cdr
-
     imu_config = imu_config or TYPICAL_IMU
     check_duration(scenario.duration, publish_dt, dt)
-    p = scenario.params
-    y0 = initial_state(p, scenario.omega, phi0=scenario.phi0, deck0=scenario.deck0)
-    sim = Simulation(p, scenario.omega, dt, spindle=scenario.spindle, y0=y0,
-                     integrator=integrator)
+    sim = _simulation(scenario, dt, integrator)
     publish_every = _steps_per(publish_dt, dt, 'publish_dt')
     imu_every = _steps_per(1.0 / imu_config.rate, dt, 'imu rate')
     sampler = PlantSampler(sim, ImuModel(imu_config, seed), publish_every, imu_every,
                            speed=SpeedSensor(speed_config, seed))
-    dt_ns = int(round(dt * 1e9))
     if bag is not None:
         for topic, type_name in STATE_TOPIC_TYPES.items():
             bag.add_topic(topic, type_name)
+    run = _Collector(sim, sampler, publish_every, bag, imu_config)
+    compile_time = _compile(sim, publish_every)
+    start = time.perf_counter()
+    run.write_initial()
     commands = list(scenario.commands)
     total = int(round(scenario.duration / dt)) // publish_every
-    times = [sim.t]
-    states = [sim.y.copy()]
-    written = 0
-    t_compile = time.perf_counter()
-    sim.advance(0)              # compile the kernels outside the timed part (numba)
-    sim.trajectory(0, publish_every)
-    compile_time = time.perf_counter() - t_compile
-    start = time.perf_counter()
-
-    def write(samples):
-        count = 0
-        for sample in samples:
-            stamp_ns, encoded = cdr.sample_cdr(sample, dt_ns, imu_config, with_clock=True)
-            bag.write_many(encoded, stamp_ns)
-            count += len(encoded)
-        return count
-
-    if bag is not None:    # the initial state, at step 0
-        written += write(s for s in [sampler.sample_now()] if s is not None)
     done = 0
     while done < total:
-        while commands and commands[0].t <= sim.t + 1e-12:
-            sim.set_command(commands.pop(0).value)
-        # periods until the next command or the next progress report
-        chunk = min(total - done, 1000)
-        if commands:
-            until = int(np.ceil((commands[0].t - sim.t) / (publish_every * dt) - 1e-9))
-            chunk = max(1, min(chunk, until))
-        if bag is None:   # no messages wanted: the compiled loop samples the state alone
-            states.append(sim.trajectory(chunk * publish_every, publish_every))
-            times.extend(sim.t0 + (sim.steps - publish_every * np.arange(chunk - 1, -1, -1)) * dt)
-        elif sampler.batches():   # many periods in one compiled call, encoded at once
-            batch = sampler.next_periods(chunk)
-            for stamp_ns, encoded in cdr.batch_cdr(batch, dt_ns, imu_config, with_clock=True):
-                bag.write_many(encoded, stamp_ns)
-                written += len(encoded)
-            if batch.error is not None:
-                raise batch.error
-            times.extend(sim.t0 + np.array(batch.steps) * dt)
-            states.append(batch.y)
-        else:
-            for _ in range(chunk):
-                written += write(sampler.next_period())
-                times.append(sim.t)
-                states.append(sim.y[None, :].copy())
+        chunk = _next_chunk(sim, commands, total - done, publish_every * dt)
+        run.advance(chunk)
         done += chunk
         if progress is not None:
             progress(chunk * publish_every * dt)
-    states = np.concatenate([np.atleast_2d(s) for s in states])
+    states = np.concatenate([np.atleast_2d(s) for s in run.states])
     wall = time.perf_counter() - start
-    return RunResult(scenario, np.array(times), states, wall, written, compile_time,
+    return RunResult(scenario, np.array(run.times), states, wall, run.written, compile_time,
                      sim.refined_steps, sim.max_substeps, sim.rolling_switches,
                      sim.contact_step_note, sim.integrator_used, _note(sim))
+
+
+def _simulation(scenario: Scenario, dt: float, integrator: str) -> Simulation:
+    """Return the simulation of ``scenario`` from its initial state."""
+    p = scenario.params
+    y0 = initial_state(p, scenario.omega, phi0=scenario.phi0, deck0=scenario.deck0)
+    return Simulation(p, scenario.omega, dt, spindle=scenario.spindle, y0=y0,
+                      integrator=integrator)
+
+
+def _compile(sim: Simulation, publish_every: int) -> float:
+    """Compile the kernels (numba) outside the timed part; return the seconds it took."""
+    t_compile = time.perf_counter()
+    sim.advance(0)
+    sim.trajectory(0, publish_every)
+    return time.perf_counter() - t_compile
+
+
+def _next_chunk(sim: Simulation, commands: list, remaining: int, period: float) -> int:
+    """Apply the commands due now; return the periods until the next command or report."""
+    while commands and commands[0].t <= sim.t + 1e-12:
+        sim.set_command(commands.pop(0).value)
+    chunk = min(remaining, 1000)
+    if commands:
+        until = int(np.ceil((commands[0].t - sim.t) / period - 1e-9))
+        chunk = max(1, min(chunk, until))
+    return chunk
+
+
+class _Collector:
+    """The states at every publish instant of a run, and its messages written to the bag.
+
+    One of three paths per chunk: without a bag the compiled loop samples the state alone;
+    with one, many periods in one compiled call encoded at once where the sampler batches,
+    else period by period.
+    """
+
+    def __init__(self, sim: Simulation, sampler: PlantSampler, publish_every: int, bag,
+                 imu_config: ImuConfig):
+        self.sim, self.sampler, self.publish_every = sim, sampler, publish_every
+        self.bag, self.imu_config = bag, imu_config
+        self.dt_ns = int(round(sim.dt * 1e9))
+        self.times = [sim.t]
+        self.states = [sim.y.copy()]
+        self.written = 0
+
+    def write_initial(self) -> None:
+        """Write the initial state, at step 0, to the bag (if any)."""
+        if self.bag is not None:
+            self._write(s for s in [self.sampler.sample_now()] if s is not None)
+
+    def advance(self, chunk: int) -> None:
+        """Run ``chunk`` publish periods on, collecting their states and messages."""
+        if self.bag is None:
+            self._states_only(chunk)
+        elif self.sampler.batches():
+            self._batched(chunk)
+        else:
+            for _ in range(chunk):
+                self._write(self.sampler.next_period())
+                self.times.append(self.sim.t)
+                self.states.append(self.sim.y[None, :].copy())
+
+    def _states_only(self, chunk: int) -> None:
+        sim, every = self.sim, self.publish_every
+        self.states.append(sim.trajectory(chunk * every, every))
+        self.times.extend(sim.t0 + (sim.steps - every * np.arange(chunk - 1, -1, -1)) * sim.dt)
+
+    def _batched(self, chunk: int) -> None:
+        from abb_ros.io import cdr
+        batch = self.sampler.next_periods(chunk)
+        for stamp_ns, encoded in cdr.batch_cdr(batch, self.dt_ns, self.imu_config,
+                                               with_clock=True):
+            self.bag.write_many(encoded, stamp_ns)
+            self.written += len(encoded)
+        if batch.error is not None:
+            raise batch.error
+        self.times.extend(self.sim.t0 + np.array(batch.steps) * self.sim.dt)
+        self.states.append(batch.y)
+
+    def _write(self, samples) -> None:
+        from abb_ros.io import cdr
+        for sample in samples:
+            stamp_ns, encoded = cdr.sample_cdr(sample, self.dt_ns, self.imu_config,
+                                               with_clock=True)
+            self.bag.write_many(encoded, stamp_ns)
+            self.written += len(encoded)
 
 
 def _note(sim) -> str:

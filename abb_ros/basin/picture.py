@@ -14,6 +14,8 @@ from __future__ import annotations
 
 import numpy as np
 
+from abb_ros.plots.labels import fit_title
+
 __all__ = ['COLOURS', 'basin_picture']
 
 COLOURS = {'balanced': '#2ca02c', 'settling': '#98df8a', 'packed': '#d62728',
@@ -88,7 +90,7 @@ def basin_picture(spec, table, summary, path) -> None:
         ax.bar(names, [counts[c] for c in names], color=[COLOURS[c] for c in names])
         ax.set_ylabel('starts')
         ax.set_xlabel('outcome')
-    ax.set_title(_title(spec, summary), fontsize=8)
+    fit_title(fig, ax, _title(spec, summary), fontsize=8)
     fig.tight_layout()
     fig.savefig(path, dpi=110, format='png')
     plt.close(fig)

@@ -21,7 +21,6 @@ from rclpy.signals import SignalHandlerOptions
 from abb_ros.model.parameters.params import ParamError
 from abb_ros.nodes import stop as stop_request
 from abb_ros.nodes.param_files import ParamFileError, check_arguments
-from abb_ros.nodes.rclpy_access import RCLError
 
 SPIN_TIMEOUT_S = 0.1
 """Longest wait in one spin_once: how late a stop request is seen at worst."""
@@ -71,7 +70,7 @@ def run_node(name: str, factory, args=None, usage_errors=(ParamError,), kind=Non
     try:
         try:
             rclpy.init(args=args, signal_handler_options=SignalHandlerOptions.NO)
-        except RCLError as err:   # rcl could not parse --ros-args (e.g. -p 'x:=[1')
+        except RuntimeError as err:   # rcl could not parse --ros-args (e.g. -p 'x:=[1')
             print(f'{name}: invalid --ros-args: {str(err).split(", at ")[0]}', file=sys.stderr)
             return 2
         if not stop:   # a signal during the imports: do not start at all

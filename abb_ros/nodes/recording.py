@@ -32,7 +32,6 @@ from std_srvs.srv import Trigger
 from abb_ros.io import msgdefs
 from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
 from abb_ros.model.parameters.param_spec import ParamError
-from abb_ros.nodes.rclpy_access import RCLError
 from abb_ros.nodes.taps import Taps
 
 __all__ = ['DRAIN_PERIOD_S', 'GraphRecording', 'InProcessRecording', 'LossCounter', 'Recording',
@@ -87,7 +86,7 @@ def resolve_topics(node: Node, topics, param: str) -> set[str]:
     for topic in topics:
         try:
             out.add(node.resolve_topic_name(topic))
-        except RCLError as exc:
+        except RuntimeError as exc:   # rcl refuses the name
             why = str(exc).split(', at ')[0]
             raise ParamError(param, topic, "ROS topic names ('stability/margin', "
                              "'/diagnostics', '~/x')", why) from None

@@ -4,10 +4,12 @@ Also the simulator's validated settings. The specs are collected by
 :mod:`abb_ros.nodes.parameter_table`.
 
 :func:`declare` declares a node's parameters with descriptors derived from their specs. It
-checks the start-up values (``-p``, ``--params-file``) against the spec before rclpy sees
-them: an integer literal for a double (``-p drive.k:=4000``) is taken as that double (4000.0);
-any other wrong type or bad value raises ParamError naming the ROS parameter, which ends the
-node with exit code 2 (:func:`abb_ros.nodes.entry_point.run_node`). At run time
+reads the start-up values (``-p``, ``--params-file``, a node's ``parameter_overrides``) first
+(:func:`start_up_values`, through rclpy's public API) and checks each against its spec before
+declaring it: an integer literal for a double (``-p drive.k:=4000``) is taken as that
+double (4000.0), an empty list (``-p topics:=[]``) as an empty array; any other wrong type
+or bad value raises ParamError naming the ROS parameter, which ends the node with exit code
+2 (:func:`abb_ros.nodes.entry_point.run_node`). At run time
 :func:`coerce_on_set` does the same int -> double conversion before rclpy's type check, and
 the nodes' set-parameters callbacks refuse bad values with the ParamError text.
 :func:`settings_from` turns the simulator's values into validated (DriveParams, SimSettings).
@@ -25,6 +27,7 @@ from rcl_interfaces.msg import (
     ParameterDescriptor,
     SetParametersResult,
 )
+from rclpy.exceptions import InvalidParameterValueException
 from rclpy.parameter import Parameter
 
 from abb_ros.model.dynamics.spindle import SpindleMotor, TorqueMotor
@@ -40,11 +43,10 @@ from abb_ros.model.parameters.plant_spec import check_rates, imu_config, step_of
 from abb_ros.model.sensors.imu import ImuConfig
 from abb_ros.nodes.hil_settings import HilSettings, hil_settings
 from abb_ros.nodes.parameter_table import specs_for
-from abb_ros.nodes.rclpy_access import parameter_overrides
 
 __all__ = ['DRIVE_PREFIX', 'SIMULATOR_PARAMS', 'SimSettings', 'declare', 'declare_all',
            'coerce_on_set', 'descriptor', 'settings_from', 'current_values', 'validate_change',
-           'validate_merged', 'with_ros_names', 'P3_WBAR']
+           'validate_merged', 'with_ros_names', 'start_up_values', 'P3_WBAR']
 
 P3_WBAR = 2.7
 """Default initial speed: the paper's point P3, wbar = 2.7 (with the drive's omega0)."""
@@ -82,26 +84,56 @@ def declare(node, specs: Mapping[str, ParamSpec], defaults: Mapping[str, Any] = 
     double); raises ParamError naming the ROS parameter and what is valid.
     """
     defaults = defaults or {}
-    overrides = parameter_overrides(node)   # rclpy's -p / --params-file values, by name
+    overrides = start_up_values(node, specs)
     for name, spec in specs.items():
-        default = defaults.get(name, spec.default)
-        value = default
+        value = defaults.get(name, spec.default)
         if name in overrides:
-            value = overrides[name].value
+            value = overrides[name]
             if value is None and isinstance(spec.default, list):
                 value = []    # rcl reads an empty YAML list ('[]') as no value
             value = spec.check(value, name, strict=True)
-            overrides[name] = Parameter(name, value=value)
-        if default == [] or value == []:
+        if value == []:
             # rclpy types an empty list as a byte array: declare the type, then set the value
             kind = Parameter.Type[spec.type.upper()]
-            if value == []:
-                overrides.pop(name, None)
-            node.declare_parameter(name, kind, descriptor(spec))   # an override sets it
-            if value == []:
-                node.set_parameters([Parameter(name, kind, [])])
+            node.declare_parameter(name, kind, descriptor(spec), ignore_override=True)
+            node.set_parameters([Parameter(name, kind, [])])
         else:
-            node.declare_parameter(name, default, descriptor(spec))
+            node.declare_parameter(name, value, descriptor(spec), ignore_override=True)
+
+
+_NO_OVERRIDE = '\x00abb_ros: no start-up value'
+"""The probe's default: what a name without a start-up value is offered as (never stored)."""
+
+
+def start_up_values(node, names) -> dict[str, Any]:
+    """Return the start-up values (``-p``, ``--params-file``, ``parameter_overrides``) by name.
+
+    Read before the parameters are declared, as they were given: an integer for a double, a
+    string for a number, None for an empty YAML list. rclpy has no getter for them, but it
+    offers them to the on-set-parameters callbacks when a parameter is declared: each name is
+    declared once, dynamically typed, with a callback in front of the node's others that
+    records the value and refuses it. Refused, nothing is stored and no ``/parameter_events``
+    message is published, so the node declares its parameters afterwards as if never probed.
+    """
+    offered = {}
+
+    def record_and_refuse(parameters):
+        offered.update((p.name, p.value) for p in parameters)
+        return SetParametersResult(successful=False, reason='start-up value read')
+
+    node.add_on_set_parameters_callback(record_and_refuse)
+    try:
+        for name in names:
+            try:
+                node.declare_parameter(name, _NO_OVERRIDE,
+                                       ParameterDescriptor(dynamic_typing=True))
+            except InvalidParameterValueException:
+                pass
+            if name not in offered:   # another callback came first and refused
+                raise RuntimeError(f'the start-up value of {name} could not be read')
+    finally:
+        node.remove_on_set_parameters_callback(record_and_refuse)
+    return {name: value for name, value in offered.items() if value != _NO_OVERRIDE}
 
 
 def coerce_on_set(node, specs: Mapping[str, ParamSpec]) -> None:

@@ -46,7 +46,6 @@ from std_msgs.msg import Float64
 from abb_ros.io import msgdefs, topics
 from abb_ros.io.live_view import DEFAULT_ALLOWED_ORIGINS, LiveView, LiveViewError
 from abb_ros.model.parameters.param_spec import ParamError
-from abb_ros.nodes.rclpy_access import RCLError
 from abb_ros.nodes.recording import DRAIN_PERIOD_S, GraphRecording
 
 __all__ = ['COMMAND_PERIOD_S', 'SERVICE_TIMEOUT_S', 'SimulatorLiveView', 'ViewerParameters',
@@ -209,7 +208,7 @@ class SimulatorLiveView:
             self._command_pubs[name] = self.node.create_publisher(Float64, name, 10)
         try:
             self._command_pubs[name].publish(data)
-        except RCLError as exc:   # checked above: the middleware refused it all the same
+        except RuntimeError as exc:   # rcl's error: checked above, refused all the same
             self.node.get_logger().error(f'live view: {topic} not published: {exc}')
 
     def close(self) -> None:

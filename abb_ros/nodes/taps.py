@@ -5,14 +5,13 @@ costs more than the work). A node that needs the messages in batches (the record
 the latest one at its own rate (the analysis node) creates its subscriptions on
 :class:`Taps` and takes them from a timer: the middleware queues them (``depth``) meanwhile.
 Taking also yields the message info (receive time, publication sequence number), which the
-EventsExecutor does not pass to callbacks (Jazzy).
+EventsExecutor does not pass to callbacks (Jazzy): :meth:`Taps.take` takes it through the
+subscription's public ``handle``, as rclpy's own executors and ``wait_for_message`` do.
 """
 
 from __future__ import annotations
 
 from rclpy.node import Node
-
-from abb_ros.nodes.rclpy_access import take_message
 
 __all__ = ['Taps', 'helper_name']
 
@@ -54,7 +53,8 @@ class Taps:
     @staticmethod
     def take(sub):
         """Take the next queued message as (CDR bytes, info dict), or None."""
-        return take_message(sub)
+        with sub.handle:
+            return sub.handle.take_message(sub.msg_type, sub.raw)
 
     def destroy(self) -> None:
         """Destroy the helper node and its subscriptions."""

@@ -1,9 +1,12 @@
-"""Figure titles: the drive's key Eq. (39) parameters as matplotlib mathtext.
+"""Figure titles: the drive's key parameters as mathtext, and titles fitted to the figure.
 
-The parameters are wbar, zeta with the washers, epsbar, mbar and n.
+The parameters are the Eq. (39) ones: wbar, zeta with the washers, epsbar, mbar and n.
+:func:`fit_title` breaks a title too wide for its figure into lines that fit.
 """
 
 from __future__ import annotations
+
+import re
 
 SYMBOLS = {'wbar': r'$\bar{\omega}$', 'zeta': r'$\zeta$', 'Dbar': r'$\bar{D}$',
            'epsbar': r'$\bar{\varepsilon}$', 'mbar': r'$\bar{m}$'}
@@ -41,3 +44,38 @@ def parameter_text(params, wbar: float | None = None, omit=()) -> str:
     if 'mbar' not in omit:
         parts.append(f"{SYMBOLS['mbar']} = {params.mbar:.3g}")
     return ', '.join(parts + [f'n = {params.n}'])
+
+
+_OUTSIDE_MATH = r'(?=(?:[^$]*\$[^$]*\$)*[^$]*$)'
+"""Lookahead: an even number of ``$`` follows, so the place is outside $math$."""
+
+
+def fit_title(fig, ax, title: str, fontsize: float = 10) -> None:
+    """Set ``title`` on ``ax`` so that it fits the width of ``fig``.
+
+    Where it would run off the figure, each of its lines and sentences goes on lines of its
+    own; one still too wide is broken after '; ', and a part still too wide after ', '
+    (outside $math$ each time), as many parts on a line as fit.
+    """
+    width = fig.get_figwidth() * fig.dpi * 0.95
+    renderer = fig.canvas.get_renderer()
+
+    def fits(text: str) -> bool:
+        return ax.set_title(text, fontsize=fontsize).get_window_extent(renderer).width <= width
+
+    def wrapped(text: str, separators: str) -> list[str]:
+        if not separators or fits(text):
+            return [text]
+        lines = []
+        for piece in re.split(f'(?<={separators[0]}) ' + _OUTSIDE_MATH, text):
+            if lines and fits(f'{lines[-1]} {piece}'):
+                lines[-1] = f'{lines[-1]} {piece}'
+            else:
+                lines.append(piece)
+        return [part for line in lines for part in wrapped(line, separators[1:])]
+
+    if fits(title):
+        return
+    sentences = re.split(r'\n|(?<=\.) (?=[A-Z])' + _OUTSIDE_MATH, title)
+    ax.set_title('\n'.join(line for sentence in sentences for line in wrapped(sentence, ';,')),
+                 fontsize=fontsize)

@@ -9,7 +9,7 @@ surface (Fig. 4a).
 from __future__ import annotations
 
 from abb_ros.plots.labels import SYMBOLS as LABELS
-from abb_ros.plots.labels import parameter_text
+from abb_ros.plots.labels import fit_title, parameter_text
 
 LIMIT_LABELS = {'mbar_lim': r'$\bar{m}_{lim}$', 'epsbar_lim': r'$\bar{\varepsilon}_{lim}$'}
 REGION_NAMES = {'in': ('balanced and stable', 'unbalanced or no balanced equilibrium'),
@@ -58,38 +58,10 @@ def plot_map(smap, path, title=None, kind='regions') -> None:
         _region_legend(ax, smap.plane, limits)
     ax.set_xlabel(LABELS[smap.x])
     ax.set_ylabel(LABELS[smap.y])
-    _fitting_title(fig, ax, title or map_title(smap))
+    fit_title(fig, ax, title or map_title(smap))
     fig.tight_layout()
     fig.savefig(path, dpi=110)
     plt.close(fig)
-
-
-def _fitting_title(fig, ax, title: str) -> None:
-    """Set ``title`` so that it fits the figure's width.
-
-    Where it would run off the figure, its sentences go on lines of their own, each broken
-    after ', ' (outside $math$) where it is still too wide.
-    """
-    import re
-    outside_math = r'(?=(?:[^$]*\$[^$]*\$)*[^$]*$)'
-    width = fig.get_figwidth() * fig.dpi * 0.95
-    renderer = fig.canvas.get_renderer()
-
-    def fits(text: str) -> bool:
-        return ax.set_title(text, fontsize=10).get_window_extent(renderer).width <= width
-
-    if fits(title):
-        return
-    lines = []
-    for sentence in re.split(r'(?<=\.) (?=[A-Z])' + outside_math, title):
-        pieces = re.split(r'(?<=,) ' + outside_math, sentence)
-        lines.append(pieces[0])
-        for piece in pieces[1:]:
-            if fits(f'{lines[-1]} {piece}'):
-                lines[-1] = f'{lines[-1]} {piece}'
-            else:
-                lines.append(piece)
-    ax.set_title('\n'.join(lines), fontsize=10)
 
 
 def _limit_text(name, value) -> str:

@@ -367,7 +367,16 @@ def _check_value(where, name, value, nominal):
         raise ParamError(where, value, exc.valid, f'outside the valid range of {name}') from None
 
 
-def _distribution(where, name, dist, nominal):  # noqa: C901 (15: not split yet)
+def _distribution(where, name, dist, nominal):
+    """Return the checked distribution ``dist`` of parameter ``name`` (at ``where``)."""
+    kind = _kind(where, name, dist)
+    if kind in ('uniform', 'normal') or (kind == 'grid' and 'values' not in dist):
+        return _ranged(where, name, kind, dist, nominal)
+    return _listed(where, name, dist, nominal)
+
+
+def _kind(where, name, dist) -> str:
+    """Return the kind of distribution ``dist`` names, its keys checked against that kind."""
     if not isinstance(dist, dict) or 'dist' not in dist:
         raise ParamError(where, dist, 'a mapping {dist: ' + ' | '.join(DISTRIBUTIONS) + ', ...}')
     kind = dist['dist']
@@ -377,24 +386,32 @@ def _distribution(where, name, dist, nominal):  # noqa: C901 (15: not split yet)
     fields.mapping(where, dist, required | optional | {'dist'}, required=sorted(required))
     if name == 'n' and kind not in ('list', 'grid'):
         raise ParamError(f'{where}.dist', kind, 'list or grid (n is a whole number)')
+    return kind
+
+
+def _ranged(where, name, kind, dist, nominal) -> dict:
+    """Return a distribution over [low, high]: uniform, truncated normal or an even grid."""
+    if kind == 'grid' and not {'low', 'high', 'points'} <= set(dist):
+        raise ParamError(where, dist, 'a grid with values: [...] or low, high and points')
     out = {'dist': kind}
-    if kind in ('uniform', 'normal') or (kind == 'grid' and 'values' not in dist):
-        if kind == 'grid' and not {'low', 'high', 'points'} <= set(dist):
-            raise ParamError(where, dist, 'a grid with values: [...] or low, high and points')
-        for key in ('low', 'high', 'mean'):
-            if key in dist:
-                _check_value(f'{where}.{key}', name, dist[key], nominal)
-                out[key] = float(dist[key])
-        if not out['high'] > out['low']:
-            raise ParamError(f'{where}.high', dist['high'],
-                             f'greater than low = {out["low"]:g} (the range is empty)')
-        if kind == 'normal':
-            _check_normal(where, out, dist)
-        if kind == 'grid':
-            out['points'] = _int(f'{where}.points', dist['points'], 2, MAX_SAMPLES)
-            out['values'] = [float(v) for v in np.linspace(out['low'], out['high'],
-                                                            out['points'])]
-        return out
+    for key in ('low', 'high', 'mean'):
+        if key in dist:
+            _check_value(f'{where}.{key}', name, dist[key], nominal)
+            out[key] = float(dist[key])
+    if not out['high'] > out['low']:
+        raise ParamError(f'{where}.high', dist['high'],
+                         f'greater than low = {out["low"]:g} (the range is empty)')
+    if kind == 'normal':
+        _check_normal(where, out, dist)
+    if kind == 'grid':
+        out['points'] = _int(f'{where}.points', dist['points'], 2, MAX_SAMPLES)
+        out['values'] = [float(v) for v in np.linspace(out['low'], out['high'],
+                                                        out['points'])]
+    return out
+
+
+def _listed(where, name, dist, nominal) -> dict:
+    """Return a distribution over listed values (a list, or a grid given by its values)."""
     values = dist['values']
     if not isinstance(values, list) or not values:
         raise ParamError(f'{where}.values', values, 'a non-empty list of values')
@@ -404,8 +421,8 @@ def _distribution(where, name, dist, nominal):  # noqa: C901 (15: not split yet)
         if name == 'n' and (isinstance(v, bool) or not isinstance(v, int)):
             raise ParamError(f'{where}.values', v, 'whole numbers of balls')
         _check_value(f'{where}.values', name, v, nominal)
-    out['values'] = [int(v) if name == 'n' else float(v) for v in values]
-    return out
+    return {'dist': dist['dist'], 'values': [int(v) if name == 'n' else float(v)
+                                             for v in values]}
 
 
 def _check_normal(where, out, dist):

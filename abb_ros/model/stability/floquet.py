@@ -202,7 +202,7 @@ def _finite_range(lam):
     return [float(fin.min()), float(fin.max())] if fin.size else []
 
 
-def stability_map(base, x, x_values, y, y_values,  # noqa: C901 (12: not split yet)
+def stability_map(base, x, x_values, y, y_values,
                   settings=None, plane='in', progress=None, members=0) -> StabilityMap:
     """Compute |lambda|max over the grid x_values x y_values of two Eq. (39) parameters.
 
@@ -210,7 +210,30 @@ def stability_map(base, x, x_values, y, y_values,  # noqa: C901 (12: not split y
     every point is converted with :func:`abb_ros.model.parameters.params.apply_settings`. wbar must
     be one of the axes or in ``settings``.
     """
-    from abb_ros.model.parameters.params import apply_settings
+    settings = _map_settings(x, y, settings)
+    xs = np.asarray(x_values, dtype=float)
+    ys = np.asarray(y_values, dtype=float)
+    plist, omegas = _grid_drives(base, x, xs, y, ys, settings)
+    lam, exists = max_multiplier_batch(plist, np.maximum(omegas, 1e-9), plane,
+                                       progress=progress)
+    status = np.where(~exists, NO_EQUILIBRIUM, np.where(lam < 1.0, BALANCED, UNSTABLE))
+    first = plist[0]
+    fixed = {'settings': settings, 'n': first.n, 'omega0': first.omega0,
+             **{k: v for k, v in first.dimensionless().items() if k not in (x, y)},
+             'SI': {k: v for k, v in first.as_dict().items()}}
+    shape = (ys.size, xs.size)
+    smap = StabilityMap(x, y, xs, ys, lam.reshape(shape), status.reshape(shape), plane, fixed,
+                        _limits(first, (x, y)))
+    if members:
+        best, worst, sampled = member_extremes(plist, np.maximum(omegas, 1e-9), plane, members,
+                                               progress, fan_lam=lam)
+        smap.lam_best, smap.lam_worst = best.reshape(shape), worst.reshape(shape)
+        smap.members = int(sampled[exists].min()) if exists.any() else 0
+    return smap
+
+
+def _map_settings(x, y, settings) -> dict:
+    """Return the fixed settings of a map over axes ``x`` and ``y``, the axes checked."""
     for name in (x, y):
         if name not in MAP_AXES:
             raise ParamError('axis', name, 'one of ' + ', '.join(MAP_AXES))
@@ -221,8 +244,15 @@ def stability_map(base, x, x_values, y, y_values,  # noqa: C901 (12: not split y
         settings.pop(name, None)
     if 'wbar' not in (x, y) and 'wbar' not in settings and 'omega' not in settings:
         raise ParamError('wbar', None, '[0, inf): give it as an axis or with --set wbar=...')
-    xs = np.asarray(x_values, dtype=float)
-    ys = np.asarray(y_values, dtype=float)
+    return settings
+
+
+def _grid_drives(base, x, xs, y, ys, settings) -> tuple[list, np.ndarray]:
+    """Return the drive and the speed of every grid point, row by row (y outer).
+
+    A drive is built once for the points that differ only in speed.
+    """
+    from abb_ros.model.parameters.params import apply_settings
     cache = {}
     plist, omegas = [], []
     for yv in ys:
@@ -235,25 +265,14 @@ def stability_map(base, x, x_values, y, y_values,  # noqa: C901 (12: not split y
             params, omega = apply_settings(cache[key], speed)
             plist.append(params)
             omegas.append(omega)
-    omegas = np.asarray(omegas)
-    lam, exists = max_multiplier_batch(plist, np.maximum(omegas, 1e-9), plane,
-                                       progress=progress)
-    status = np.where(~exists, NO_EQUILIBRIUM, np.where(lam < 1.0, BALANCED, UNSTABLE))
-    first = plist[0]
-    fixed = {'settings': settings, 'n': first.n, 'omega0': first.omega0,
-             **{k: v for k, v in first.dimensionless().items() if k not in (x, y)},
-             'SI': {k: v for k, v in first.as_dict().items()}}
+    return plist, np.asarray(omegas)
+
+
+def _limits(first, axes) -> dict:
+    """Return the balancing limits of the map's first drive for its mass or eccentricity axis."""
     limits = {}
-    if y == 'mbar' or x == 'mbar':
+    if 'mbar' in axes:
         limits['mbar_lim'] = mbar_lim(first)
-    if y == 'epsbar' or x == 'epsbar':
+    if 'epsbar' in axes:
         limits['epsbar_lim'] = epsbar_lim(first)
-    shape = (ys.size, xs.size)
-    smap = StabilityMap(x, y, xs, ys, lam.reshape(shape), status.reshape(shape), plane, fixed,
-                        limits)
-    if members:
-        best, worst, sampled = member_extremes(plist, np.maximum(omegas, 1e-9), plane, members,
-                                               progress, fan_lam=lam)
-        smap.lam_best, smap.lam_worst = best.reshape(shape), worst.reshape(shape)
-        smap.members = int(sampled[exists].min()) if exists.any() else 0
-    return smap
+    return limits

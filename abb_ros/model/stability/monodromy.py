@@ -57,7 +57,7 @@ def eval_coeffs(H, basis, out):
 
 
 @kernel
-def accel_matrix(Mh, Ch, Kh, tau, Mw, R, basis):  # noqa: C901 (16: compiled kernel, one pass)
+def accel_matrix(Mh, Ch, Kh, tau, Mw, R, basis):
     """Set R = -M(tau)^-1 [K(tau) C(tau)], shape (nq, 2 nq), by Gauss elimination (pivoting).
 
     Mw (nq, nq) and basis (5,) are work buffers.
@@ -74,6 +74,14 @@ def accel_matrix(Mh, Ch, Kh, tau, Mw, R, basis):  # noqa: C901 (16: compiled ker
     for i in range(nq):
         for j in range(2 * nq):
             R[i, j] = -R[i, j]
+    eliminate(Mw, R)
+    back_substitute(Mw, R)
+
+
+@kernel
+def eliminate(Mw, R):
+    """Reduce Mw to upper triangular form, rows of R alike (partial pivoting), in place."""
+    nq = Mw.shape[0]
     for col in range(nq):
         piv = col
         big = abs(Mw[col, col])
@@ -82,25 +90,37 @@ def accel_matrix(Mh, Ch, Kh, tau, Mw, R, basis):  # noqa: C901 (16: compiled ker
                 big = abs(Mw[r, col])
                 piv = r
         if piv != col:
-            for j in range(nq):
-                tmp = Mw[col, j]
-                Mw[col, j] = Mw[piv, j]
-                Mw[piv, j] = tmp
-            for j in range(2 * nq):
-                tmp = R[col, j]
-                R[col, j] = R[piv, j]
-                R[piv, j] = tmp
+            swap_rows(Mw, R, col, piv)
         inv = 1.0 / Mw[col, col]
         for r in range(col + 1, nq):
             f = Mw[r, col] * inv
             if f != 0.0:
                 for j in range(col, nq):
                     Mw[r, j] -= f * Mw[col, j]
-                for j in range(2 * nq):
+                for j in range(R.shape[1]):
                     R[r, j] -= f * R[col, j]
+
+
+@kernel
+def swap_rows(Mw, R, a, b):
+    """Swap rows a and b of Mw and of R."""
+    for j in range(Mw.shape[1]):
+        tmp = Mw[a, j]
+        Mw[a, j] = Mw[b, j]
+        Mw[b, j] = tmp
+    for j in range(R.shape[1]):
+        tmp = R[a, j]
+        R[a, j] = R[b, j]
+        R[b, j] = tmp
+
+
+@kernel
+def back_substitute(Mw, R):
+    """Set R = Mw^-1 R for an upper triangular Mw, in place."""
+    nq = Mw.shape[0]
     for col in range(nq - 1, -1, -1):
         inv = 1.0 / Mw[col, col]
-        for j in range(2 * nq):
+        for j in range(R.shape[1]):
             acc = R[col, j]
             for r in range(col + 1, nq):
                 acc -= Mw[col, r] * R[r, j]

@@ -80,7 +80,45 @@ def velocity_coupling(y, n, P, inv, Ainv, W, B, Jv):
 
 
 @kernel
-def mis_contact_step(t, dt, y, n, P, S, sub, trace, solver):  # noqa: C901 (13: compiled, one pass)
+def deck_inverse(A, f, u, Ainv):
+    """Fill Ainv with the inverse of the eliminated deck matrix A, column by column.
+
+    ``f`` and ``u`` (6) are scratch for :func:`solve_deck`.
+    """
+    for col in range(6):
+        for row in range(6):
+            f[row] = 1.0 if row == col else 0.0
+        solve_deck(A, f, u)
+        for row in range(6):
+            Ainv[row, col] = u[row]
+
+
+@kernel
+def stage_forcing(i, y, n, qdd, Jv, v0, F, g):
+    """Store the slow part of MIS stage ``i`` in F[i]; put the next fast stretch's forcing in g.
+
+    The slow part is the accelerations without contact ``qdd`` minus Jv (phi' - v0); the
+    forcing is the stages' combination (:data:`MIS_A`) over the stretch to stage i + 1, of
+    length ``span`` = MIS_C[i + 1] - MIS_C[i] (in steps), which is returned.
+    """
+    N = PHI + n
+    for c in range(N):
+        F[i, c] = qdd[c]
+    for b in range(n):
+        dv = y[N + PHI + b] - v0[b]
+        for c in range(N):
+            F[i, c] -= Jv[c, b] * dv
+    span = MIS_C[i + 1] - MIS_C[i]
+    for c in range(N):
+        s = 0.0
+        for j in range(i + 1):
+            s += (MIS_A[i + 1, j] - MIS_A[i, j]) * F[j, c]
+        g[c] = s / span
+    return span
+
+
+@kernel
+def mis_contact_step(t, dt, y, n, P, S, sub, trace, solver):
     """Take one step of dt from (t, y) while balls touch, y in place; return its sub-steps.
 
     A multirate infinitesimal step (MIS: Wensch, Knoth, Galant 2009) on Knoth & Wolke's
@@ -130,31 +168,13 @@ def mis_contact_step(t, dt, y, n, P, S, sub, trace, solver):  # noqa: C901 (13: 
         t_i = t + MIS_C[i] * dt
         accel(t_i, y, n, P_slow, S, qdd, solver)
         if i == 0:
-            # A is now the eliminated deck matrix: its inverse, column by column
-            for col in range(6):
-                for row in range(6):
-                    f[row] = 1.0 if row == col else 0.0
-                solve_deck(A, f, u)
-                for row in range(6):
-                    Ainv[row, col] = u[row]
+            deck_inverse(A, f, u, Ainv)   # A is now the eliminated deck matrix
             velocity_coupling(y, n, P, inv, Ainv, W, B, Jv)
             for b in range(n):      # B's columns of Jv's ball rows, at the step's start
                 Bs[b, 0] = B[b, 0]
                 Bs[b, 1] = B[b, 1]
                 Bs[b, 2] = B[b, 5]
-        # the slow part at stage i: accel without contact minus Jv (phi' - v0)
-        for c in range(N):
-            F[i, c] = qdd[c]
-        for b in range(n):
-            dv = y[N + PHI + b] - v0[b]
-            for c in range(N):
-                F[i, c] -= Jv[c, b] * dv
-        span = MIS_C[i + 1] - MIS_C[i]
-        for c in range(N):
-            s = 0.0
-            for j in range(i + 1):
-                s += (MIS_A[i + 1, j] - MIS_A[i, j]) * F[j, c]
-            g[c] = s / span
+        span = stage_forcing(i, y, n, qdd, Jv, v0, F, g)
         m = max(1, int(math.ceil(sub * span - 1e-9)))
         rows = mis_fast_solve(t_i, m, span * dt / m, y, n, P, fast, trace, rows)
     return rows

@@ -68,7 +68,7 @@ def check_state(y, n):
 
 
 @kernel
-def step(t, dt, y, n, P, S, stages, solver, cache):  # noqa: C901 (13: compiled kernel, one pass)
+def step(t, dt, y, n, P, S, stages, solver, cache):
     """Take one step of dt from (t, y), y in place; return (status, sub-steps, switches).
 
     One classical RK4 step, or, while balls touch, sub-steps of dt /
@@ -96,34 +96,59 @@ def step(t, dt, y, n, P, S, stages, solver, cache):  # noqa: C901 (13: compiled 
         sub, impact, resting = contact_regimes(y, n, P, dt, False)
     switches = 0
     if P[P_ROLLING_MU] > 0.0 and n > 0 and S[S_MODE] != SPINDLE_TORQUE:
-        events = np.empty((MAX_SWITCHES, 1 + n + n2))
-        h = dt / sub
-        for j in range(sub):
-            switches += rolling_substep(t + j * h, h, y, n, P, S, stages, solver, events, cache)
+        switches = rolling_substeps(t, dt, sub, y, n, P, S, stages, solver, cache)
     elif sub == 1 and not impact and not resting:
         rk4_substep(t, dt, y, n, P, S, stages, solver)
     elif sub > 1 and S[S_MODE] != SPINDLE_TORQUE:
         sub = contact_step(t, dt, y, ysave, n, P, S, (sub, impact), np.empty((0, n2)), solver)
     else:
-        # whole-system RK4 sub-steps (torque mode), or one RK4 step (a contact resolved in
-        # one step); both taken again when a resting contact did not rest
-        if impact:
-            sub = int(math.ceil(sub * MIS_IMPACT_REFINE))
-        rk4_substeps(t, dt, sub, y, n, P, S, stages, solver)
-        forced = retake_substeps(ysave, y, n, P, dt, impact, sub, MIS_IMPACT_REFINE)
-        if forced > 0:
-            for i in range(n2):
-                y[i] = ysave[i]
-            if S[S_MODE] == SPINDLE_TORQUE:
-                sub = forced
-                rk4_substeps(t, dt, sub, y, n, P, S, stages, solver)
-            else:
-                sub = mis_contact_step(t, dt, y, n, P, S, forced, np.empty((0, n2)), solver)
+        sub = resolved_substeps(t, dt, y, n, P, S, stages, solver, sub, impact)
     status = check_state(y, n)
     if status != OK:
         for i in range(n2):
             y[i] = ysave[i]
     return status, sub, switches
+
+
+@kernel
+def rolling_substeps(t, dt, sub, y, n, P, S, stages, solver, cache):
+    """Take ``sub`` sub-steps of dt / sub with rolling resistance, y in place.
+
+    Each locates its rolling regime switches
+    (:func:`abb_ros.model.dynamics.kernels.rolling_events.rolling_substep`); returns how many.
+    """
+    events = np.empty((MAX_SWITCHES, 1 + n + y.shape[0]))
+    h = dt / sub
+    switches = 0
+    for j in range(sub):
+        switches += rolling_substep(t + j * h, h, y, n, P, S, stages, solver, events, cache)
+    return switches
+
+
+@kernel
+def resolved_substeps(t, dt, y, n, P, S, stages, solver, sub, impact):
+    """Take whole-system RK4 sub-steps of dt, y in place; return how many were taken.
+
+    ``sub`` of them in torque mode (MIS_IMPACT_REFINE times as many in an impact), or one
+    RK4 step where a contact is resolved in one step; both are taken again from
+    ``stages.ysave`` when a resting contact did not rest
+    (:func:`abb_ros.model.dynamics.kernels.contact_steps.retake_substeps`): RK4 sub-steps in
+    torque mode, else the multirate step.
+    """
+    ysave = stages.ysave
+    if impact:
+        sub = int(math.ceil(sub * MIS_IMPACT_REFINE))
+    rk4_substeps(t, dt, sub, y, n, P, S, stages, solver)
+    forced = retake_substeps(ysave, y, n, P, dt, impact, sub, MIS_IMPACT_REFINE)
+    if forced > 0:
+        for i in range(y.shape[0]):
+            y[i] = ysave[i]
+        if S[S_MODE] == SPINDLE_TORQUE:
+            sub = forced
+            rk4_substeps(t, dt, sub, y, n, P, S, stages, solver)
+        else:
+            sub = mis_contact_step(t, dt, y, n, P, S, forced, np.empty((0, y.shape[0])), solver)
+    return sub
 
 
 @kernel
