@@ -31,9 +31,9 @@ class FakeClock:
         self.now += int(ns)
 
 
-def pacer(real_time_factor=1.0, max_lag_ns=100e6, clock=None):
+def pacer(real_time_factor=1.0, max_lag_ns=100e6, clock=None, lead=0.5):
     clock = clock or FakeClock()
-    return Pacer(DT_NS, EVERY, real_time_factor, max_lag_ns, clock, clock), clock
+    return Pacer(DT_NS, EVERY, real_time_factor, max_lag_ns, clock, clock, lead=lead), clock
 
 
 def run(p, clock, ticks, steps=0, tick_ns=None):
@@ -86,13 +86,15 @@ def test_jitter_below_half_a_period_either_way_still_gives_one_period_per_tick()
     assert p.overruns == 0
 
 
+@pytest.mark.parametrize('lead', [0.0, 0.5])
 @pytest.mark.parametrize('factor', [1.0, 0.5, 4.0])
 def test_ticks_at_the_deadlines_integrate_one_period_each_and_stamps_never_lead_the_wall(
-        factor):
+        factor, lead):
     """The plant thread sleeps until deadline_ns: each wake-up there integrates one period,
     and on the wall clock that period's last stamp is not after the wake-up (no stamp in the
-    future), and at most a period before it."""
-    p, clock = pacer(factor)
+    future), and at most a period before it (with lead 0: at it, give or take the rounding of
+    the epoch to a step)."""
+    p, clock = pacer(factor, lead=lead)
     p.start(0)
     steps = 0
     for _ in range(300):
@@ -102,9 +104,25 @@ def test_ticks_at_the_deadlines_integrate_one_period_each_and_stamps_never_lead_
         assert p.due(steps) == 1
         steps += EVERY
         if factor == 1.0:
-            assert 0 <= clock.now - p.stamp_ns(steps) <= PERIOD_NS
+            assert 0 <= clock.now - p.stamp_ns(steps) < (PERIOD_NS if lead else DT_NS)
     assert p.overruns == 0 and p.slips == 0
     assert clock.now - START_NS == pytest.approx(300 * PERIOD_NS / factor, abs=2)
+
+
+def test_with_lead_0_a_wake_up_late_by_less_than_a_period_publishes_one_period_late():
+    """The plant thread's sleeps never end early, so with lead 0 a period is due at its stamp:
+    a wake-up 0.9 period late integrates that period alone (no overrun, nothing published
+    ahead of its stamp), and the next deadline is the next stamp."""
+    p, clock = pacer(1.0, lead=0.0)
+    p.start(0)
+    steps = 0
+    for k in range(100):
+        late = (0.9 if k % 3 == 0 else 0.0) * PERIOD_NS
+        clock.now = p.deadline_ns(steps) + int(late)
+        assert p.due(steps) == 1
+        steps += EVERY
+        assert 0 <= clock.now - p.stamp_ns(steps) - int(late) < DT_NS   # epoch rounding
+    assert p.overruns == 0
 
 
 def test_the_deadline_after_a_slip_follows_the_new_schedule():

@@ -60,12 +60,20 @@ class Pacer:
         The steady clock the ticks are paced on [ns].
     wall_ns : callable
         The wall clock wall-time stamps follow [ns].
+    lead : float
+        How far ahead of a tick the due count is taken [publish periods]. 0.5 for a timer
+        that may fire early (an rclpy timer): a tick early or late by less than half a period
+        integrates one period, and a late one may publish the next period up to half a
+        period before its stamp. 0 for the plant's thread, whose sleeps never end early: a
+        period is due at its stamp, and a wake-up late by less than a period publishes that
+        period alone, late by as much.
     """
 
     def __init__(self, dt_ns: int, publish_every: int, real_time_factor: float,
                  max_lag_ns: float, steady_ns: Callable[[], int],
-                 wall_ns: Callable[[], int] = time.time_ns):
+                 wall_ns: Callable[[], int] = time.time_ns, lead: float = 0.5):
         self.dt_ns = dt_ns
+        self.lead = lead
         self.publish_every = publish_every
         self.real_time_factor = real_time_factor
         self.max_lag_ns = max_lag_ns
@@ -107,15 +115,14 @@ class Pacer:
     def deadline_ns(self, steps: int) -> int:
         """Steady time of the next tick on schedule, from ``steps`` [ns].
 
-        Half a period after the next publish period falls due (:meth:`_anchor_at`): the tick
-        of the plant thread, as a timer of the publish period started at the anchor would
-        tick, so that a wake-up late or early by less than half a period integrates exactly
-        one period.
+        ``lead`` periods after the next publish period falls due (:meth:`_anchor_at`), as a
+        timer of the publish period started at the anchor would tick: with lead 0, the time
+        of the next period's stamp.
         """
         wall0, steps0 = self._anchor
         every = self.publish_every
         following = (steps // every + 1) * every
-        due_in_ns = (following - steps0 + every / 2) * self.dt_ns / self.real_time_factor
+        due_in_ns = (following - steps0 + self.lead * every) * self.dt_ns / self.real_time_factor
         return wall0 + math.ceil(due_in_ns)
 
     def stamp_ns(self, steps: int) -> int:
@@ -153,12 +160,12 @@ class Pacer:
     def _anchor_at(self, steps: int) -> None:
         """Pace from now at ``steps``.
 
-        Ticks come at the publish period in wall time; the due step count is computed half a
-        period ahead, so that ticks early or late by less than P/2 (timer wake-up jitter
-        either way) integrate exactly one period each.
+        Ticks come at the publish period in wall time; the due step count is computed
+        ``lead`` periods ahead (half a period for a timer, so that ticks early or late by
+        less than P/2 integrate exactly one period each).
         """
         wall_period_ns = self.publish_every * self.dt_ns / self.real_time_factor
-        self._anchor = (self._steady_ns() - int(wall_period_ns / 2), steps)
+        self._anchor = (self._steady_ns() - int(wall_period_ns * self.lead), steps)
 
     def due(self, steps: int) -> int:
         """Publish periods to integrate now, from ``steps`` (0: none due yet).

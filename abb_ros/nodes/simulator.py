@@ -111,7 +111,8 @@ class SimulatorNode(Node):
         self.sampler = PlantSampler(self.sim, self.imu, s.publish_every, s.imu_every)
         _warm_up(self.sim)
         self.pacer = Pacer(s.dt_ns, s.publish_every, s.real_time_factor,
-                           self._max_stamp_lag_ns(), time.monotonic_ns)
+                           self._max_stamp_lag_ns(), time.monotonic_ns,
+                           lead=0.0 if pacing == 'thread' else 0.5)
         self._running = False   # integrating (not paused, no fault)
         self.pending_drive = self.drive
         self.fault = ''
