@@ -17,6 +17,10 @@ old path) and ``thread`` (the plant's own thread, the default), one after the ot
   included, the reader's Python scheduling not), and stamps missing (lost); once more with
   the plant's thread under SCHED_FIFO (``realtime_priority`` 50) where the system allows it.
 
+The floor: a Python thread in this process that only sleeps to absolute deadlines 1 ms apart
+(what waking up at 1 kHz costs on this machine, with no work), and the plant's own work per
+period in this process (``SimulatorNode._integrate_period`` of a paused node, warm caches).
+
 For each: CPU of each process (/proc utime + stime over the window, % of one core), the
 simulator's overruns and slips over the window (/diagnostics), and for the recording the
 joint_states of the window missing from the bag (gaps in its 1 ms stamps; a slip's dropped
@@ -192,6 +196,43 @@ def measure(setting: str, pacing: str, seconds: float, work: Path, priority: int
     return out
 
 
+def wake_floor(seconds: float) -> float:
+    """CPU of a thread that wakes at absolute deadlines 1 ms apart and does nothing [share]."""
+    def loop():
+        deadline = time.monotonic_ns()
+        end = deadline + int(seconds * 1e9)
+        while deadline < end:
+            deadline += PERIOD_NS
+            time.sleep(max(0.0, (deadline - time.monotonic_ns()) * 1e-9))
+    thread = threading.Thread(target=loop)
+    cpu0, wall0 = time.thread_time(), time.perf_counter()
+    start = time.process_time()
+    thread.start()
+    thread.join()
+    return (time.process_time() - start - (time.thread_time() - cpu0)) / (
+        time.perf_counter() - wall0)
+
+
+def period_work_us(periods: int = 5000) -> float:
+    """Wall time of one publish period's work in a paused node in this process [us]."""
+    from rclpy.parameter import Parameter
+
+    from abb_ros.nodes.simulator import SimulatorNode
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx)
+    node = SimulatorNode(context=ctx, parameter_overrides=[Parameter('start_paused', value=True)])
+    try:
+        for _ in range(500):
+            node._integrate_period()
+        start = time.perf_counter()
+        for _ in range(periods):
+            node._integrate_period()
+        return (time.perf_counter() - start) / periods * 1e6
+    finally:
+        node.destroy_node()
+        rclpy.shutdown(context=ctx)
+
+
 def row(label: str, old: dict, new: dict) -> None:
     cpu_old, cpu_new = sum(old['cpu'].values()), sum(new['cpu'].values())
     parts = ' + '.join(f'{100 * v:.1f}' for v in new['cpu'].values())
@@ -237,6 +278,10 @@ def main() -> int:
             print(f'    {kind:9s} p50 {np.percentile(j, 50):.3f}  p99 {np.percentile(j, 99):.3f}'
                   f'  max {j.max():.3f}')
     print('  targets: simulator alone <= 10 %, sim (recording) + analysis <= 18 %, p99 < 0.5 ms')
+    floor, work = wake_floor(5.0), period_work_us()
+    print(f'\n  floor: a thread waking at 1 kHz doing nothing {100 * floor:.1f} % of a core; one '
+          f'period of the plant\'s work, warm, {work:.1f} us ({work / 10:.1f} % at 1 kHz); load '
+          f'{os.getloadavg()[0]:.2f}')
     return 0
 
 
