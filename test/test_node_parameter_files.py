@@ -149,3 +149,32 @@ def test_every_node_executable_exits_2_with_one_line(tmp_path, node, case):
     assert proc.returncode == 2, proc.stderr
     assert len(lines) == 1 and str(path) in lines[0] and needle in lines[0], proc.stderr
     assert 'Traceback' not in proc.stderr
+
+
+def test_a_parameter_file_written_by_launch_ros_is_taken(tmp_path):
+    """``ros2 launch`` (launch_ros) writes a node's parameters to a temporary file with
+    ``yaml.dump``, a list parameter as ``!!python/tuple`` (bench.launch.py's
+    ``record.topics``); rcl reads that as a list, so the check must too, not refuse it as
+    malformed YAML (the simulator would exit 2 under every launch)."""
+    import yaml
+
+    from abb_ros.io.safe_yaml import load_file
+    topics = ('stability/margin', '/diagnostics')
+    path = tmp_path / 'launch_params_x'
+    path.write_text(yaml.dump({'/abb_simulator': {'ros__parameters': {
+        'real_time_factor': 1.0, 'record.start': False, 'record.path': '',
+        'record.topics': topics}}}, default_flow_style=False))
+    assert '!!python/tuple' in path.read_text()
+    check_arguments(['x', '--ros-args', '-r', '__node:=abb_simulator', '--params-file',
+                     str(path)], 'abb_simulator', specs_for('simulator'), KNOWN)
+    loaded = load_file(path)['/abb_simulator']['ros__parameters']['record.topics']
+    assert loaded == list(topics)
+
+
+def test_no_other_python_tag_is_constructed(tmp_path):
+    """Only the tuple tag is read: any other Python object stays refused."""
+    from abb_ros.io.safe_yaml import YamlFileError, load_file
+    path = tmp_path / 'evil.yaml'
+    path.write_text("x: !!python/object/apply:os.system ['true']\n")
+    with pytest.raises(YamlFileError, match='malformed YAML'):
+        load_file(path)

@@ -25,7 +25,7 @@ def test_an_exponent_without_a_dot_is_a_float(monkeypatch, loader, text, value):
     """The safe loader reads YAML 1.2 floats as floats with and without libyaml."""
     if loader == 'pure python':
         from abb_ros.io import safe_yaml
-        monkeypatch.setattr(safe_yaml, '_LOADER', safe_yaml._with_yaml12_floats(_PyLoader))
+        monkeypatch.setattr(safe_yaml, '_LOADER', safe_yaml._ros_loader(_PyLoader))
     got = load_text(f'x: {text}')['x']
     assert isinstance(got, float) and got == value
 

@@ -10,7 +10,9 @@ is one :class:`YamlFileError` that names the file and what is wrong.
 Numbers are read as ROS parameter files and YAML 1.2 read them: ``5e-5`` and ``1E3`` are floats
 (YAML 1.1, PyYAML's default, wants a dot in the mantissa and a sign in the exponent and reads
 them as text), so a value means the same in a parameter file, a scenario, a sweep spec and on
-the command line.
+the command line. A sequence tagged ``!!python/tuple`` is read as a list, as rcl reads it:
+``ros2 launch`` (launch_ros) writes a node's list parameters into its temporary parameter file
+with that tag.
 """
 
 from __future__ import annotations
@@ -58,18 +60,25 @@ mantissa with or without a dot, exponent with or without a sign. Whole numbers w
 exponent are matched first by the integer rule, so ``5`` stays an int."""
 
 
-def _with_yaml12_floats(base):
-    """Return a subclass of the loader ``base`` that also reads YAML 1.2 floats as floats.
+PYTHON_TUPLE = 'tag:yaml.org,2002:python/tuple'
+"""The tag PyYAML's ``yaml.dump`` gives a tuple (launch_ros's list parameters)."""
 
-    The resolver is appended after PyYAML's own: its float (with a dot) and int rules come
-    first, so only what they leave as text (``5e-5``, ``1E3``, ``1.e+3``) is added.
+
+def _ros_loader(base):
+    """Return a subclass of the loader ``base`` that reads as ROS parameter files are read.
+
+    YAML 1.2 floats are floats: the resolver is appended after PyYAML's own, whose float
+    (with a dot) and int rules come first, so only what they leave as text (``5e-5``,
+    ``1E3``, ``1.e+3``) is added. A ``!!python/tuple`` sequence is a list (only that tag:
+    no other Python object is constructed).
     """
     loader = type(f'{base.__name__}12', (base,), {})
     loader.add_implicit_resolver('tag:yaml.org,2002:float', FLOAT_12, list('-+.0123456789'))
+    loader.add_constructor(PYTHON_TUPLE, lambda self, node: self.construct_sequence(node))
     return loader
 
 
-_LOADER = _with_yaml12_floats(getattr(yaml, 'CSafeLoader', None) or _PyLoader)
+_LOADER = _ros_loader(getattr(yaml, 'CSafeLoader', None) or _PyLoader)
 
 
 def _one_line(exc: yaml.YAMLError) -> str:
