@@ -6,12 +6,13 @@ simulator record the whole bench in process to ``record_dir``: its own topics as
 them and the other nodes' topics from the middleware (a separate recorder reading the 1 kHz
 topics would cost the simulator about 30 us per message and reader, docs/time_under_load.md).
 Every node loads ``params_file`` (the drive's parameters; default the installed Table 1
-file). Arguments: docs/ros_api.md.
+file). When the simulator ends (a bad parameter, a failure), the whole launch ends with it.
+Arguments: docs/ros_api.md.
 Imports only launch and launch_ros, as the ROS 2 Jazzy launch documentation prescribes.
 """
 
 from launch import LaunchDescription
-from launch.actions import DeclareLaunchArgument, GroupAction
+from launch.actions import DeclareLaunchArgument, GroupAction, Shutdown
 from launch.conditions import IfCondition
 from launch.substitutions import LaunchConfiguration, PathJoinSubstitution
 from launch_ros.actions import Node, PushRosNamespace
@@ -52,6 +53,7 @@ def generate_launch_description():
         PushRosNamespace(LaunchConfiguration('namespace')),
         Node(package='abb_ros', executable='simulator', name='abb_simulator',
              output='screen', sigterm_timeout=SHUTDOWN_S,
+             on_exit=Shutdown(reason='the simulator ended'),
              parameters=[params_file, {
                  'real_time_factor': ParameterValue(LaunchConfiguration('real_time_factor'),
                                                     value_type=float),

@@ -105,6 +105,14 @@ def test_every_node_in_the_launch_file_is_a_console_script_of_this_package():
         assert f"'{call['name']}'" in source, (call['name'], module)
 
 
+def test_the_bench_ends_when_the_simulator_ends():
+    """A simulator that exits (a bad parameter: exit 2) shuts the launch down, instead of
+    leaving the analysis and the controller running without a plant."""
+    text = LAUNCH.read_text()
+    simulator = text[text.index("executable='simulator'"):text.index("executable='analysis'")]
+    assert "on_exit=Shutdown(" in simulator
+
+
 def test_the_simulators_own_recording_takes_the_other_nodes_topics_of_the_bench():
     from abb_ros.io.topics import TOPICS
     (topics,) = [n.value for n in tree().body if isinstance(n, ast.Assign)
