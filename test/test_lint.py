@@ -19,3 +19,13 @@ def test_code_passes_ruff_with_the_ament_line_length():
                            'benchmarks', 'scripts', 'launch', 'setup.py'], cwd=ROOT,
                           capture_output=True, text=True, timeout=120)
     assert proc.returncode == 0, proc.stdout + proc.stderr
+
+
+MAX_MODULE_LINES = 450
+"""A module of the package longer than this does several jobs: split it by concept."""
+
+
+def test_no_module_of_the_package_is_over_450_lines():
+    long = {str(path.relative_to(ROOT)): n for path in (ROOT / 'abb_ros').rglob('*.py')
+            if (n := len(path.read_text().splitlines())) > MAX_MODULE_LINES}
+    assert long == {}, f'modules over {MAX_MODULE_LINES} lines: {long}'

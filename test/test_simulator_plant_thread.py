@@ -50,12 +50,14 @@ def published_after(node, seconds):
 
 
 def test_the_plant_publishes_in_real_time_with_no_executor_spinning_the_node():
-    """0.5 s of wall time without any executor: about 500 joint_states at 1 kHz (at least 250
-    on a loaded machine; the executor's timer would have published none)."""
+    """0.5 s of wall time without any executor: about 500 joint_states at 1 kHz. Bounds for a
+    loaded machine: at least 100; at most 500 plus what a late start may catch up within
+    max_stamp_lag (0.1 s: 100 periods), plus a margin of 20. The executor's timer would have
+    published none (next test)."""
     node, ctx = alone()
     try:
         assert node.plant is not None and node.plant.alive
-        assert 250 <= published_after(node, 0.5) <= 520
+        assert 100 <= published_after(node, 0.5) <= 620
     finally:
         close(node, ctx)
     assert not node.plant.alive

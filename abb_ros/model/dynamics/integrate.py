@@ -12,7 +12,6 @@ speed profile or a torque-driven motor); :meth:`Simulation.set_command` sets its
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 
 import numpy as np
 
@@ -34,12 +33,12 @@ from abb_ros.model.dynamics.kernels.layout import (
     STAT_SWITCHES,
     W_STATS,
 )
-from abb_ros.model.dynamics.spindle import ConstantSpeed, SpindleMotor, TorqueMotor
+from abb_ros.model.dynamics.spindle import SpindleMotor, TorqueMotor
 from abb_ros.model.dynamics.state import StateLayout
 from abb_ros.model.parameters.params import DriveParams, ParamError
 
-__all__ = ['DEFAULT_DT', 'MAX_RUN_STEPS', 'StateError', 'Simulation', 'Trajectory', 'simulate',
-           'INTEGRATORS', 'ADAPTIVE_RTOL', 'adaptive_atol', 'fixed_step_reason']
+__all__ = ['DEFAULT_DT', 'MAX_RUN_STEPS', 'StateError', 'Simulation', 'INTEGRATORS',
+           'ADAPTIVE_RTOL', 'adaptive_atol', 'fixed_step_reason']
 
 DEFAULT_DT = 1.0 / 10000.0
 """Default fixed step [s] (10 kHz); see docs/verification.md for the accuracy
@@ -417,68 +416,3 @@ class Simulation:
     def rbar(self) -> float:
         """Deck translation over race radius, sqrt(X^2 + Y^2 + Z^2) / R."""
         return float(self.layout.rbar(self.y, self.params.R))
-
-
-@dataclass
-class Trajectory:
-    """States sampled at times ``t`` [s]; ``y`` shape (len(t), 2N)."""
-
-    params: DriveParams
-    t: np.ndarray
-    y: np.ndarray
-
-    @property
-    def n(self) -> int:
-        """Number of balls."""
-        return self.params.n
-
-    @property
-    def layout(self) -> StateLayout:
-        """The state layout of n balls."""
-        return StateLayout(self.n)
-
-    @property
-    def rbar(self) -> np.ndarray:
-        """The deck's rbar of every sample."""
-        return self.layout.rbar(self.y, self.params.R)
-
-    @property
-    def phi(self) -> np.ndarray:
-        """Ball angles [rad], shape (len(t), n)."""
-        return self.layout.phi(self.y)
-
-    @property
-    def deck(self) -> np.ndarray:
-        """Deck coordinates of every sample, shape (len(t), 6)."""
-        return self.layout.deck(self.y)
-
-    @property
-    def omega(self) -> np.ndarray:
-        """Spindle speed [rad/s] of every sample."""
-        return self.layout.omega(self.y)
-
-
-def simulate(params: DriveParams, omega: float, duration: float, dt: float = DEFAULT_DT,
-             sample_dt: float = 1e-3, spindle=None, y0=None, progress=None) -> Trajectory:
-    """Integrate for ``duration`` s with fixed steps, sampling every ``sample_dt`` s.
-
-    ``spindle`` default :class:`ConstantSpeed` (the paper's runs). ``progress`` is an
-    optional callable receiving the number of samples done (for a progress bar).
-    """
-    every = max(1, int(round(sample_dt / dt)))
-    if abs(every * dt - sample_dt) > 1e-9 * sample_dt:
-        raise ParamError('sample_dt', sample_dt, f'a multiple of dt = {dt:g} s')
-    sim = Simulation(params, omega, dt, spindle=spindle or ConstantSpeed(), y0=y0)
-    total = int(round(duration / dt)) // every
-    chunk = max(1, min(total, 1000))
-    rows = [sim.y[None, :].copy()]
-    done = 0
-    while done < total:
-        m = min(chunk, total - done)
-        rows.append(sim.trajectory(m * every, every))
-        done += m
-        if progress is not None:
-            progress(m)
-    y = np.concatenate(rows)
-    t = sim.t0 + np.arange(len(y)) * every * dt
-    return Trajectory(params, t, y)
