@@ -96,29 +96,12 @@ def test_interrupted_study_resumes_to_the_same_table(tmp_path):
 
 def test_ctrl_c_then_resume_gives_the_table_of_one_run_through(tmp_path, client, capsys):
     """SIGINT mid-study: exit 130, no basin.parquet; --resume computes only the missing parts."""
-    import signal
-    import subprocess
-    import sys
-    import time
+    from interrupt import interrupt_after_parts
     out = tmp_path / 'out'
     argv = ['basin', '--res', '6x6', '--duration', '0.3', '--partition-size', '2',
             '--no-progress', '--scheduler', client.scheduler.address]
-    proc = subprocess.Popen([sys.executable, '-m', 'abb_ros.cli', *argv, '--out', str(out)],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
-    try:
-        deadline = time.monotonic() + 120
-        while time.monotonic() < deadline and proc.poll() is None:
-            if len(list((out / PARTS).glob('part-*.parquet'))) >= 3:
-                break
-            time.sleep(0.01)
-        proc.send_signal(signal.SIGINT)
-        _, err = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-    assert proc.returncode == 130, err.decode()
+    code, err = interrupt_after_parts([*argv, '--out', str(out)], out / PARTS, timeout_s=120)
+    assert code == 130, err
     assert not (out / 'basin.parquet').exists()
     first = {p.name: p.stat().st_mtime_ns for p in (out / PARTS).glob('part-*.parquet')}
     assert 3 <= len(first) < 18, f'{len(first)} partitions written before the interrupt'

@@ -10,13 +10,11 @@ import dataclasses
 import json
 import os
 import signal
-import subprocess
-import sys
-import time
 
 import numpy as np
 import pyarrow as pa
 import pytest
+from interrupt import interrupt_after_parts
 
 from abb_ros.cli import main
 from abb_ros.sweep import store
@@ -126,25 +124,9 @@ def test_resume_after_interrupting_the_command_recomputes_only_missing_partition
     path = _spec_file(tmp_path, samples=60, part=2, duration=0.5)
     out = tmp_path / 'out'
     address = client.scheduler.address
-    # SIGINT as from a terminal, even when this test runs with SIGINT ignored (a background job
-    # of a non-interactive shell), which the command would inherit and so never be interrupted
-    proc = subprocess.Popen([sys.executable, '-m', 'abb_ros.cli', 'sweep', str(path), '--out',
-                             str(out), '--scheduler', address, '--no-progress'],
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
-    try:
-        deadline = time.monotonic() + 60
-        while time.monotonic() < deadline and proc.poll() is None:
-            if out.is_dir() and len(list(out.glob('part-*.parquet'))) >= 3:
-                break
-            time.sleep(0.01)
-        proc.send_signal(signal.SIGINT)
-        _, err = proc.communicate(timeout=60)
-    finally:
-        if proc.poll() is None:
-            proc.kill()
-            proc.wait()
-    assert proc.returncode == 130, err.decode()
+    code, err = interrupt_after_parts(['sweep', str(path), '--out', str(out), '--scheduler',
+                                       address, '--no-progress'], out)
+    assert code == 130, err
     first = {p.name: p.stat().st_mtime_ns for p in out.glob('part-*.parquet')}
     missing = 30 - len(first)
     assert 3 <= len(first) < 30, f'{len(first)} partitions written before the interrupt'

@@ -366,6 +366,33 @@ def dask_client(command: str, scheduler=None, workers=None, serial: bool = False
             cluster.close()
 
 
+def run_on_dask(command: str, args, total: int, unit: str, desc: str, work):
+    """Run ``work(client, progress)`` on the Dask client of ``args``' options, with a bar.
+
+    ``args``: the command's parsed options (``scheduler``, ``workers``, ``serial``,
+    ``no_progress``). The bar (tqdm, on stderr) counts ``total`` ``unit``s. A SweepError of
+    ``work`` is a usage error. Returns (what ``work`` returned, the number of workers).
+    """
+    import sys
+
+    from abb_ros.sweep.runner import SweepError
+    bar = None
+    if not args.no_progress:
+        from tqdm import tqdm
+        bar = tqdm(total=total, unit=unit, file=sys.stderr, desc=desc, smoothing=0.1)
+    try:
+        with dask_client(command, args.scheduler, args.workers, args.serial) as client:
+            try:
+                result = work(client, bar.update if bar else None)
+            except SweepError as exc:
+                raise UsageError(str(exc)) from None
+            workers = len(client.scheduler_info()['workers']) if client is not None else 0
+    finally:
+        if bar is not None:
+            bar.close()
+    return result, workers
+
+
 def _has_dashboard(client) -> bool:
     """Return whether the scheduler serves the Dask dashboard.
 

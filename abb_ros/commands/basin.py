@@ -8,8 +8,6 @@ starts (n = 2, ``--res NxM``) or from ``--samples K`` uniform random starts, on 
 
 from __future__ import annotations
 
-import sys
-
 
 def add_arguments(parser) -> None:
     """Add the options of `abb-sim basin` to ``parser``."""
@@ -51,7 +49,7 @@ def run(args) -> dict:
     from abb_ros.commands.api import (
         UsageError,
         check_dask_options,
-        dask_client,
+        run_on_dask,
         run_scenario_from_args,
     )
     from abb_ros.model.stability.outcomes import REST_TOL_DEG
@@ -70,21 +68,9 @@ def run(args) -> dict:
         check_out(spec, args.out, args.resume)    # before a cluster is started
     except SweepError as exc:
         raise UsageError(str(exc)) from None
-    bar = None
-    if not args.no_progress:
-        from tqdm import tqdm
-        bar = tqdm(total=spec.total, unit='start', file=sys.stderr,
-                   desc=f'basin {scenario.name}', smoothing=0.1)
-    try:
-        with dask_client('basin', args.scheduler, args.workers, args.serial) as client:
-            try:
-                summary = run_basin(spec, args.out, client, resume=args.resume,
-                                    progress=bar.update if bar else None)
-            except SweepError as exc:
-                raise UsageError(str(exc)) from None
-            workers = len(client.scheduler_info()['workers']) if client is not None else 0
-    finally:
-        if bar is not None:
-            bar.close()
+    summary, workers = run_on_dask(
+        'basin', args, spec.total, 'start', f'basin {scenario.name}',
+        lambda client, progress: run_basin(spec, args.out, client, resume=args.resume,
+                                           progress=progress))
     return {**summary, 'out': str(args.out), 'workers': workers,
             'scheduler': args.scheduler or ('serial' if args.serial else 'local')}

@@ -9,8 +9,6 @@ finishes an interrupted sweep without recomputing the partitions already written
 
 from __future__ import annotations
 
-import sys
-
 from abb_ros.commands.api import UsageError, add_dask_arguments, check_dask_options
 
 
@@ -23,7 +21,7 @@ def add_arguments(parser) -> None:
 
 def run(args) -> dict:
     """Run the spec's sweep on a Dask cluster into the output directory; return the summary."""
-    from abb_ros.commands.api import dask_client
+    from abb_ros.commands.api import run_on_dask
     from abb_ros.sweep.runner import SweepError, check_out_dir, run_sweep
     from abb_ros.sweep.spec import load_spec
 
@@ -33,22 +31,10 @@ def run(args) -> dict:
         check_out_dir(spec, args.out, args.resume)   # before a cluster is started
     except SweepError as exc:
         raise UsageError(str(exc)) from None
-    bar = None
-    if not args.no_progress:
-        from tqdm import tqdm
-        bar = tqdm(total=spec.total, unit='drive', file=sys.stderr, desc=f'sweep {spec.name}',
-                   smoothing=0.1)
-    try:
-        with dask_client('sweep', args.scheduler, args.workers, args.serial) as client:
-            try:
-                result = run_sweep(spec, args.out, client, resume=args.resume,
-                                   progress=bar.update if bar else None)
-            except SweepError as exc:
-                raise UsageError(str(exc)) from None
-            workers = len(client.scheduler_info()['workers']) if client is not None else 0
-    finally:
-        if bar is not None:
-            bar.close()
+    result, workers = run_on_dask(
+        'sweep', args, spec.total, 'drive', f'sweep {spec.name}',
+        lambda client, progress: run_sweep(spec, args.out, client, resume=args.resume,
+                                           progress=progress))
     return _summary(spec, result, args, workers)
 
 
