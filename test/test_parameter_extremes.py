@@ -7,6 +7,8 @@ a ParamError naming the parameter (the set-parameters reason, exit code 2 at sta
 the plant built from it, as the simulator node builds it (FG speed sensor, IMU faults, speed
 noise, a shock of the disturbance parameters, the fastest accepted speed command), runs with
 finite readings only, or stops on the state envelope (StateError: the node's ERROR state).
+The lower-rate streams (markers at ``visualization.rate_hz``, ``joint_states_throttle`` at
+``joint_states_throttle_hz``) are slotted on each sample's stamp as the node slots them.
 An OverflowError, an infinity or a NaN on a topic is the failure this file looks for.
 """
 
@@ -23,6 +25,7 @@ from abb_ros.model.sensors.faults import ImuFaults, SpeedFaults
 from abb_ros.model.sensors.imu import ImuModel
 from abb_ros.model.sensors.sampling import PlantSampler
 from abb_ros.model.sensors.speed_sensor import SpeedSensor
+from abb_ros.nodes.rate_slots import RateSlots
 from abb_ros.nodes.ros_params import P3_WBAR, SIMULATOR_PARAMS, settings_from, with_ros_names
 
 HOSTILE = (1e308, 1e200, 1e20, -1e308, -1.0, 5e-324, -5e-324, 0.0)
@@ -53,7 +56,7 @@ def _cases():
                 yield pytest.param(name, [value] * spec.length, id=f'{name}[:]={value:g}')
 
 
-def _run_plant(drive, s) -> list:
+def _run_plant(drive, s, throttle_hz: float) -> list:
     """Run the plant of (drive, settings) as the node wires it; return every reading."""
     sim = Simulation(drive, s.initial_speed, s.dt_ns * 1e-9, spindle=s.spindle())
     imu = ImuModel(s.imu, seed=s.seed)
@@ -66,11 +69,15 @@ def _run_plant(drive, s) -> list:
     if s.spindle_mode == 'torque':
         sim.set_command(s.motor.I_max)
     readings = []
+    markers, throttle = RateSlots(), RateSlots()
     for period in range(PERIODS):
         if period == PERIODS // 2:
             sim.y[:] = disturbances.apply_shock(sim.y, drive.n, s.hil.shock_velocity)
         for sample in sampler.next_period():
             assert sample.is_finite()
+            stamp_ns = sample.stamp_ns(s.dt_ns, 0)
+            markers.opens(stamp_ns, s.hil.visualization_rate_hz)
+            throttle.opens(stamp_ns, throttle_hz)
             readings.extend(x for x in (sample.speed, sample.effort) if x is not None)
             if sample.imu is not None:
                 readings.extend(sample.imu.accel.tolist() + sample.imu.gyro.tolist())
@@ -90,7 +97,7 @@ def test_an_accepted_value_keeps_every_published_value_finite(name, value):
         assert err.name in SIMULATOR_PARAMS and 'valid range is' in str(err), err
         return
     try:
-        readings = _run_plant(drive, settings)
+        readings = _run_plant(drive, settings, values['joint_states_throttle_hz'])
     except StateError:
         return     # the envelope stops the plant: the node reports ERROR, publishes nothing
     assert all(math.isfinite(x) for x in readings)

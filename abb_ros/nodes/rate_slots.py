@@ -7,7 +7,12 @@ The markers (``visualization.rate_hz``) and ``joint_states_throttle``
 
 from __future__ import annotations
 
-__all__ = ['RateSlots']
+__all__ = ['MAX_SLOT_NS', 'RateSlots']
+
+
+MAX_SLOT_NS = 2 ** 62
+"""Longest slot [ns], about 146 years: a rate so low (down to 5e-324 Hz, which the parameters
+accept) that 1 / rate overflows has one slot for any stamp, opened by the first."""
 
 
 class RateSlots:
@@ -20,7 +25,7 @@ class RateSlots:
         """Return whether ``stamp_ns`` opens a slot not seen yet (then it is the last seen)."""
         if rate_hz <= 0.0:
             return False
-        slot = stamp_ns // round(1e9 / rate_hz)
+        slot = stamp_ns // max(1, round(min(1e9 / rate_hz, MAX_SLOT_NS)))
         if slot == self._slot:
             return False
         self._slot = slot
