@@ -120,14 +120,13 @@ class HilIO:
         return response
 
     # ---- outputs -------------------------------------------------------------------------
-    def on_sample(self, sample) -> None:
-        """Publish the markers if this state sample starts a new visualisation slot.
+    def on_sample(self, sample, stamp_ns: int) -> None:
+        """Publish the markers if this sample, stamped ``stamp_ns``, opens a visualisation slot.
 
         The slots are 1 / visualization.rate_hz long, in simulated time.
         """
-        if sample is None or sample.y is None:
+        if sample.y is None:
             return
-        stamp_ns = sample.stamp_ns(self.node.pacer.dt_ns, self.node.pacer.epoch_ns)
         if not self._marker_slots.opens(stamp_ns, self.config.visualization_rate_hz):
             return
         self.node.send(MARKERS, markers.marker_array(

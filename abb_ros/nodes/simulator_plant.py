@@ -144,7 +144,7 @@ class PlantLoop:
             self.send(topic, data, stamp_ns)
             if topic == JOINT_STATES and self._throttle_slots.opens(stamp_ns, self._throttle_hz):
                 self.send(JOINT_STATES_THROTTLE, data, stamp_ns)
-        self.hil.on_sample(sample)
+        self.hil.on_sample(sample, stamp_ns)
 
     def send(self, topic: str, data: bytes, stamp_ns: int) -> None:
         """Publish the CDR bytes of one message of ``topic`` (a key of the topic list).
