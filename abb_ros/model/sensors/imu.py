@@ -215,6 +215,19 @@ def imu_readings(ys, qdds, n, r, gravity, z, k, bias, out):
 
 
 @kernel
+def reading_and_pose(y, n, qdd, r, gravity, z, k, bias, out):
+    """Write the IMU sample and the deck's pose and twist at the state ``y`` into ``out`` (19,).
+
+    ``out[:6]``: :func:`imu_reading` (specific force, angular rate) with the accelerations
+    ``qdd``, the normals ``z`` (12) and the bias updated in place; ``out[6:]``:
+    :func:`deck_pose_twist`. Both in one call.
+    """
+    N = PHI + n
+    imu_reading(y[:N], y[N:], qdd, r, gravity, z, k, bias, out[:6])
+    deck_pose_twist(y, n, out[6:19])
+
+
+@kernel
 def deck_pose_twists(ys, n, out):
     """Write :func:`deck_pose_twist` of each state ``ys[j]`` into ``out[j]`` (13 columns)."""
     for j in range(ys.shape[0]):
@@ -325,6 +338,15 @@ class ImuModel:
         JIT.imu_reading(q, qd, qdd, self._position, self.config.gravity, z, self._k,
                         self.bias, out)
         return ImuReading(out[:3], out[3:])
+
+    def read_with_pose(self, y, n: int, qdd, out) -> None:
+        """Write :meth:`read` at the state ``y`` (``n`` balls) into ``out[:6]`` (accel, gyro).
+
+        And the deck's pose and twist (:func:`deck_pose_twist`) into ``out[6:19]``: the same
+        numbers, generator and bias as :meth:`read`, in one compiled call.
+        """
+        JIT.reading_and_pose(y, n, qdd, self._position, self.config.gravity,
+                             self._normals.take(12), self._k, self.bias, out)
 
     def read_many(self, ys, qdds, n: int) -> np.ndarray:
         """Return the readings at the states ``ys`` (rows, ``n`` balls), rows (accel, gyro).
