@@ -216,15 +216,17 @@ def imu_readings(ys, qdds, n, r, gravity, z, k, bias, out):
 
 @kernel
 def reading_and_pose(y, n, qdd, r, gravity, z, k, bias, out):
-    """Write the IMU sample and the deck's pose and twist at the state ``y`` into ``out`` (19,).
+    """Write the state ``y``, the IMU sample and the deck's pose and twist there into ``out``.
 
-    ``out[:6]``: :func:`imu_reading` (specific force, angular rate) with the accelerations
-    ``qdd``, the normals ``z`` (12) and the bias updated in place; ``out[6:]``:
-    :func:`deck_pose_twist`. Both in one call.
+    ``out[:2N]``: ``y``; then :func:`imu_reading` (specific force, angular rate) with the
+    accelerations ``qdd``, the normals ``z`` (12) and the bias updated in place; then
+    :func:`deck_pose_twist` (13). All in one call.
     """
     N = PHI + n
-    imu_reading(y[:N], y[N:], qdd, r, gravity, z, k, bias, out[:6])
-    deck_pose_twist(y, n, out[6:19])
+    for i in range(2 * N):
+        out[i] = y[i]
+    imu_reading(y[:N], y[N:], qdd, r, gravity, z, k, bias, out[2 * N:2 * N + 6])
+    deck_pose_twist(y, n, out[2 * N + 6:2 * N + 19])
 
 
 @kernel
@@ -340,10 +342,11 @@ class ImuModel:
         return ImuReading(out[:3], out[3:])
 
     def read_with_pose(self, y, n: int, qdd, out) -> None:
-        """Write :meth:`read` at the state ``y`` (``n`` balls) into ``out[:6]`` (accel, gyro).
+        """Write ``y`` (``n`` balls, 2N values), then :meth:`read` there into ``out``.
 
-        And the deck's pose and twist (:func:`deck_pose_twist`) into ``out[6:19]``: the same
-        numbers, generator and bias as :meth:`read`, in one compiled call.
+        ``out[:2N]`` the state, ``out[2N:2N + 6]`` the reading (accel, gyro), ``out[2N + 6:
+        2N + 19]`` the deck's pose and twist (:func:`deck_pose_twist`): the same numbers,
+        generator and bias as :meth:`read`, in one compiled call.
         """
         JIT.reading_and_pose(y, n, qdd, self._position, self.config.gravity,
                              self._normals.take(12), self._k, self.bias, out)

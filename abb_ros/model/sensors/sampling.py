@@ -211,14 +211,13 @@ class PlantSampler:
         out = np.empty(at.size)
         qdd = np.empty(at.state // 2)
         sim.advance_accelerations(target - sim.steps, qdd)
-        y = out[:at.state]
-        y[:] = sim.y
-        self.imu.read_with_pose(y, n, qdd, out[at.imu:at.effort])
+        self.imu.read_with_pose(sim.y, n, qdd, out)
+        y, outputs = out[:at.state], out
         reading = ImuReading(out[at.imu:at.imu + 3], out[at.imu + 3:at.deck])
         if self.imu_faults is not None:
             given = self.imu_faults.apply(reading)
             if given is not reading:   # a fault changed it: no longer the vector's
-                reading, out = given, None
+                reading, outputs = given, None
         speed = None
         if self.speed is not None:
             speed = self.speed.update(sim.t, sim.theta, sim.omega)
@@ -226,10 +225,9 @@ class PlantSampler:
                 speed = self.speed_faults.apply(speed)
         effort = sim.motor_torque
         effort = None if math.isnan(effort) else effort
-        if out is not None:
-            out[at.effort] = 0.0 if effort is None else effort
-            out[at.zero] = 0.0
-        return Sample(target, n, y, reading, effort, speed, out)
+        out[at.effort] = 0.0 if effort is None else effort
+        out[at.zero] = 0.0
+        return Sample(target, n, y, reading, effort, speed, outputs)
 
     def batches(self) -> bool:
         """Return whether :meth:`next_periods` applies now.
