@@ -208,6 +208,10 @@ class GraphRecording:
         self._taps.destroy()
 
 
+def _skip(_name: str, _data: bytes, _stamp_ns: int) -> None:
+    """Write nothing: the topic is recorded from the graph."""
+
+
 class Recording:
     """One bag being written by a node: its own messages, and topics of the graph.
 
@@ -234,6 +238,7 @@ class Recording:
                       else GraphRecording(node, bag, topics, depth, own_only, param))
         self._on_failure = on_failure
         self._graph_destroyed = False
+        self._own: dict = {}   # the node's own topic -> how its messages are written (write)
 
     @property
     def lost_count(self) -> int:
@@ -246,6 +251,7 @@ class Recording:
         A topic added to the bag writes its metadata: the disk may refuse.
         """
         self._graph_step(GraphRecording.discover)
+        self._own.clear()   # a topic of the node's own may now come from the graph
 
     def drain(self) -> None:
         """Write the queued messages of the graph's topics into the bag."""
@@ -264,16 +270,28 @@ class Recording:
         """Write one of the node's own messages (CDR bytes) on topic ``name``.
 
         A topic recorded from the graph is skipped: the node's messages on it come through
-        the middleware like the others'.
+        the middleware like the others'. Called for every message the node publishes (5 kHz
+        for the simulator), so what to do with a topic is decided once (:meth:`_own_writer`)
+        and again only after a discovery.
         """
-        if self.graph is not None and self.graph.subscriptions.get(name) is not None:
-            return
+        write = self._own.get(name)
         try:
-            if not self.bag.has_topic(name):
-                self.bag.add_topic(name, type_name, qos=qos)
-            self.bag.write(name, data, stamp_ns)
+            if write is None:
+                write = self._own_writer(name, type_name, qos)
+            write(name, data, stamp_ns)
         except BagWriteError as exc:
             self.failed(exc)
+
+    def _own_writer(self, name: str, type_name: str, qos):
+        """Return how messages of the node's own topic ``name`` are written (adding it first)."""
+        if self.graph is not None and self.graph.subscriptions.get(name) is not None:
+            write = _skip
+        else:
+            if not self.bag.has_topic(name):
+                self.bag.add_topic(name, type_name, qos=qos)
+            write = self.bag.write
+        self._own[name] = write
+        return write
 
     def failed(self, exc: BagWriteError) -> None:
         """End the recording after a write failure: log it once, tell the owner."""
@@ -328,15 +346,21 @@ class InProcessRecording:
         The parameter that names those topics (for errors).
     discovery_s : float
         How often the graph is searched for them [s].
+    drain_s : float
+        How often their queued messages are written to the bag [s]: ``depth`` messages must
+        last this long at the topic's rate (the log time is the receive time whenever they
+        are written).
     """
 
-    def __init__(self, node: Node, depth: int, param: str, discovery_s: float):
+    def __init__(self, node: Node, depth: int, param: str, discovery_s: float,
+                 drain_s: float = DRAIN_PERIOD_S):
         self.node = node
         self.current: Recording | None = None
         self.error = ''      # why the last recording stopped ('' it did not fail)
         self._depth = depth
         self._param = param
         self._discovery_s = discovery_s
+        self._drain_s = drain_s
         self._timers = []
 
     def serve(self, path_param: str, prepare=None) -> None:
@@ -387,7 +411,7 @@ class InProcessRecording:
                 return self.error
             if not self._timers:
                 self._timers = [self.node.create_timer(self._discovery_s, self._discover),
-                                self.node.create_timer(DRAIN_PERIOD_S, self._drain)]
+                                self.node.create_timer(self._drain_s, self._drain)]
         self.node.get_logger().info(f'recording what this node publishes to {bag.path}'
                                     + (f' with {", ".join(topics)}' if topics else ''))
         return ''
