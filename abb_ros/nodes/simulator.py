@@ -54,16 +54,12 @@ from abb_ros.model.sensors.sampling import PlantSampler
 from abb_ros.nodes import ros_params, simulation_interfaces_server, simulator_live_view
 from abb_ros.nodes.entry_point import make_executor, run_node, spin
 from abb_ros.nodes.hil_io import HilIO
+from abb_ros.nodes.in_process_recording import InProcessRecording
 from abb_ros.nodes.pacing import Pacer
 from abb_ros.nodes.plant_thread import PlantThread
 from abb_ros.nodes.rate_slots import RateSlots
 from abb_ros.nodes.realtime import FifoScheduling
-from abb_ros.nodes.recording import (
-    InProcessRecording,
-    default_output,
-    refuse_bad_topics,
-    resolve_topics,
-)
+from abb_ros.nodes.recording import default_output, refuse_bad_topics, resolve_topics
 from abb_ros.nodes.sim_state import RunState, Transition
 from abb_ros.nodes.simulator_diagnostics import simulation_status
 from abb_ros.nodes.simulator_plant import PlantLoop
