@@ -1,7 +1,8 @@
 """The recordings a node starts and stops itself: the simulator's ``record.*``.
 
 :class:`InProcessRecording` holds at most one :class:`abb_ros.nodes.recording.Recording` at a
-time, of the node's own messages and of the topics of the graph it is given; it offers
+time, of the node's own messages (queued by :meth:`Recording.write` as they are published,
+written by a drain timer) and of the topics of the graph it is given; it offers
 ``~/start_recording`` and ``~/stop_recording`` and ends a recording that the disk refused.
 """
 
@@ -20,8 +21,9 @@ __all__ = ['InProcessRecording']
 class InProcessRecording:
     """The recordings a node starts and stops itself, of its own messages.
 
-    At most one at a time (:attr:`current`); with topics of the graph, discovery and drain
-    timers are made at the first start and serve every later recording.
+    At most one at a time (:attr:`current`). A drain timer, made at the first start, writes
+    the node's queued messages (:meth:`Recording.write`) and those of the topics of the graph;
+    with topics of the graph, a discovery timer too. Both serve every later recording.
 
     Parameters
     ----------
@@ -34,9 +36,9 @@ class InProcessRecording:
     discovery_s : float
         How often the graph is searched for them [s].
     drain_s : float
-        How often their queued messages are written to the bag [s]: ``depth`` messages must
-        last this long at the topic's rate (the log time is the receive time whenever they
-        are written).
+        How often the queued messages are written to the bag [s]: ``depth`` messages of a
+        topic of the graph must last this long at its rate (the log times are the receive
+        times and the stamps, whenever they are written).
     """
 
     def __init__(self, node: Node, depth: int, param: str, discovery_s: float,
@@ -48,7 +50,7 @@ class InProcessRecording:
         self._param = param
         self._discovery_s = discovery_s
         self._drain_s = drain_s
-        self._timers = []
+        self._discovery = self._drain_timer = None
 
     def serve(self, path_param: str, prepare=None) -> None:
         """Offer ``~/start_recording`` and ``~/stop_recording`` (std_srvs/Trigger).
@@ -96,9 +98,10 @@ class InProcessRecording:
             self.current.discover()
             if self.current is None:
                 return self.error
-            if not self._timers:
-                self._timers = [self.node.create_timer(self._discovery_s, self._discover),
-                                self.node.create_timer(self._drain_s, self._drain)]
+            if self._discovery is None:
+                self._discovery = self.node.create_timer(self._discovery_s, self._discover)
+        if self._drain_timer is None:   # the node's own messages are queued too
+            self._drain_timer = self.node.create_timer(self._drain_s, self._drain)
         self.node.get_logger().info(f'recording what this node publishes to {bag.path}'
                                     + (f' with {", ".join(topics)}' if topics else ''))
         return ''

@@ -208,10 +208,6 @@ class GraphRecording:
         self._taps.destroy()
 
 
-def _skip(_name: str, _data: bytes, _stamp_ns: int) -> None:
-    """Write nothing: the topic is recorded from the graph."""
-
-
 class Recording:
     """One bag being written by a node: its own messages, and topics of the graph.
 
@@ -238,7 +234,8 @@ class Recording:
                       else GraphRecording(node, bag, topics, depth, own_only, param))
         self._on_failure = on_failure
         self._graph_destroyed = False
-        self._own: dict = {}   # the node's own topic -> how its messages are written (write)
+        self._own: dict = {}   # the node's own topic -> whether write() records it
+        self._queue: list = []   # (topic, CDR bytes, log time) queued by write()
 
     @property
     def lost_count(self) -> int:
@@ -253,9 +250,27 @@ class Recording:
         self._graph_step(GraphRecording.discover)
         self._own.clear()   # a topic of the node's own may now come from the graph
 
+    @property
+    def message_count(self) -> int:
+        """Messages recorded so far: given to the bag, or queued for it (:meth:`write`)."""
+        return self.bag.message_count + len(self._queue)
+
     def drain(self) -> None:
-        """Write the queued messages of the graph's topics into the bag."""
+        """Write the node's queued messages, then those of the graph's topics, into the bag."""
+        self._write_queue()
         self._graph_step(GraphRecording.drain)
+
+    def _write_queue(self) -> None:
+        """Write the node's own messages queued by :meth:`write`, in order."""
+        if not self._queue or self.error:
+            return
+        queue, self._queue = self._queue, []
+        write = self.bag.write
+        try:
+            for name, data, stamp_ns in queue:
+                write(name, data, stamp_ns)
+        except BagWriteError as exc:
+            self.failed(exc)
 
     def _graph_step(self, step) -> None:
         """Run ``step(self.graph)`` unless the recording failed; a write failure ends it."""
@@ -267,35 +282,41 @@ class Recording:
             self.failed(exc)
 
     def write(self, name: str, type_name: str, qos, data: bytes, stamp_ns: int) -> None:
-        """Write one of the node's own messages (CDR bytes) on topic ``name``.
+        """Record one of the node's own messages (CDR bytes) on topic ``name`` at ``stamp_ns``.
 
-        A topic recorded from the graph is skipped: the node's messages on it come through
-        the middleware like the others'. Called for every message the node publishes (5 kHz
-        for the simulator), so what to do with a topic is decided once (:meth:`_own_writer`)
-        and again only after a discovery.
+        The log time is ``stamp_ns``. A topic recorded from the graph is skipped: the node's
+        messages on it come through the middleware like the others'. Called for every
+        message the node publishes (5 kHz on the simulator's plant thread), so the message
+        is only queued: :meth:`drain` and :meth:`finish` write the queue in order, with the
+        same bytes and log times. Whether a topic is recorded is decided once
+        (:meth:`_own_topic`), and again after each discovery. After a write failure the
+        recording has ended: nothing is queued.
         """
-        write = self._own.get(name)
-        try:
-            if write is None:
-                write = self._own_writer(name, type_name, qos)
-            write(name, data, stamp_ns)
-        except BagWriteError as exc:
-            self.failed(exc)
+        recorded = self._own.get(name)
+        if recorded is None:
+            if self.error:
+                return
+            try:
+                recorded = self._own_topic(name, type_name, qos)
+            except BagWriteError as exc:
+                self.failed(exc)
+                return
+        if recorded:
+            self._queue.append((name, data, stamp_ns))
 
-    def _own_writer(self, name: str, type_name: str, qos):
-        """Return how messages of the node's own topic ``name`` are written (adding it first)."""
-        if self.graph is not None and self.graph.subscriptions.get(name) is not None:
-            write = _skip
-        else:
-            if not self.bag.has_topic(name):
-                self.bag.add_topic(name, type_name, qos=qos)
-            write = self.bag.write
-        self._own[name] = write
-        return write
+    def _own_topic(self, name: str, type_name: str, qos) -> bool:
+        """Return whether the node's own topic ``name`` is recorded from here (adding it)."""
+        recorded = self.graph is None or self.graph.subscriptions.get(name) is None
+        if recorded and not self.bag.has_topic(name):
+            self.bag.add_topic(name, type_name, qos=qos)
+        self._own[name] = recorded
+        return recorded
 
     def failed(self, exc: BagWriteError) -> None:
         """End the recording after a write failure: log it once, tell the owner."""
         self.error = exc.strerror
+        self._own = {}     # write() asks again, and sees the error
+        self._queue = []
         self.node.get_logger().error(f'recording stopped: {self.error}')
         if self._on_failure is not None:
             self._on_failure(self.error)
@@ -303,14 +324,16 @@ class Recording:
     def finish(self) -> str:
         """Finish the bag (summary, metadata.yaml); works after the context has shut down.
 
-        What arrived since the last drain is written first (unless the recording failed or
-        the context is down), then the losses. Returns why finishing failed ('' when not).
+        The node's queued messages are written first, then what arrived from the graph since
+        the last drain (unless the recording failed or the context is down), then the losses.
+        Returns why finishing failed ('' when not).
         """
         if self.bag.closed:
             return ''
         error = ''
+        self._write_queue()
         if self.node.context.ok():
-            self.drain()
+            self._graph_step(GraphRecording.drain)
         if self.graph is not None:
             try:
                 self.graph.write_losses()
