@@ -19,7 +19,9 @@ old path) and ``thread`` (the plant's own thread, the default), one after the ot
 
 The floor: a Python thread in this process that only sleeps to absolute deadlines 1 ms apart
 (what waking up at 1 kHz costs on this machine, with no work), and the plant's own work per
-period in this process (``SimulatorNode._integrate_period`` of a paused node, warm caches).
+period in this process (``SimulatorNode._integrate_period`` of a paused node, thread CPU),
+back to back (warm caches) and after a 1 ms sleep each (cold, as on the plant's thread), with
+the period integrated and read in two compiled calls (the default) and step by step.
 
 For each: CPU of each process (/proc utime + stime over the window, % of one core), the
 simulator's overruns and slips over the window (/diagnostics), and for the recording the
@@ -213,21 +215,38 @@ def wake_floor(seconds: float) -> float:
         time.perf_counter() - wall0)
 
 
-def period_work_us(periods: int = 5000) -> float:
-    """Wall time of one publish period's work in a paused node in this process [us]."""
+def period_work_us(periods: int = 3000) -> dict[tuple[bool, str], float]:
+    """One publish period's work in a paused node in this process [us of thread CPU].
+
+    {(fused, 'warm' | 'cold'): mean}: the period integrated and read in two compiled calls
+    (``PlantSampler.fuse``, the default) or step by step; warm: periods back to back; cold:
+    a 1 ms sleep before each, as on the plant's thread. The two ways take turns twice; the
+    second turn is kept (the first warms both up).
+    """
     from rclpy.parameter import Parameter
 
     from abb_ros.nodes.simulator import SimulatorNode
     ctx = rclpy.Context()
     rclpy.init(context=ctx)
     node = SimulatorNode(context=ctx, parameter_overrides=[Parameter('start_paused', value=True)])
+    out = {}
     try:
-        for _ in range(500):
-            node._integrate_period()
-        start = time.perf_counter()
-        for _ in range(periods):
-            node._integrate_period()
-        return (time.perf_counter() - start) / periods * 1e6
+        for fused in (False, True, False, True):
+            node.sampler.fuse = fused
+            for _ in range(500):
+                node._integrate_period()
+            start = time.thread_time()
+            for _ in range(periods):
+                node._integrate_period()
+            out[fused, 'warm'] = (time.thread_time() - start) / periods * 1e6
+            spent = 0.0
+            for _ in range(periods):
+                time.sleep(PERIOD_NS * 1e-9)
+                start = time.thread_time()
+                node._integrate_period()
+                spent += time.thread_time() - start
+            out[fused, 'cold'] = spent / periods * 1e6
+        return out
     finally:
         node.destroy_node()
         rclpy.shutdown(context=ctx)
@@ -279,9 +298,14 @@ def main() -> int:
                   f'  max {j.max():.3f}')
     print('  targets: simulator alone <= 10 %, sim (recording) + analysis <= 18 %, p99 < 0.5 ms')
     floor, work = wake_floor(5.0), period_work_us()
-    print(f'\n  floor: a thread waking at 1 kHz doing nothing {100 * floor:.1f} % of a core; one '
-          f'period of the plant\'s work, warm, {work:.1f} us ({work / 10:.1f} % at 1 kHz); load '
-          f'{os.getloadavg()[0]:.2f}')
+    print(f'\n  floor: a thread waking at 1 kHz doing nothing {100 * floor:.1f} % of a core; '
+          f'load {os.getloadavg()[0]:.2f}')
+    print('  one period of the plant\'s work [us of thread CPU]      warm    cold (1 ms sleep '
+          'before)')
+    for fused, label in ((False, 'step by step'), (True, 'two compiled calls (default)')):
+        print(f'    {label:50s} {work[fused, "warm"]:6.1f}  {work[fused, "cold"]:6.1f}')
+    print(f'    two calls / step by step {"":26s} x {work[True, "warm"] / work[False, "warm"]:.2f}'
+          f'  x {work[True, "cold"] / work[False, "cold"]:.2f}')
     return 0
 
 

@@ -6,7 +6,9 @@ the bytes a raw subscription receives over Fast DDS. Equality is exact (byte for
 encode the same float objects, so there is no tolerance.
 """
 
+import dataclasses
 import string
+import struct
 
 import numpy as np
 import pytest
@@ -16,8 +18,9 @@ from diagnostic_msgs.msg import DiagnosticStatus
 
 from abb_ros.io import cdr, ros_messages
 from abb_ros.model.dynamics.state import n_coords
+from abb_ros.model.sensors import imu as deck_imu
 from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuConfig, ImuReading
-from abb_ros.model.sensors.sampling import Sample
+from abb_ros.model.sensors.sampling import Outputs, Sample
 
 SAMPLES = 300
 
@@ -49,24 +52,66 @@ def _random_imu_config(rng):
                      gyro_noise_density=float(rng.random() * 10.0 ** rng.integers(-6, 2)))
 
 
+def _encodes_as_rclpy(rng, sample) -> list[str]:
+    """Encode ``sample`` with a random IMU configuration, time base and /clock choice, check
+    every message against its rclpy message serialised; return the topics."""
+    config = TYPICAL_IMU if rng.random() < 0.3 else _random_imu_config(rng)
+    dt_ns = int(rng.integers(1, 10**6))
+    epoch_ns = int(rng.integers(0, 2**60)) if rng.random() < 0.5 else 0
+    with_clock = bool(rng.random() < 0.5)
+    stamp_ns, encoded = cdr.sample_cdr(sample, dt_ns, config, epoch_ns, with_clock)
+    messages = rclpy_messages.sample_messages(sample, dt_ns, config, epoch_ns, with_clock)
+    assert stamp_ns == sample.stamp_ns(dt_ns, epoch_ns)
+    assert [t for t, _ in encoded] == [t for t, _ in messages]
+    for (topic, data), (_, msg) in zip(encoded, messages):
+        assert data == cdr_bytes(msg), (topic, sample)
+    return [t for t, _ in encoded]
+
+
 def test_every_topic_of_a_sample_encodes_to_the_bytes_of_its_serialised_rclpy_message():
     rng = np.random.default_rng(20050547)
     seen = set()
     for _ in range(SAMPLES):
-        sample = _random_sample(rng)
-        config = TYPICAL_IMU if rng.random() < 0.3 else _random_imu_config(rng)
-        dt_ns = int(rng.integers(1, 10**6))
-        epoch_ns = int(rng.integers(0, 2**60)) if rng.random() < 0.5 else 0
-        with_clock = bool(rng.random() < 0.5)
-        stamp_ns, encoded = cdr.sample_cdr(sample, dt_ns, config, epoch_ns, with_clock)
-        messages = rclpy_messages.sample_messages(sample, dt_ns, config, epoch_ns, with_clock)
-        assert stamp_ns == sample.stamp_ns(dt_ns, epoch_ns)
-        assert [t for t, _ in encoded] == [t for t, _ in messages]
-        for (topic, data), (_, msg) in zip(encoded, messages):
-            assert data == cdr_bytes(msg), (topic, sample)
-            seen.add(topic)
+        seen.update(_encodes_as_rclpy(rng, _random_sample(rng)))
     assert seen == {'joint_states', 'deck/pose', 'deck/twist', 'deck/imu', '/clock',
                     'spindle/speed'}
+
+
+def _with_outputs(sample):
+    """The sample as a fused period gives it: y, the IMU reading, the deck's pose and the
+    effort in one vector (Sample.outputs), y and the reading views of it."""
+    at = Outputs.of(sample.n)
+    out = np.empty(at.size)
+    out[:at.state] = sample.y
+    out[at.imu:at.imu + 3], out[at.imu + 3:at.deck] = sample.imu.accel, sample.imu.gyro
+    deck_imu.JIT.deck_pose_twist(sample.y, sample.n, out[at.deck:at.effort])
+    out[at.effort] = 0.0 if sample.effort is None else sample.effort
+    out[at.zero] = 0.0
+    return dataclasses.replace(sample, y=out[:at.state], outputs=out,
+                               imu=ImuReading(out[at.imu:at.imu + 3], out[at.imu + 3:at.deck]))
+
+
+def test_a_sample_with_its_outputs_in_one_vector_encodes_to_the_bytes_of_its_rclpy_message():
+    """The compiled fill of one byte template (cdr.Frame) against rclpy's serialisation."""
+    rng = np.random.default_rng(20051102)
+    filled = 0
+    while filled < SAMPLES:
+        sample = _random_sample(rng)
+        if sample.y is None or sample.imu is None:
+            continue
+        _encodes_as_rclpy(rng, _with_outputs(sample))
+        filled += 1
+
+
+def test_a_stamp_past_the_range_of_time_is_refused_with_or_without_the_outputs_vector():
+    """builtin_interfaces/Time holds int32 seconds: 2**31 s and later cannot be encoded."""
+    rng = np.random.default_rng(7)
+    sample = Sample(1, 2, _awkward_floats(rng, 2 * n_coords(2)),
+                    ImuReading(_awkward_floats(rng, 3), _awkward_floats(rng, 3)))
+    for each in (sample, _with_outputs(sample)):
+        with pytest.raises(struct.error):
+            cdr.sample_cdr(each, 1, TYPICAL_IMU, 2**31 * 10**9)
+        assert cdr.sample_cdr(each, 1, TYPICAL_IMU, 2**31 * 10**9 - 2)[0] == 2**31 * 10**9 - 1
 
 
 def _random_text(rng, alphabet):

@@ -38,15 +38,19 @@ from abb_ros.io.topics import (
     SPINDLE_SPEED,
 )
 from abb_ros.model.dynamics.state import StateLayout
+from abb_ros.model.jit import KernelSet
 from abb_ros.model.sensors import imu as deck_imu
+from abb_ros.model.sensors.sampling import Outputs
 
 __all__ = ['ENCAPSULATION', 'Layout', 'joint_state', 'pose_stamped', 'twist_stamped', 'imu',
            'clock', 'float64', 'diagnostic_array', 'diagnostics', 'ENCODERS', 'sample_cdr',
-           'Rows', 'batch_cdr']
+           'Rows', 'batch_cdr', 'Frame']
 
 ENCAPSULATION = b'\x00\x01\x00\x00'
 """CDR_LE: representation identifier 0x0001 (big-endian on the wire), options 0."""
 
+fill_kernel = KernelSet()
+"""The kernel of :class:`Frame` (:func:`fill_frame`)."""
 _SIZE = {'b': 1, 'B': 1, 'h': 2, 'H': 2, 'i': 4, 'I': 4, 'q': 8, 'Q': 8, 'f': 4, 'd': 8}
 _STAMP = 'iI'   # builtin_interfaces/Time: int32 sec, uint32 nanosec
 
@@ -240,8 +244,13 @@ def sample_cdr(sample, dt_ns: int, imu_config, epoch_ns: int = 0, with_clock: bo
                ) -> tuple[int, list[tuple[str, bytes]]]:
     """Return (stamp [ns], [(topic, CDR bytes)]) of one sample.
 
-    The bytes and order are those of the sample's rclpy messages serialised.
+    The bytes and order are those of the sample's rclpy messages serialised. A sample with
+    all its outputs in one vector (``Sample.outputs``) is encoded by :class:`Frame`.
     """
+    if sample.outputs is not None:
+        stamp_ns = sample.stamp_ns(dt_ns, epoch_ns)
+        if 0 <= stamp_ns < _MAX_STAMP_NS:
+            return stamp_ns, _frame_cdr(sample, stamp_ns, imu_config, with_clock)
     stamp_ns, contents = sample_contents(sample, dt_ns, imu_config, epoch_ns, with_clock)
     sec, nanosec = divmod(stamp_ns, 1_000_000_000)
     return stamp_ns, [(topic, ENCODERS[topic](sec, nanosec, content))
@@ -334,3 +343,102 @@ def batch_cdr(batch, dt_ns: int, imu_config, epoch_ns: int = 0, with_clock: bool
     messages.append(_rows(imu_layout).pack(sec, nanosec, batch.imu[:, 3:], batch.imu[:, :3]))
     return [(stamp, list(zip(topics, row)))
             for stamp, row in zip(stamps.tolist(), zip(*messages))]
+
+
+# ---- one period's messages in one compiled fill ---------------------------------------------
+
+_MAX_STAMP_NS = 2 ** 31 * 1_000_000_000
+"""Stamps from here on do not fit builtin_interfaces/Time (int32 sec): the encoders raise."""
+SEC, NANOSEC = -1, -2
+"""Sources of :attr:`Frame.slots` that are the stamp's fields, not an output."""
+
+
+@fill_kernel
+def fill_frame(frame, slots, values, sec, nanosec):
+    """Write the stamp and the outputs ``values`` into ``frame`` at the rows of ``slots``.
+
+    A row (byte offset, source): source SEC (int32) or NANOSEC (uint32), little-endian, or the
+    index of a float64 of ``values``, its 8 bytes as they are in memory (little-endian).
+    """
+    raw = values.view(np.uint8)
+    for row in range(slots.shape[0]):
+        at, source = slots[row, 0], slots[row, 1]
+        if source < 0:
+            word = (sec if source == SEC else nanosec) & 0xFFFFFFFF
+            for j in range(4):
+                frame[at + j] = (word >> (8 * j)) & 0xFF
+        else:
+            for j in range(8):
+                frame[at + j] = raw[8 * source + j]
+
+
+FILL = fill_kernel.build()[0]
+
+
+class Frame:
+    """The messages of one state and IMU sample as one byte template and where its values go.
+
+    ``joint_states``, ``deck/pose``, ``deck/twist`` and ``deck/imu`` of ``n`` balls, ``efforts``
+    efforts (0 in speed modes, else n + 1) and the IMU's variances, one after the other, their
+    constant parts (names, frames, counts, covariances) already in :attr:`template`; each
+    variable field is a row of :attr:`slots`, whose source is an index of the sample's
+    outputs vector (:class:`~abb_ros.model.sensors.sampling.Outputs`) or the stamp.
+    """
+
+    def __init__(self, n: int, efforts: int, accel_variance: float, gyro_variance: float):
+        at = Outputs.of(n)
+        s = StateLayout.of(n)
+        index = range(s.size)
+        stamp = [SEC, NANOSEC]
+        messages = [
+            (JOINT_STATES, _joint_state_layout(n, efforts),
+             stamp + [s.theta_index, *index[s.phi_slice], s.omega_index,
+                      *index[s.phi_rate_slice]] + [at.effort, *[at.zero] * n][:efforts]),
+            (DECK_POSE, _POSE, stamp + list(range(at.deck, at.deck + 7))),
+            (DECK_TWIST, _TWIST, stamp + list(range(at.deck + 7, at.deck + 13))),
+            (DECK_IMU, _imu_layout(accel_variance, gyro_variance),
+             stamp + list(range(at.imu + 3, at.imu + 6)) + list(range(at.imu, at.imu + 3)))]
+        template, slots, self.bounds = bytearray(), [], []
+        for topic, (st, consts), sources in messages:
+            start = len(template)
+            chunks, sources, args = iter(consts), iter(sources), []
+            offset = start
+            for count, code in re.findall(r'(\d*)([a-zA-Z])', st.format.lstrip('<')):
+                k = int(count or 1)
+                if code == 's':
+                    args.append(next(chunks))
+                    offset += k
+                    continue
+                for _ in range(k):
+                    slots.append((offset, next(sources)))
+                    args.append(0)
+                    offset += _SIZE[code]
+            template += st.pack(*args)
+            self.bounds.append((topic, start, len(template)))
+        self.template = np.frombuffer(bytes(template), dtype=np.uint8)
+        self.slots = np.array(slots, dtype=np.int64)
+
+    def messages(self, outputs: np.ndarray, sec: int, nanosec: int) -> list[tuple[str, bytes]]:
+        """Return [(topic, CDR bytes)] of the four messages, stamped (sec, nanosec)."""
+        frame = self.template.copy()
+        FILL.fill_frame(frame, self.slots, outputs, sec, nanosec)
+        data = frame.tobytes()
+        return [(topic, data[start:end]) for topic, start, end in self.bounds]
+
+
+@functools.lru_cache(maxsize=16)
+def _frame(n: int, efforts: int, accel_variance: float, gyro_variance: float) -> Frame:
+    return Frame(n, efforts, accel_variance, gyro_variance)
+
+
+def _frame_cdr(sample, stamp_ns: int, imu_config, with_clock: bool) -> list[tuple[str, bytes]]:
+    """Return the messages of :func:`sample_cdr` of a sample with ``outputs``, in its order."""
+    sec, nanosec = divmod(stamp_ns, 1_000_000_000)
+    efforts = 0 if sample.effort is None else sample.n + 1
+    frame = _frame(sample.n, efforts, imu_config.accel_variance, imu_config.gyro_variance)
+    messages = frame.messages(sample.outputs, sec, nanosec)
+    if sample.speed is not None:   # after the state topics, before deck/imu
+        messages.insert(3, (SPINDLE_SPEED, float64(sec, nanosec, sample.speed)))
+    if with_clock:
+        messages.insert(0, (CLOCK_TOPIC, clock(sec, nanosec)))
+    return messages

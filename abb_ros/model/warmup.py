@@ -49,6 +49,9 @@ def warm_up() -> dict[str, float]:
     sim.trajectory(2, 1)
     s = sim.layout
     ImuModel(TYPICAL_IMU).read(sim.y[s.q], sim.y[s.qd], sim.accelerations())
+    qdd = np.empty(sim.N)
+    sim.advance_accelerations(1, qdd)
+    ImuModel(TYPICAL_IMU).read_with_pose(sim.y, params.n, qdd, np.empty(sim.y.size + 19))
     imu.JIT.deck_pose_twist(sim.y, params.n, np.empty(13))
     fg = SpeedSensor()
     for step in range(2):

@@ -101,7 +101,7 @@ class SimulatorNode(PlantLoop, Node):
         self.sim = Simulation(self.drive, s.initial_speed, s.dt, spindle=s.spindle())
         self.imu = ImuModel(s.imu, seed=s.seed)
         self.sampler = PlantSampler(self.sim, self.imu, s.publish_every, s.imu_every)
-        _warm_up(self.sim)
+        _warm_up(self.sim, self.imu, s.publish_every)
         self.pacer = Pacer(s.dt_ns, s.publish_every, s.real_time_factor,
                            self._max_stamp_lag_ns(), time.monotonic_ns,
                            lead=0.0 if pacing == 'thread' else 0.5)
@@ -386,14 +386,18 @@ def _type_name(cls) -> str:
     return f'{cls.__module__.split(".")[0]}/msg/{cls.__name__}'
 
 
-def _warm_up(sim: Simulation) -> None:
-    """Compile the kernels (numba, first call in the process) on a copy of the simulation.
+def _warm_up(sim: Simulation, imu: ImuModel, publish_every: int) -> None:
+    """Compile the kernels (numba, first call in the process) on copies of the plant.
 
-    So that the first paced tick is not seconds late.
+    Both ways of sampling a period and the encoding of a sample, so that the first paced
+    tick is not seconds late.
     """
-    twin = Simulation(sim.params, sim.omega, sim.dt, spindle=sim.spindle, y0=sim.y)
-    twin.advance(1)
-    twin.accelerations()
+    for fuse in (True, False):
+        twin = Simulation(sim.params, sim.omega, sim.dt, spindle=sim.spindle, y0=sim.y)
+        sampler = PlantSampler(twin, ImuModel(imu.config, seed=imu.seed), publish_every,
+                               publish_every, fuse=fuse)
+        for sample in sampler.next_period():
+            cdr.sample_cdr(sample, 1, imu.config)
 
 
 def main(args=None):

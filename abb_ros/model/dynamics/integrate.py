@@ -301,6 +301,23 @@ class Simulation:
         if status != kernels.OK:
             raise StateError(int(status), self.t)
 
+    def advance_accelerations(self, nsteps: int, qdd: np.ndarray) -> None:
+        """Advance by nsteps steps, then write q'' at the state reached into ``qdd`` (N,).
+
+        :meth:`advance` then :meth:`accelerations`, the same numbers, in one compiled call on
+        the fixed-step path. Raises :class:`StateError` like :meth:`advance` (``qdd`` is then
+        not written).
+        """
+        if self.integrator_used == 'adaptive':
+            self.advance(nsteps)
+            qdd[:] = self.accelerations()
+            return
+        done, status = self.kern.advance_accel(self.y, self.t0, self.dt, self.steps,
+                                               int(nsteps), self._P, self._S, self._work, qdd)
+        self.steps += int(done)
+        if status != kernels.OK:
+            raise StateError(int(status), self.t)
+
     def trajectory(self, nsteps: int, every: int, out: np.ndarray | None = None
                    ) -> np.ndarray:
         """Advance nsteps; return the states after every ``every`` steps.

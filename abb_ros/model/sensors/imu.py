@@ -215,6 +215,21 @@ def imu_readings(ys, qdds, n, r, gravity, z, k, bias, out):
 
 
 @kernel
+def reading_and_pose(y, n, qdd, r, gravity, z, k, bias, out):
+    """Write the state ``y``, the IMU sample and the deck's pose and twist there into ``out``.
+
+    ``out[:2N]``: ``y``; then :func:`imu_reading` (specific force, angular rate) with the
+    accelerations ``qdd``, the normals ``z`` (12) and the bias updated in place; then
+    :func:`deck_pose_twist` (13). All in one call.
+    """
+    N = PHI + n
+    for i in range(2 * N):
+        out[i] = y[i]
+    imu_reading(y[:N], y[N:], qdd, r, gravity, z, k, bias, out[2 * N:2 * N + 6])
+    deck_pose_twist(y, n, out[2 * N + 6:2 * N + 19])
+
+
+@kernel
 def deck_pose_twists(ys, n, out):
     """Write :func:`deck_pose_twist` of each state ``ys[j]`` into ``out[j]`` (13 columns)."""
     for j in range(ys.shape[0]):
@@ -325,6 +340,16 @@ class ImuModel:
         JIT.imu_reading(q, qd, qdd, self._position, self.config.gravity, z, self._k,
                         self.bias, out)
         return ImuReading(out[:3], out[3:])
+
+    def read_with_pose(self, y, n: int, qdd, out) -> None:
+        """Write ``y`` (``n`` balls, 2N values), then :meth:`read` there into ``out``.
+
+        ``out[:2N]`` the state, ``out[2N:2N + 6]`` the reading (accel, gyro), ``out[2N + 6:
+        2N + 19]`` the deck's pose and twist (:func:`deck_pose_twist`): the same numbers,
+        generator and bias as :meth:`read`, in one compiled call.
+        """
+        JIT.reading_and_pose(y, n, qdd, self._position, self.config.gravity,
+                             self._normals.take(12), self._k, self.bias, out)
 
     def read_many(self, ys, qdds, n: int) -> np.ndarray:
         """Return the readings at the states ``ys`` (rows, ``n`` balls), rows (accel, gyro).

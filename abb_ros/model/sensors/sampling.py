@@ -14,17 +14,19 @@ per-period cost.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
 import numpy as np
 
 from abb_ros.model.dynamics.integrate import StateError
+from abb_ros.model.dynamics.state import PHI
 from abb_ros.model.sensors.faults import ImuFaults, SpeedFaults
 from abb_ros.model.sensors.imu import ImuModel, ImuReading
 from abb_ros.model.sensors.speed_sensor import SpeedSensor
 
-__all__ = ['Sample', 'SampleBatch', 'PlantSampler']
+__all__ = ['Sample', 'Outputs', 'SampleBatch', 'PlantSampler']
 
 
 @dataclass(frozen=True)
@@ -43,6 +45,9 @@ class Sample:
     imu: ImuReading | None
     effort: float | None = None
     speed: float | None = None
+    outputs: np.ndarray | None = None
+    """With the state and the IMU from one compiled call: every output in one vector
+    (:class:`Outputs`), ``y`` and ``imu`` views of it; else None."""
 
     def stamp_ns(self, dt_ns: int, epoch_ns: int = 0) -> int:
         """Return the exact time stamp [ns] of this sample: epoch + steps * dt."""
@@ -55,6 +60,9 @@ class Sample:
         far outside the state envelope that the integrator enforces. Python floats: numpy's
         reductions cost more on arrays this small.
         """
+        if self.outputs is not None:   # y, the IMU reading, the deck's pose and the effort
+            total = sum(self.outputs.tolist())
+            return math.isfinite(total if self.speed is None else total + self.speed)
         total = 0.0 if self.y is None else sum(self.y.tolist())
         if self.imu is not None:
             total += sum(self.imu.accel.tolist()) + sum(self.imu.gyro.tolist())
@@ -62,6 +70,31 @@ class Sample:
             if value is not None:
                 total += value
         return math.isfinite(total)
+
+
+class Outputs:
+    """Where each output of one period lies in :attr:`Sample.outputs`, for ``n`` balls.
+
+    ``[0, 2N)`` the state y; ``imu``: specific force (3) [m/s^2] then angular rate (3)
+    [rad/s]; ``deck``: the deck's pose (7) and twist (6) (:func:`~abb_ros.model.sensors.imu.
+    deck_pose_twist`); ``effort``: the motor torque [N m] (0 in speed modes); ``zero``: 0.0
+    (the balls' efforts).
+    """
+
+    @staticmethod
+    @functools.lru_cache(maxsize=None)
+    def of(n: int) -> 'Outputs':
+        """Return the (shared) layout for ``n`` balls."""
+        return Outputs(n)
+
+    def __init__(self, n: int):
+        self.n = n
+        self.state = 2 * (PHI + n)
+        self.imu = self.state
+        self.deck = self.imu + 6
+        self.effort = self.deck + 13
+        self.zero = self.effort + 1
+        self.size = self.zero + 1
 
 
 @dataclass(frozen=True)
@@ -97,16 +130,23 @@ class PlantSampler:
         The FG, read with every state sample.
     imu_faults, speed_faults : optional
         :mod:`abb_ros.model.sensors.faults` applied to the readings.
+    fuse : bool
+        Integrate and read a period in two compiled calls when imu_every = publish_every
+        (:attr:`fuse`); False: step by step, for comparison. The same samples either way.
     """
 
     def __init__(self, sim, imu: ImuModel, publish_every: int, imu_every: int,
                  speed: SpeedSensor | None = None, imu_faults: ImuFaults | None = None,
-                 speed_faults: SpeedFaults | None = None):
+                 speed_faults: SpeedFaults | None = None, fuse: bool = True):
         self.sim = sim
         self.imu = imu
         self.speed = speed
         self.imu_faults = imu_faults
         self.speed_faults = speed_faults
+        self.fuse = fuse
+        """Whether a period whose one sample has the state and the IMU (imu_every =
+        publish_every) is integrated and read in two compiled calls (:meth:`_fused_period`)
+        instead of step by step in Python: the same samples."""
         self.set_rates(publish_every, imu_every)
 
     def set_rates(self, publish_every: int, imu_every: int) -> None:
@@ -148,6 +188,8 @@ class PlantSampler:
         (the samples of the failed period are lost; none is non-finite).
         """
         target = (self.sim.steps // self.publish_every + 1) * self.publish_every
+        if self.fuse and self.imu_every == self.publish_every:
+            return [self._fused_period(target)]
         out = []
         while self.sim.steps < target:
             next_imu = (self.sim.steps // self.imu_every + 1) * self.imu_every
@@ -156,6 +198,36 @@ class PlantSampler:
             if sample is not None:
                 out.append(sample)
         return out
+
+    def _fused_period(self, target: int) -> Sample:
+        """Advance to ``target``, a state and IMU instant, and sample there (see :attr:`fuse`).
+
+        The state and q'' in one compiled call, the IMU reading and the deck's pose in
+        another, into one :attr:`Sample.outputs` vector.
+        """
+        sim = self.sim
+        n = sim.params.n
+        at = Outputs.of(n)
+        out = np.empty(at.size)
+        qdd = np.empty(at.state // 2)
+        sim.advance_accelerations(target - sim.steps, qdd)
+        self.imu.read_with_pose(sim.y, n, qdd, out)
+        y, outputs = out[:at.state], out
+        reading = ImuReading(out[at.imu:at.imu + 3], out[at.imu + 3:at.deck])
+        if self.imu_faults is not None:
+            given = self.imu_faults.apply(reading)
+            if given is not reading:   # a fault changed it: no longer the vector's
+                reading, outputs = given, None
+        speed = None
+        if self.speed is not None:
+            speed = self.speed.update(sim.t, sim.theta, sim.omega)
+            if self.speed_faults is not None:
+                speed = self.speed_faults.apply(speed)
+        effort = sim.motor_torque
+        effort = None if math.isnan(effort) else effort
+        out[at.effort] = 0.0 if effort is None else effort
+        out[at.zero] = 0.0
+        return Sample(target, n, y, reading, effort, speed, outputs)
 
     def batches(self) -> bool:
         """Return whether :meth:`next_periods` applies now.

@@ -43,6 +43,7 @@ from abb_ros.model.dynamics.kernels.layout import (
     work_stages,
 )
 from abb_ros.model.dynamics.kernels.multirate import contact_step, mis_contact_step
+from abb_ros.model.dynamics.kernels.rhs import accel
 from abb_ros.model.dynamics.kernels.rk4 import rk4_substep, rk4_substeps
 from abb_ros.model.dynamics.kernels.rolling_events import MAX_SWITCHES, rolling_substep
 from abb_ros.model.dynamics.state import DECK, PHI
@@ -217,3 +218,17 @@ def trajectory(y, t0, dt, step0, nsteps, every, P, S, work, out):
                 out[rows, i] = y[i]
             rows += 1
     return done, rows, OK
+
+
+@kernel
+def advance_accel(y, t0, dt, step0, nsteps, P, S, work, qdd):
+    """:func:`advance`, then q'' at the state reached into ``qdd`` (N,) when every step was done.
+
+    The state and q'' of ``advance`` and then ``accel`` at t = t0 + (step0 + nsteps) dt, in
+    one call (the live node's publish period: its IMU reads q''). Returns (steps_done, status).
+    """
+    done, status = advance(y, t0, dt, step0, nsteps, P, S, work)
+    if status == OK:
+        n = y.shape[0] // 2 - PHI
+        accel(t0 + (step0 + done) * dt, y, n, P, S, qdd, solver_scratch(n))
+    return done, status
