@@ -40,6 +40,8 @@ if __name__ == '__main__':   # python -m: the stop handlers first, then the impo
     run_module('abb_ros.nodes.analysis')
 
 import math
+import operator
+import struct
 import time
 
 from rcl_interfaces.msg import ParameterEvent, SetParametersResult
@@ -66,6 +68,7 @@ NODE_NAME = 'abb_analysis'
 QOS_DEPTH = 10
 SYNC_PERIOD_S = 1.0
 WARN_THROTTLE_S = 5.0
+_STAMP = struct.Struct('<iI')
 
 PARAMS = specs_for('analysis')
 """{ROS name: spec}: drive.* and max_spindle_speed as the simulator has them, then this
@@ -112,6 +115,8 @@ class AnalysisNode(Node):
         self._dirty = False
         self._last_pub = 0.0
         self.status_count = 0
+        self._status_key = ((), None)   # the inputs of the status encoded last (_inputs)
+        self._status = (None, b'')      # its margin and status bytes (publish_status)
         self.worker = TableWorker()
         self._request_table()
 
@@ -235,16 +240,28 @@ class AnalysisNode(Node):
                 self.get_parameter('heartbeat_s').value:
             self.publish_status()
 
+    def _inputs(self) -> tuple[tuple, tuple]:
+        """Return what the status depends on, read once: (objects, plain values).
+
+        The objects (the worker's table and exact point, the drive) are compared by identity,
+        the plain values by equality: equal inputs give the same status.
+        """
+        worker = self.worker
+        return ((worker.table, worker.exact, self.drive),
+                (worker.error, worker.busy, self.speed[0] if self.speed else None,
+                 self.n_seen, self.omega_max, self.sync_error, self.parameters_from))
+
     def assessment(self) -> speed_bands.Assessment:
         """Return the current verdict (never raises)."""
-        worker = self.worker
-        table = worker.table
-        omega = self.speed[0] if self.speed else None
-        if worker.error:
-            return speed_bands.Assessment(speed_bands.ERROR, worker.error, math.nan,
-                                          {'omega': omega})
+        return self._assess(self._inputs())
+
+    def _assess(self, inputs) -> speed_bands.Assessment:
+        """Return the verdict of ``inputs`` (:meth:`_inputs`)."""
+        (table, exact, _), (error, busy, omega, *_) = inputs
+        if error:
+            return speed_bands.Assessment(speed_bands.ERROR, error, math.nan, {'omega': omega})
         if table is None or table.params != self._effective_drive() \
-                or table.omega_max != self.omega_max or worker.busy:
+                or table.omega_max != self.omega_max or busy:
             why = 'computing the stability table for the current parameters'
             if table is None:
                 why = f'no verdict yet: {why} (a first start also compiles the kernels, ' \
@@ -255,14 +272,33 @@ class AnalysisNode(Node):
             return speed_bands.Assessment(speed_bands.STALE, 'no joint_states_throttle yet '
                                           '(spindle speed unknown); ' + _first_clause(a.message),
                                           math.nan, a.values)
-        exact = worker.exact
         if exact is not None and abs(exact.omega - omega) > REFINE_TOL_RAD_S:
             exact = None
         return speed_bands.assess(table, omega, exact)
 
     def publish_status(self) -> None:
-        """Publish the margin and the stability status on /diagnostics."""
-        a = self.assessment()
+        """Publish the margin and the stability status on /diagnostics.
+
+        Both are encoded once per distinct status (:meth:`_inputs`): at a steady speed only
+        the header stamp of the status changes from one to the next.
+        """
+        inputs = self._inputs()
+        objects, plain = self._status_key
+        if not (plain == inputs[1] and all(map(operator.is_, objects, inputs[0]))):
+            self._status = self._encode_status(inputs)
+            self._status_key = inputs
+        margin, status = self._status
+        if margin is not None:
+            self._margin_pub.publish(margin)
+        stamp_ns = self.speed[1] if self.speed else self.get_clock().now().nanoseconds
+        self._diag_pub.publish(restamped(status, stamp_ns))
+        self._last_pub = time.monotonic()
+        self._dirty = False
+        self.status_count += 1
+
+    def _encode_status(self, inputs) -> tuple[bytes | None, bytes]:
+        """Return the CDR bytes of the margin (None: no verdict) and of the status (stamp 0)."""
+        a = self._assess(inputs)
         level, message = a.level, a.message
         if self.sync_error:
             level, message = speed_bands.ERROR, f'{self.sync_error}; {message}'
@@ -272,21 +308,23 @@ class AnalysisNode(Node):
         values = dict(a.values, parameters_from=self.parameters_from)
         if self.drive.beyond_paper:      # terms the paper's linear analysis ignores
             values['ignored_by_linear_analysis'] = ', '.join(self.drive.beyond_paper)
-        stamp_ns = self.speed[1] if self.speed else self.get_clock().now().nanoseconds
-        if not math.isnan(a.margin):
-            self._margin_pub.publish(Float64(data=a.margin))
-        self._diag_pub.publish(cdr.diagnostics(
-            stamp_ns, f'{self.get_fully_qualified_name()}: stability', bytes([level]),
-            message, values))
-        self._last_pub = time.monotonic()
-        self._dirty = False
-        self.status_count += 1
+        margin = None if math.isnan(a.margin) else cdr.float64(0, 0, a.margin)
+        return margin, cdr.diagnostics(0, f'{self.get_fully_qualified_name()}: stability',
+                                       bytes([level]), message, values)
 
     def destroy_node(self):
         """Stop the table worker and the raw subscriptions, then destroy the node."""
         self.worker.stop()
         self._taps.destroy()
         return super().destroy_node()
+
+
+def restamped(status: bytes, stamp_ns: int) -> bytes:
+    """Return the CDR bytes of a DiagnosticArray ``status`` with its header stamp ``stamp_ns``.
+
+    The stamp (int32 sec, uint32 nanosec) is the first field after the encapsulation.
+    """
+    return status[:4] + _STAMP.pack(*divmod(stamp_ns, 1_000_000_000)) + status[12:]
 
 
 def _first_clause(text: str) -> str:

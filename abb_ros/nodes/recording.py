@@ -1,10 +1,11 @@
 """Recording to a bag in process: a node's own messages and topics of the live graph.
 
 Shared by the recorder node (topics of the graph only) and the simulator's in-process
-recording (:class:`InProcessRecording`: its own messages, and the other nodes' topics
-``record.topics``, started and stopped on request). :class:`Recording` is one bag being
-written: a write failure (a full disk) ends it with an error logged once, the bag readable
-up to its last chunk; :meth:`Recording.finish` closes it (summary, ``metadata.yaml``).
+recording (:class:`abb_ros.nodes.in_process_recording.InProcessRecording`: its own messages,
+and the other nodes' topics ``record.topics``, started and stopped on request).
+:class:`Recording` is one bag being written: a write failure (a full disk) ends it with an
+error logged once, the bag readable up to its last chunk; :meth:`Recording.finish` closes it
+(summary, ``metadata.yaml``).
 
 Topics of the graph (:class:`GraphRecording`) are found by name
 (``get_topic_names_and_types``) and subscribed with ``raw=True`` once a publisher offers
@@ -27,14 +28,13 @@ import time
 
 from rclpy.node import Node
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from std_srvs.srv import Trigger
 
 from abb_ros.io import msgdefs
-from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
+from abb_ros.io.bag_writer import BagWriteError, BagWriter
 from abb_ros.model.parameters.param_spec import ParamError
 from abb_ros.nodes.taps import Taps
 
-__all__ = ['DRAIN_PERIOD_S', 'GraphRecording', 'InProcessRecording', 'LossCounter', 'Recording',
+__all__ = ['DRAIN_PERIOD_S', 'GraphRecording', 'LossCounter', 'Recording',
            'default_output', 'request_qos', 'resolve_topics', 'refuse_bad_topics',
            'SEQUENCE_UNSUPPORTED']
 
@@ -234,6 +234,8 @@ class Recording:
                       else GraphRecording(node, bag, topics, depth, own_only, param))
         self._on_failure = on_failure
         self._graph_destroyed = False
+        self._own: dict = {}   # the node's own topic -> whether write() records it
+        self._queue: list = []   # (topic, CDR bytes, log time) queued by write()
 
     @property
     def lost_count(self) -> int:
@@ -246,10 +248,29 @@ class Recording:
         A topic added to the bag writes its metadata: the disk may refuse.
         """
         self._graph_step(GraphRecording.discover)
+        self._own.clear()   # a topic of the node's own may now come from the graph
+
+    @property
+    def message_count(self) -> int:
+        """Messages recorded so far: given to the bag, or queued for it (:meth:`write`)."""
+        return self.bag.message_count + len(self._queue)
 
     def drain(self) -> None:
-        """Write the queued messages of the graph's topics into the bag."""
+        """Write the node's queued messages, then those of the graph's topics, into the bag."""
+        self._write_queue()
         self._graph_step(GraphRecording.drain)
+
+    def _write_queue(self) -> None:
+        """Write the node's own messages queued by :meth:`write`, in order."""
+        if not self._queue or self.error:
+            return
+        queue, self._queue = self._queue, []
+        write = self.bag.write
+        try:
+            for name, data, stamp_ns in queue:
+                write(name, data, stamp_ns)
+        except BagWriteError as exc:
+            self.failed(exc)
 
     def _graph_step(self, step) -> None:
         """Run ``step(self.graph)`` unless the recording failed; a write failure ends it."""
@@ -261,23 +282,41 @@ class Recording:
             self.failed(exc)
 
     def write(self, name: str, type_name: str, qos, data: bytes, stamp_ns: int) -> None:
-        """Write one of the node's own messages (CDR bytes) on topic ``name``.
+        """Record one of the node's own messages (CDR bytes) on topic ``name`` at ``stamp_ns``.
 
-        A topic recorded from the graph is skipped: the node's messages on it come through
-        the middleware like the others'.
+        The log time is ``stamp_ns``. A topic recorded from the graph is skipped: the node's
+        messages on it come through the middleware like the others'. Called for every
+        message the node publishes (5 kHz on the simulator's plant thread), so the message
+        is only queued: :meth:`drain` and :meth:`finish` write the queue in order, with the
+        same bytes and log times. Whether a topic is recorded is decided once
+        (:meth:`_own_topic`), and again after each discovery. After a write failure the
+        recording has ended: nothing is queued.
         """
-        if self.graph is not None and self.graph.subscriptions.get(name) is not None:
-            return
-        try:
-            if not self.bag.has_topic(name):
-                self.bag.add_topic(name, type_name, qos=qos)
-            self.bag.write(name, data, stamp_ns)
-        except BagWriteError as exc:
-            self.failed(exc)
+        recorded = self._own.get(name)
+        if recorded is None:
+            if self.error:
+                return
+            try:
+                recorded = self._own_topic(name, type_name, qos)
+            except BagWriteError as exc:
+                self.failed(exc)
+                return
+        if recorded:
+            self._queue.append((name, data, stamp_ns))
+
+    def _own_topic(self, name: str, type_name: str, qos) -> bool:
+        """Return whether the node's own topic ``name`` is recorded from here (adding it)."""
+        recorded = self.graph is None or self.graph.subscriptions.get(name) is None
+        if recorded and not self.bag.has_topic(name):
+            self.bag.add_topic(name, type_name, qos=qos)
+        self._own[name] = recorded
+        return recorded
 
     def failed(self, exc: BagWriteError) -> None:
         """End the recording after a write failure: log it once, tell the owner."""
         self.error = exc.strerror
+        self._own = {}     # write() asks again, and sees the error
+        self._queue = []
         self.node.get_logger().error(f'recording stopped: {self.error}')
         if self._on_failure is not None:
             self._on_failure(self.error)
@@ -285,14 +324,16 @@ class Recording:
     def finish(self) -> str:
         """Finish the bag (summary, metadata.yaml); works after the context has shut down.
 
-        What arrived since the last drain is written first (unless the recording failed or
-        the context is down), then the losses. Returns why finishing failed ('' when not).
+        The node's queued messages are written first, then what arrived from the graph since
+        the last drain (unless the recording failed or the context is down), then the losses.
+        Returns why finishing failed ('' when not).
         """
         if self.bag.closed:
             return ''
         error = ''
+        self._write_queue()
         if self.node.context.ok():
-            self.drain()
+            self._graph_step(GraphRecording.drain)
         if self.graph is not None:
             try:
                 self.graph.write_losses()
@@ -310,111 +351,3 @@ class Recording:
         if self.graph is not None and not self._graph_destroyed:
             self._graph_destroyed = True
             self.graph.destroy()
-
-
-class InProcessRecording:
-    """The recordings a node starts and stops itself, of its own messages.
-
-    At most one at a time (:attr:`current`); with topics of the graph, discovery and drain
-    timers are made at the first start and serve every later recording.
-
-    Parameters
-    ----------
-    node : Node
-        The node recording.
-    depth : int
-        Queue depth of each subscription to a topic of the graph.
-    param : str
-        The parameter that names those topics (for errors).
-    discovery_s : float
-        How often the graph is searched for them [s].
-    """
-
-    def __init__(self, node: Node, depth: int, param: str, discovery_s: float):
-        self.node = node
-        self.current: Recording | None = None
-        self.error = ''      # why the last recording stopped ('' it did not fail)
-        self._depth = depth
-        self._param = param
-        self._discovery_s = discovery_s
-        self._timers = []
-
-    def serve(self, path_param: str, prepare=None) -> None:
-        """Offer ``~/start_recording`` and ``~/stop_recording`` (std_srvs/Trigger).
-
-        A start records to the parameter ``path_param`` (a directory), or to
-        :func:`default_output` when it is empty, with the topics of the parameter this
-        object was made for.
-        """
-        def start(_request, response):
-            path = self.node.get_parameter(path_param).value or default_output()
-            error = self.start(path, self.node.get_parameter(self._param).value, prepare)
-            response.success = not error
-            response.message = error or f'recording to {self.current.bag.path}'
-            return response
-
-        def stop(_request, response):
-            response.success = self.current is not None
-            response.message = self.stop()
-            return response
-
-        self.node.create_service(Trigger, '~/start_recording', start)
-        self.node.create_service(Trigger, '~/stop_recording', stop)
-
-    def start(self, path: str, topics=(), prepare=None) -> str:
-        """Record the node's messages from now on, and ``topics``, to a new bag at ``path``.
-
-        ``prepare(bag)`` runs on the new bag first. Returns '' or why not.
-        """
-        if self.current is not None:
-            return f'already recording to {self.current.bag.path}'
-        try:   # before the bag: a bad name leaves no directory behind
-            resolve_topics(self.node, topics, self._param)
-        except ParamError as err:
-            return str(err)
-        try:
-            bag = BagWriter(path)
-            if prepare is not None:
-                prepare(bag)
-        except (BagError, OSError) as exc:
-            return str(exc)
-        self.error = ''
-        self.current = Recording(self.node, bag, list(topics) or None, self._depth,
-                                 own_only=True, param=self._param, on_failure=self._failed)
-        if topics:
-            self.current.discover()
-            if self.current is None:
-                return self.error
-            if not self._timers:
-                self._timers = [self.node.create_timer(self._discovery_s, self._discover),
-                                self.node.create_timer(DRAIN_PERIOD_S, self._drain)]
-        self.node.get_logger().info(f'recording what this node publishes to {bag.path}'
-                                    + (f' with {", ".join(topics)}' if topics else ''))
-        return ''
-
-    def _discover(self) -> None:
-        if self.current is not None:
-            self.current.discover()
-
-    def _drain(self) -> None:
-        if self.current is not None:
-            self.current.drain()
-
-    def stop(self) -> str:
-        """Finish the bag (summary, metadata.yaml); returns a one-line account."""
-        recording, self.current = self.current, None
-        if recording is None:
-            return 'not recording'
-        error = recording.finish()
-        if error:
-            self.error = error
-        bag = recording.bag
-        text = f'{bag.message_count} messages on {len(bag.topics)} topics in {bag.path}'
-        if self.error:
-            text += f' ({self.error})'
-        return text
-
-    def _failed(self, reason: str) -> None:
-        """Stop the recording after a write failure (logged already); the node runs on."""
-        self.error = reason
-        self.stop()

@@ -54,16 +54,12 @@ from abb_ros.model.sensors.sampling import PlantSampler
 from abb_ros.nodes import ros_params, simulation_interfaces_server, simulator_live_view
 from abb_ros.nodes.entry_point import make_executor, run_node, spin
 from abb_ros.nodes.hil_io import HilIO
+from abb_ros.nodes.in_process_recording import InProcessRecording
 from abb_ros.nodes.pacing import Pacer
 from abb_ros.nodes.plant_thread import PlantThread
 from abb_ros.nodes.rate_slots import RateSlots
 from abb_ros.nodes.realtime import FifoScheduling
-from abb_ros.nodes.recording import (
-    InProcessRecording,
-    default_output,
-    refuse_bad_topics,
-    resolve_topics,
-)
+from abb_ros.nodes.recording import default_output, refuse_bad_topics, resolve_topics
 from abb_ros.nodes.sim_state import RunState, Transition
 from abb_ros.nodes.simulator_diagnostics import simulation_status
 from abb_ros.nodes.simulator_plant import PlantLoop
@@ -73,6 +69,9 @@ NODE_NAME = 'abb_simulator'
 QOS_DEPTH = 10
 RECORD_DISCOVERY_S = 0.5
 """How often the graph is searched for the record.topics while recording [s]."""
+RECORD_DRAIN_S = 0.05
+"""How often the record.topics' queued messages are written to the bag [s]: each drain holds
+the plant's lock, and PUBLISH_DEPTH messages last 1 s even at 1 kHz."""
 PUBLISH_DEPTH = 1000
 """History of each published topic: a reliable subscriber (a recorder) that falls behind by
 up to this many messages (1 s at 1 kHz) still gets every one."""
@@ -121,7 +120,7 @@ class SimulatorNode(PlantLoop, Node):
         self.published = dict.fromkeys(ros_messages.TOPIC_TYPES, 0)
         self.live = None   # the live view, once started (below)
         self.recorder = InProcessRecording(self, PUBLISH_DEPTH, 'record.topics',
-                                           RECORD_DISCOVERY_S)
+                                           RECORD_DISCOVERY_S, RECORD_DRAIN_S)
         if s.spindle_mode == 'torque':
             self.sim.set_command(0.0)
         self._params_changed = False

@@ -119,7 +119,7 @@ def simulation_status(node, window: PacingWindow) -> tuple[bytes, str, dict]:
                   contact_refined_steps=sim.refined_steps,
                   rolling_switches=sim.rolling_switches,
                   recording=str(recording.bag.path) if recording is not None else '',
-                  recorded=recording.bag.message_count if recording is not None else 0,
+                  recorded=recording.message_count if recording is not None else 0,
                   recording_lost=recording.lost_count if recording is not None else 0,
                   **{f'published {t}': count for t, count in node.published.items()})
     if settings.spindle_mode == 'torque':

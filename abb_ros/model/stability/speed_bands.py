@@ -311,10 +311,12 @@ def member_near_balls(params: DriveParams, phi):
     Only once they are near balance (:data:`NEAR_BALANCE`); None until then, or for fewer than
     3 balls (n = 2 with eps > 0 has one member up to the balls' order: the fan).
     """
+    if params.n < 3 or len(phi) != params.n:   # before the imports: the analysis asks at 50 Hz
+        return None
     from abb_ros.model.stability.equilibrium import balls_apart, eq26_residual
     from abb_ros.model.stability.family import nearest_member
     phi = np.asarray(phi, dtype=float)
-    if phi.size != params.n or params.n < 3 or not np.all(np.isfinite(phi)):
+    if phi.size != params.n or not np.all(np.isfinite(phi)):
         return None
     if eq26_residual(params, phi) > NEAR_BALANCE:
         return None
