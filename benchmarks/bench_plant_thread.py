@@ -21,7 +21,8 @@ The floor: a Python thread in this process that only sleeps to absolute deadline
 (what waking up at 1 kHz costs on this machine, with no work), and the plant's own work per
 period in this process (``SimulatorNode._integrate_period`` of a paused node, thread CPU),
 back to back (warm caches) and after a 1 ms sleep each (cold, as on the plant's thread), with
-the period integrated and read in two compiled calls (the default) and step by step.
+the period integrated and read in two compiled calls (the default) and step by step, in
+alternate turns (medians of eight).
 
 For each: CPU of each process (/proc utime + stime over the window, % of one core), the
 simulator's overruns and slips over the window (/diagnostics), and for the recording the
@@ -215,13 +216,15 @@ def wake_floor(seconds: float) -> float:
         time.perf_counter() - wall0)
 
 
-def period_work_us(periods: int = 3000) -> dict[tuple[bool, str], float]:
+def period_work_us(turns: int = 8, warm: int = 3000, cold: int = 1000
+                   ) -> dict[tuple[bool, str], float]:
     """One publish period's work in a paused node in this process [us of thread CPU].
 
-    {(fused, 'warm' | 'cold'): mean}: the period integrated and read in two compiled calls
-    (``PlantSampler.fuse``, the default) or step by step; warm: periods back to back; cold:
-    a 1 ms sleep before each, as on the plant's thread. The two ways take turns twice; the
-    second turn is kept (the first warms both up).
+    {(fused, 'warm' | 'cold'): median over the turns}: the period integrated and read in two
+    compiled calls (``PlantSampler.fuse``, the default) or step by step; warm: ``warm``
+    periods back to back; cold: ``cold`` periods each after a 1 ms sleep, as on the plant's
+    thread. The two ways take ``turns`` turns each, alternately (which goes first
+    alternates too): a single turn moves by tens of percent with the host.
     """
     from rclpy.parameter import Parameter
 
@@ -229,24 +232,25 @@ def period_work_us(periods: int = 3000) -> dict[tuple[bool, str], float]:
     ctx = rclpy.Context()
     rclpy.init(context=ctx)
     node = SimulatorNode(context=ctx, parameter_overrides=[Parameter('start_paused', value=True)])
-    out = {}
+    spent = {(fused, kind): [] for fused in (True, False) for kind in ('warm', 'cold')}
     try:
-        for fused in (False, True, False, True):
-            node.sampler.fuse = fused
-            for _ in range(500):
-                node._integrate_period()
-            start = time.thread_time()
-            for _ in range(periods):
-                node._integrate_period()
-            out[fused, 'warm'] = (time.thread_time() - start) / periods * 1e6
-            spent = 0.0
-            for _ in range(periods):
-                time.sleep(PERIOD_NS * 1e-9)
+        for turn in range(turns):
+            for fused in (turn % 2 == 0, turn % 2 == 1):
+                node.sampler.fuse = fused
+                for _ in range(300):
+                    node._integrate_period()
                 start = time.thread_time()
-                node._integrate_period()
-                spent += time.thread_time() - start
-            out[fused, 'cold'] = spent / periods * 1e6
-        return out
+                for _ in range(warm):
+                    node._integrate_period()
+                spent[fused, 'warm'].append((time.thread_time() - start) / warm)
+                total = 0.0
+                for _ in range(cold):
+                    time.sleep(PERIOD_NS * 1e-9)
+                    start = time.thread_time()
+                    node._integrate_period()
+                    total += time.thread_time() - start
+                spent[fused, 'cold'].append(total / cold)
+        return {key: float(np.median(values)) * 1e6 for key, values in spent.items()}
     finally:
         node.destroy_node()
         rclpy.shutdown(context=ctx)
@@ -300,11 +304,11 @@ def main() -> int:
     floor, work = wake_floor(5.0), period_work_us()
     print(f'\n  floor: a thread waking at 1 kHz doing nothing {100 * floor:.1f} % of a core; '
           f'load {os.getloadavg()[0]:.2f}')
-    print('  one period of the plant\'s work [us of thread CPU]      warm    cold (1 ms sleep '
-          'before)')
+    print('  one period of the plant\'s work [us of thread CPU, median of 8 alternate turns]'
+          '   warm    cold (1 ms sleep before)')
     for fused, label in ((False, 'step by step'), (True, 'two compiled calls (default)')):
-        print(f'    {label:50s} {work[fused, "warm"]:6.1f}  {work[fused, "cold"]:6.1f}')
-    print(f'    two calls / step by step {"":26s} x {work[True, "warm"] / work[False, "warm"]:.2f}'
+        print(f'    {label:76s} {work[fused, "warm"]:6.1f}  {work[fused, "cold"]:6.1f}')
+    print(f'    two calls / step by step {"":52s} x {work[True, "warm"] / work[False, "warm"]:.2f}'
           f'  x {work[True, "cold"] / work[False, "cold"]:.2f}')
     return 0
 
