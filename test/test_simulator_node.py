@@ -31,6 +31,7 @@ from std_srvs.srv import SetBool, Trigger
 
 from abb_ros.model.parameters.params import DriveParams
 from abb_ros.nodes.simulator import SimulatorNode, make_executor
+from abb_ros.nodes.taps import Taps
 
 pytestmark = pytest.mark.ros
 
@@ -163,6 +164,41 @@ def plant_factory():
 
 # ---- real time, as a separate process ---------------------------------------------------------
 
+class Published:
+    """What the writers of ``topics`` published: the source timestamp of each message.
+
+    Counted by the writer's source timestamps (message info, taken in batches through Taps),
+    not by when this process gets round to each message: a reader slowed by other load on
+    the machine (550-900 Hz counted by callbacks beside a busy process while a separate
+    subscriber received 1000 Hz) only delays the taking.
+    """
+
+    def __init__(self, node, executor, topics):
+        self.executor = executor
+        self.taps = Taps(node)
+        self.subs = {topic: self.taps.subscribe(kind, topic, QOS)
+                     for topic, kind in topics.items()}
+        self.sources = {topic: [] for topic in topics}
+
+    def spin_for(self, seconds: float) -> None:
+        """Spin the executor and take every message queued, for ``seconds``."""
+        end = time.monotonic() + seconds
+        while time.monotonic() < end:
+            self.executor.spin_once(timeout_sec=0.02)
+            for topic, sub in self.subs.items():
+                while (taken := Taps.take(sub)) is not None:
+                    self.sources[topic].append(taken[1]['source_timestamp'])
+
+    def rate(self, topic: str, start_ns: int, end_ns: int) -> float:
+        """Messages of ``topic`` published in [start_ns, end_ns) of the wall clock, per s."""
+        count = sum(start_ns <= t < end_ns for t in self.sources[topic])
+        return count / ((end_ns - start_ns) * 1e-9)
+
+    def destroy(self) -> None:
+        """Destroy the subscriptions."""
+        self.taps.destroy()
+
+
 # Real time on a shared 2-core machine: a burst of load from elsewhere can starve the node
 # for part of the window, so a failure is retried (pytest-rerunfailures, pinned).
 @pytest.mark.slow
@@ -177,43 +213,32 @@ def test_topics_arrive_at_their_rates_with_frames_names_and_units_in_real_time(t
     ctx = rclpy.Context()
     rclpy.init(context=ctx)
     node = Node('rate_probe', context=ctx)
-    # The nodes' own executor (EventsExecutor): 3.5 kHz of callbacks under the classic one
-    # take a whole core, so that any other load on the machine slows the counting, not the
-    # plant (measured: 550-800 Hz counted beside one busy process while a separate raw
-    # subscriber received 1000 Hz).
     executor = make_executor(ctx)
     executor.add_node(node)
+    topics = {'joint_states': JointState, 'deck/pose': PoseStamped,
+              'deck/twist': TwistStamped, 'deck/imu': Imu}
+    published = Published(node, executor, {f'{ns}/{t}': kind for t, kind in topics.items()})
     try:
-        arrivals = {}
         typed = {}
-        topics = {'joint_states': JointState, 'deck/pose': PoseStamped,
-                  'deck/twist': TwistStamped, 'deck/imu': Imu}
-        for topic, kind in topics.items():
-            arrivals[topic] = []
-            # Raw subscriptions count arrivals without deserialising (cheap at 1 kHz).
-            node.create_subscription(kind, f'{ns}/{topic}',
-                                     lambda _m, t=topic: arrivals[t].append(time.monotonic()),
-                                     QOS, raw=True)
         clocks = []
         node.create_subscription(Clock, '/clock', clocks.append, 10)
         deadline = time.monotonic() + 60  # includes the node's numba compile at start-up
-        while not all(arrivals.values()):
+        while not all(published.sources.values()):
             assert proc.poll() is None, (tmp_path / 'simulator.log').read_text()
             assert time.monotonic() < deadline, 'no data from the simulator'
-            executor.spin_once(timeout_sec=0.05)
-        # Let start-up transients (DDS matching, first ticks) pass, then count over 3 s.
-        end = time.monotonic() + 1.0
-        while time.monotonic() < end:
-            executor.spin_once(timeout_sec=0.02)
-        start = {t: len(a) for t, a in arrivals.items()}
-        t0 = time.monotonic()
-        while time.monotonic() < t0 + 3.0:
-            executor.spin_once(timeout_sec=0.02)
-        window = time.monotonic() - t0
+            published.spin_for(0.05)
+        # Let start-up transients (DDS matching, first ticks) pass, then count over 3 s of
+        # the wall clock (the clock of the source timestamps), and take what was published
+        # in the window and is still on its way.
+        published.spin_for(1.0)
+        w0 = time.time_ns()
+        published.spin_for(3.0)
+        w1 = time.time_ns()
+        published.spin_for(1.0)
         expected = {'joint_states': 1000, 'deck/pose': 1000, 'deck/twist': 1000,
                     'deck/imu': 500}
         for topic, rate in expected.items():
-            measured = (len(arrivals[topic]) - start[topic]) / window
+            measured = published.rate(f'{ns}/{topic}', w0, w1)
             # Each rate within 5 % over a few seconds.
             assert measured == pytest.approx(rate, rel=0.05), (topic, measured)
         # Then the contents, by typed subscriptions (deserialising 3.5 kHz of messages in the
@@ -250,6 +275,7 @@ def test_topics_arrive_at_their_rates_with_frames_names_and_units_in_real_time(t
         if proc.poll() is None:
             proc.kill()
             proc.wait()
+        published.destroy()
         node.destroy_node()
         rclpy.shutdown(context=ctx)
         log.close()
