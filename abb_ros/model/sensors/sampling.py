@@ -164,20 +164,29 @@ class PlantSampler:
         if not (state_due or imu_due):
             return None
         y = self.sim.y.copy() if state_due else None
-        reading = speed = None
+        reading = speed = effort = None
         if imu_due:
             s = self.sim.layout
             qdd = self.sim.accelerations()
-            reading = self.imu.read(self.sim.y[s.q], self.sim.y[s.qd], qdd)
-            if self.imu_faults is not None:
-                reading = self.imu_faults.apply(reading)
-        if state_due and self.speed is not None:
-            speed = self.speed.update(self.sim.t, self.sim.theta, self.sim.omega)
+            reading = self._given(self.imu.read(self.sim.y[s.q], self.sim.y[s.qd], qdd))
+        if state_due:
+            speed, effort = self._speed_and_effort()
+        return Sample(steps, self.sim.params.n, y, reading, effort, speed)
+
+    def _given(self, reading: ImuReading) -> ImuReading | None:
+        """Return the IMU reading given out for the sensor's ``reading`` (the IMU faults)."""
+        return reading if self.imu_faults is None else self.imu_faults.apply(reading)
+
+    def _speed_and_effort(self) -> tuple[float | None, float | None]:
+        """Return what comes with a state sample: the FG reading (after its faults; None
+        without a speed sensor or in a dropout) and the motor torque (None in speed modes)."""
+        sim, speed = self.sim, None
+        if self.speed is not None:
+            speed = self.speed.update(sim.t, sim.theta, sim.omega)
             if self.speed_faults is not None:
                 speed = self.speed_faults.apply(speed)
-        effort = self.sim.motor_torque if state_due else math.nan
-        return Sample(steps, self.sim.params.n, y, reading,
-                      None if math.isnan(effort) else effort, speed)
+        effort = sim.motor_torque
+        return speed, None if math.isnan(effort) else effort
 
     def next_period(self) -> list[Sample]:
         """Advance to the next state instant (a multiple of publish_every).
@@ -214,17 +223,10 @@ class PlantSampler:
         self.imu.read_with_pose(sim.y, n, qdd, out)
         y, outputs = out[:at.state], out
         reading = ImuReading(out[at.imu:at.imu + 3], out[at.imu + 3:at.deck])
-        if self.imu_faults is not None:
-            given = self.imu_faults.apply(reading)
-            if given is not reading:   # a fault changed it: no longer the vector's
-                reading, outputs = given, None
-        speed = None
-        if self.speed is not None:
-            speed = self.speed.update(sim.t, sim.theta, sim.omega)
-            if self.speed_faults is not None:
-                speed = self.speed_faults.apply(speed)
-        effort = sim.motor_torque
-        effort = None if math.isnan(effort) else effort
+        given = self._given(reading)
+        if given is not reading:   # a fault changed it: no longer the vector's
+            reading, outputs = given, None
+        speed, effort = self._speed_and_effort()
         out[at.effort] = 0.0 if effort is None else effort
         out[at.zero] = 0.0
         return Sample(target, n, y, reading, effort, speed, outputs)
