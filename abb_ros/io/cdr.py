@@ -257,6 +257,19 @@ def sample_cdr(sample, dt_ns: int, imu_config, epoch_ns: int = 0, with_clock: bo
                       for topic, content in contents]
 
 
+def _fields(st: struct.Struct):
+    """Yield (byte offset, count, code) of each field of a compiled layout's Struct in order.
+
+    A constant chunk is one field of code ``s`` (count: its length in bytes); a run of
+    variable primitives is one field of their count and struct code.
+    """
+    offset = 0
+    for count, code in re.findall(r'(\d*)([a-zA-Z])', st.format.lstrip('<')):
+        k = int(count or 1)
+        yield offset, k, code
+        offset += k if code == 's' else k * _SIZE[code]
+
+
 class Rows:
     """Many messages of one compiled layout at once, as the records of a numpy array.
 
@@ -274,20 +287,16 @@ class Rows:
         self.variables: list[str] = []
         self._consts = []
         chunks = iter(consts)
-        offset = 0
-        for count, code in re.findall(r'(\d*)([a-zA-Z])', st.format.lstrip('<')):
-            k, name = int(count or 1), f'f{len(names)}'
+        for offset, k, code in _fields(st):
+            name = f'f{len(names)}'
             if code == 's':
                 formats.append(f'S{k}')
                 self._consts.append((name, next(chunks)))
-                size = k
             else:
                 formats.append(self._NUMPY[code] if k == 1 else (self._NUMPY[code], (k,)))
                 self.variables.append(name)
-                size = k * _SIZE[code]
             names.append(name)
             offsets.append(offset)
-            offset += size
         self.dtype = np.dtype({'names': names, 'formats': formats, 'offsets': offsets,
                                'itemsize': st.size})
 
@@ -402,17 +411,13 @@ class Frame:
         for topic, (st, consts), sources in messages:
             start = len(template)
             chunks, sources, args = iter(consts), iter(sources), []
-            offset = start
-            for count, code in re.findall(r'(\d*)([a-zA-Z])', st.format.lstrip('<')):
-                k = int(count or 1)
+            for offset, k, code in _fields(st):
                 if code == 's':
                     args.append(next(chunks))
-                    offset += k
                     continue
-                for _ in range(k):
-                    slots.append((offset, next(sources)))
-                    args.append(0)
-                    offset += _SIZE[code]
+                for j in range(k):
+                    slots.append((start + offset + j * _SIZE[code], next(sources)))
+                args += [0] * k
             template += st.pack(*args)
             self.bounds.append((topic, start, len(template)))
         self.template = np.frombuffer(bytes(template), dtype=np.uint8)
