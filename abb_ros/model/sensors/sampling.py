@@ -178,8 +178,11 @@ class PlantSampler:
         return reading if self.imu_faults is None else self.imu_faults.apply(reading)
 
     def _speed_and_effort(self) -> tuple[float | None, float | None]:
-        """Return what comes with a state sample: the FG reading (after its faults; None
-        without a speed sensor or in a dropout) and the motor torque (None in speed modes)."""
+        """Return what comes with a state sample: (FG reading, motor torque).
+
+        The FG reading after its faults (None without a speed sensor or in a dropout); the
+        motor torque [N m] (None in speed modes).
+        """
         sim, speed = self.sim, None
         if self.speed is not None:
             speed = self.speed.update(sim.t, sim.theta, sim.omega)
