@@ -15,7 +15,8 @@ from abb_ros.model.parameters.params import METAL_C, DriveParams, apply_settings
 needs_numba = pytest.mark.skipif(not kernels.JIT.compiled, reason='numba not available')
 
 
-def _state(n, seed):
+def random_state(n, seed):
+    """Return (params, omega, y): a drive of n balls at wbar 2.7, its state disturbed at random."""
     params, omega = apply_settings(DriveParams(n=n), {'mbar': 0.03, 'c': METAL_C, 'wbar': 2.7})
     rng = np.random.default_rng(seed)
     y = initial_state(params, omega, phi0=rng.uniform(-np.pi, np.pi, n))
@@ -31,7 +32,7 @@ def _state(n, seed):
 def test_compiled_and_python_accelerations_agree(n):
     """The compiled and the interpreted accelerations are equal bit for bit at random states of
     0, 2 and 10 balls with a speed-controlled spindle."""
-    params, omega, y = _state(n, seed=n)
+    params, omega, y = random_state(n, seed=n)
     S = SpindleMotor(max_accel=800.0, tau=0.05).pack(omega * 1.1)
     fast = accelerations(params, y, 0.0, S, kern=kernels.JIT)
     slow = accelerations(params, y, 0.0, S, kern=kernels.PY)
@@ -41,7 +42,7 @@ def test_compiled_and_python_accelerations_agree(n):
 @needs_numba
 def test_compiled_and_python_rk4_agree_over_many_steps():
     """200 compiled RK4 steps and 200 interpreted ones end in the same state bit for bit."""
-    params, omega, y0 = _state(2, seed=7)
+    params, omega, y0 = random_state(2, seed=7)
     S = SpindleMotor().pack(omega)
     outs = []
     for kern in (kernels.JIT, kernels.PY):
@@ -57,7 +58,7 @@ def test_compiled_and_python_rk4_agree_over_many_steps():
 @pytest.mark.parametrize('n', [1, 2, 5])
 def test_accelerations_solve_the_equations_of_motion(n):
     """The elimination of the ball accelerations is exact: q'' satisfies all 6 + n equations."""
-    params, omega, y = _state(n, seed=10 + n)
+    params, omega, y = random_state(n, seed=10 + n)
     S = SpindleMotor(max_accel=1500.0, tau=0.02).pack(0.0)   # spinning down: theta'' != 0
     qdd = accelerations(params, y, 0.0, S)
     assert qdd[0] == -1500.0
@@ -70,7 +71,7 @@ def test_accelerations_solve_the_equations_of_motion(n):
 def test_bad_state_stops_integration_and_keeps_last_good_state():
     """A step that would leave the state envelope is not taken: advance reports ENVELOPE after 0
     steps and the state is the last good one."""
-    params, omega, y = _state(2, seed=3)
+    params, omega, y = random_state(2, seed=3)
     s = StateLayout(2)
     y[s.translation_slice.start] = 0.5 * kernels.MAX_TRANSLATION
     y[s.deck_rate_slice.start] = 1e9        # X' absurd: the next step leaves the envelope

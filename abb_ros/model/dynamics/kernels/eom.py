@@ -43,14 +43,31 @@ from abb_ros.model.dynamics.state import DECK, PHI, THETA
 def assemble(y, n, P, thdd, A, W, f, B, fb):
     """Fill the rows of Eqs. (18)-(24), generalised to theta(t), into A, W, f, B, fb.
 
+    :func:`assemble_rows`, with the balls' contact forces
+    (:func:`abb_ros.model.dynamics.kernels.contact.contact_forces`) in the ball rows and, for
+    rolling balls, their spin (:func:`abb_ros.model.dynamics.kernels.ball_size.add_ball_rotation`).
+    """
+    assemble_rows(y, n, P, thdd, A, W, f, B, fb)
+    if P[P_CONTACT_E] > 0.0 and n > 1:
+        Qc = np.empty(n)
+        contact_forces(y, n, P, Qc)
+        for i in range(n):
+            fb[i] += Qc[i]
+    if P[P_BALL_ROTATION] != 0.0:
+        add_ball_rotation(y, n, P, thdd, A, W, f, B, fb)
+
+
+@kernel(inline=True)
+def assemble_rows(y, n, P, thdd, A, W, f, B, fb):
+    """Fill the rows of Eqs. (18)-(24) of point-mass balls with no contact into A, W, f, B, fb.
+
     Deck rows (X, Y, Z, alpha, beta, gamma): A @ u + W @ phi'' = f, with u the deck
     accelerations; ball rows: B @ u + m R^2 phi'' = fb. The rotor's mass centre G is
     treated like a ball of mass M at radius eps and angle theta whose angle has a known
     second derivative theta''; every phi_i'' of the paper is the ball's acceleration
     relative to the rotor, and the inertial angle psi_i = phi_i + theta has psi_i'' =
-    phi_i'' + theta''. The ball rows hold the contact forces
-    (:func:`abb_ros.model.dynamics.kernels.contact.contact_forces`) and, for rolling balls, their
-    spin (:func:`abb_ros.model.dynamics.kernels.ball_size.add_ball_rotation`).
+    phi_i'' + theta''. Compiled in place (into :func:`assemble` and
+    :func:`~abb_ros.model.dynamics.kernels.rhs.paper_deriv`).
     """
     a, b, d, R = P[P_A], P[P_B], P[P_D], P[P_R]
     M_P, M, m = P[P_M_P], P[P_M], P[P_m]
@@ -135,11 +152,6 @@ def assemble(y, n, P, thdd, A, W, f, B, fb):
     for i in range(6):
         for j in range(6):
             A[i, j] = 0.0
-    if P[P_CONTACT_E] > 0.0 and n > 1:
-        Qc = np.empty(n)
-        contact_forces(y, n, P, Qc)
-        for i in range(n):
-            fb[i] += Qc[i]
     # Eq. (18), X
     A[0, 0] = Mt
     A[0, 5] = M_P * d - S1
@@ -170,8 +182,6 @@ def assemble(y, n, P, thdd, A, W, f, B, fb):
     A[5, 1] = C1
     f[5] = (-kab * (c * gad + k * ga) - 4.0 * d * c * Xd - 4.0 * d * k * X
             - (Ir + J_z) * thdd)
-    if P[P_BALL_ROTATION] != 0.0:
-        add_ball_rotation(y, n, P, thdd, A, W, f, B, fb)
 
 
 @kernel

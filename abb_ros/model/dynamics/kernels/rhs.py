@@ -12,8 +12,14 @@ import numpy as np
 
 from abb_ros.model.dynamics.kernels.ball_size import ball_inertia
 from abb_ros.model.dynamics.kernels.contact import contact_forces
-from abb_ros.model.dynamics.kernels.eom import assemble, eliminate_balls, solve_deck
+from abb_ros.model.dynamics.kernels.eom import (
+    assemble,
+    assemble_rows,
+    eliminate_balls,
+    solve_deck,
+)
 from abb_ros.model.dynamics.kernels.layout import (
+    P_BALL_ROTATION,
     P_CONTACT_E,
     P_ROLLING_MU,
     S_MODE,
@@ -37,16 +43,22 @@ def accel(t, y, n, P, S, qdd, solver):
     if S[S_MODE] == SPINDLE_TORQUE:
         accel_free_theta(t, y, n, P, S, qdd, solver)
         return
-    A, W, f, B, fb, u = solver.A, solver.W, solver.f, solver.B, solver.fb, solver.u
     N = PHI + n
     thdd = spindle_accel(t, y[N + THETA], S)
-    assemble(y, n, P, thdd, A, W, f, B, fb)
+    assemble(y, n, P, thdd, solver.A, solver.W, solver.f, solver.B, solver.fb)
     mR2 = ball_inertia(P)
     if P[P_ROLLING_MU] > 0.0 and n > 0:
         mode = np.empty(n)
         accel_rolling(y, n, P, mR2, qdd, solver, mode, False)
         qdd[THETA] = thdd
         return
+    solve_rows(n, mR2, thdd, qdd, solver)
+
+
+@kernel(inline=True)
+def solve_rows(n, mR2, thdd, qdd, solver):
+    """Fill qdd from the rows in ``solver`` (balls' block m R^2 = ``mR2``, theta'' = ``thdd``)."""
+    A, W, f, B, fb, u = solver.A, solver.W, solver.f, solver.B, solver.fb, solver.u
     inv = 1.0 / mR2
     eliminate_balls(n, inv, A, W, f, B, fb)
     solve_deck(A, f, u)
@@ -58,6 +70,34 @@ def accel(t, y, n, P, S, qdd, solver):
         for j in range(6):
             acc -= B[b, j] * u[j]
         qdd[PHI + b] = acc * inv
+
+
+@kernel(inline=True)
+def on_paper(n, P, S):
+    """Return whether only the terms of Eqs. (18)-(24) act (:func:`paper_deriv` applies).
+
+    A speed profile, and point-mass balls without rolling resistance or contact.
+    """
+    return (S[S_MODE] != SPINDLE_TORQUE and P[P_BALL_ROTATION] == 0.0
+            and not (P[P_ROLLING_MU] > 0.0 and n > 0) and not (P[P_CONTACT_E] > 0.0 and n > 1))
+
+
+@kernel
+def paper_deriv(t, y, n, P, S, dy, solver):
+    """:func:`deriv` where :func:`on_paper` holds: the rows assembled in place and solved.
+
+    A call per stage of :func:`~.stepper.paper_step`. :func:`deriv` compiled into its caller
+    makes numba count references to the dozen arrays it passes on at every evaluation
+    (atomic operations, about a fifth of an RK4 step); this call sheds most of them.
+    """
+    N = PHI + n
+    qdd = solver.qdd
+    thdd = spindle_accel(t, y[N + THETA], S)
+    assemble_rows(y, n, P, thdd, solver.A, solver.W, solver.f, solver.B, solver.fb)
+    solve_rows(n, ball_inertia(P), thdd, qdd, solver)
+    for i in range(N):
+        dy[i] = y[N + i]
+        dy[N + i] = qdd[i]
 
 
 @kernel

@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from abb_ros.model.dynamics.kernels.layout import kernel
-from abb_ros.model.dynamics.kernels.rhs import deriv
+from abb_ros.model.dynamics.kernels.rhs import deriv, paper_deriv
 from abb_ros.model.dynamics.kernels.rolling_resistance import rolling_deriv
 
 
@@ -80,3 +80,17 @@ def rk4_substeps(t, dt, sub, y, n, P, S, stages, solver):
     h = dt / sub
     for j in range(sub):
         rk4_substep(t + j * h, h, y, n, P, S, stages, solver)
+
+
+@kernel(inline=True)
+def paper_rk4(t, h, y, n, P, S, stages, solver):
+    """One RK4 step of h from (t, y), y in place, of :func:`~.rhs.paper_deriv` (in place)."""
+    k1, k2, k3, k4, yt = stages.k1, stages.k2, stages.k3, stages.k4, stages.yt
+    paper_deriv(t, y, n, P, S, k1, solver)
+    rk4_stage_point(y, 0.5 * h, k1, yt)
+    paper_deriv(t + 0.5 * h, yt, n, P, S, k2, solver)
+    rk4_stage_point(y, 0.5 * h, k2, yt)
+    paper_deriv(t + 0.5 * h, yt, n, P, S, k3, solver)
+    rk4_stage_point(y, h, k3, yt)
+    paper_deriv(t + h, yt, n, P, S, k4, solver)
+    rk4_combine(y, h, k1, k2, k3, k4, y)
