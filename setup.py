@@ -27,11 +27,11 @@ setup(
     tests_require=['pytest'],
     entry_points={
         'console_scripts': [
-            'simulator = abb_ros.nodes.script:simulator',
-            'analysis = abb_ros.nodes.script:analysis',
-            'recorder = abb_ros.nodes.script:recorder',
+            'simulator = abb_ros.nodes.ros.script:simulator',
+            'analysis = abb_ros.nodes.ros.script:analysis',
+            'recorder = abb_ros.nodes.ros.script:recorder',
             'abb-sim = abb_ros.cli:script',
-            'spin_controller = abb_ros.nodes.script:spin_controller',
+            'spin_controller = abb_ros.nodes.ros.script:spin_controller',
             'warmup = abb_ros.model.warmup:main',
         ],
         'pytest11': ['abb_ros = abb_ros.testing.pytest_plugin'],

@@ -25,7 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
-from abb_ros.io.drive_file import write_drive_yaml
+from abb_ros.io.files.drive_file import write_drive_yaml
 from abb_ros.model.parameters.params import DriveParams
 from abb_ros.model.stability.floquet import point_stability
 from abb_ros.model.stability.speed_bands import assess, speed_table

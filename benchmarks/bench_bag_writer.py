@@ -1,9 +1,9 @@
 """Speed of the bag writer next to foxglove-sdk's MCAP sink: prints figures, asserts nothing.
 
 Both write the same N pre-encoded ``sensor_msgs/msg/JointState`` CDR messages (the bytes
-:mod:`abb_ros.io.cdr` encodes for simulation samples of ``p3_n10``, n = 10) to an MCAP file
+:mod:`abb_ros.io.wire.cdr` encodes for simulation samples of ``p3_n10``, n = 10) to an MCAP file
 with zstd chunks of the same size, one after the other in this process:
-  a. ``abb_ros.io.bag_writer.BagWriter.write``, one call per message;
+  a. ``abb_ros.io.bag.writer.BagWriter.write``, one call per message;
   b. ``BagWriter.write_many``, one call per batch of a simulation sample's size;
   c. foxglove-sdk's sink: ``foxglove.open_mcap`` with a ``Channel`` of schema encoding
      ``ros2msg`` and message encoding ``cdr``, ``Channel.log`` per message (its default
@@ -28,9 +28,9 @@ from foxglove import Channel, Schema
 from foxglove.mcap import MCAPWriteOptions
 
 from abb_ros.app.headless import PUBLISH_DT
-from abb_ros.io import cdr, msgdefs
-from abb_ros.io.bag_writer import DEFAULT_CHUNK_SIZE, BagWriter
-from abb_ros.io.scenario import load_scenario
+from abb_ros.io.bag.writer import DEFAULT_CHUNK_SIZE, BagWriter
+from abb_ros.io.files.scenario import load_scenario
+from abb_ros.io.wire import cdr, msgdefs
 from abb_ros.model.dynamics.initial import initial_state
 from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation
 from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuModel

@@ -31,7 +31,7 @@ import time
 
 from abb_ros.app.headless import run_scenario
 from abb_ros.cli import main
-from abb_ros.io.scenario import load_scenario
+from abb_ros.io.files.scenario import load_scenario
 
 DURATION = 3.0
 

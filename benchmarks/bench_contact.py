@@ -30,7 +30,7 @@ import time
 
 import numpy as np
 
-from abb_ros.io.scenario import load_scenario
+from abb_ros.io.files.scenario import load_scenario
 from abb_ros.model.dynamics.initial import initial_state
 from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation
 from abb_ros.model.dynamics.spindle import ConstantSpeed

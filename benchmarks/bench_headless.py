@@ -3,7 +3,7 @@
 ``abb-sim run --scenario p3_n10`` (n = 10) for DURATION simulated seconds, 10 kHz RK4, every
 sampled topic at its rate, in this process:
   1. without a bag (the compiled loop samples the state only): the baseline;
-  2. ``abb-sim run --out`` (messages encoded by abb_ros.io.cdr, MCAP writing and closing
+  2. ``abb-sim run --out`` (messages encoded by abb_ros.io.wire.cdr, MCAP writing and closing
      included): wall time, real-time factor, messages/s, ratio to the baseline;
   3. the same loop with a bag that drops the messages: the share of the writing;
 and the cost per message of each part: sampling a batch of periods, its CDR encoding, the
@@ -29,10 +29,10 @@ from rclpy.serialization import deserialize_message, serialize_message
 
 from abb_ros import cli
 from abb_ros.app.headless import PUBLISH_DT, STATE_TOPIC_TYPES, run_scenario
-from abb_ros.io import cdr, ros_messages
-from abb_ros.io.bag_writer import BagWriter
-from abb_ros.io.msgdefs import message_class
-from abb_ros.io.scenario import load_scenario
+from abb_ros.io.bag.writer import BagWriter
+from abb_ros.io.files.scenario import load_scenario
+from abb_ros.io.wire import cdr, ros_messages
+from abb_ros.io.wire.msgdefs import message_class
 from abb_ros.model.dynamics.initial import initial_state
 from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation
 from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuModel
@@ -98,7 +98,7 @@ def per_message_costs(scenario, periods: int = 2000) -> dict[str, float]:
         costs[name] = best / count * 1e6
         return result
 
-    timed('CDR of the batches (abb_ros.io.cdr.batch_cdr)', lambda: [
+    timed('CDR of the batches (abb_ros.io.wire.cdr.batch_cdr)', lambda: [
         cdr.batch_cdr(b, DT_NS, TYPICAL_IMU, with_clock=True) for b in batches])
     timed('per sample, as the live node: contents', lambda: [
         ros_messages.sample_contents(s, DT_NS, TYPICAL_IMU, with_clock=True) for s in samples])

@@ -46,7 +46,7 @@ os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 import numpy as np  # noqa: E402
 import yaml  # noqa: E402
 
-from abb_ros.io.topics import TOPICS, by_name  # noqa: E402
+from abb_ros.io.wire.topics import TOPICS, by_name  # noqa: E402
 from abb_ros.testing.procstat import cpu_seconds, rss_bytes  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -72,7 +72,7 @@ def run_subscriber(out: Path) -> int:
     from rclpy.node import Node
     from sensor_msgs.msg import JointState
 
-    from abb_ros.nodes.entry_point import run_node
+    from abb_ros.nodes.ros.entry_point import run_node
 
     class Subscriber(Node):
         def __init__(self):
@@ -112,15 +112,15 @@ def run_floor(record: Path | None) -> int:
     bench costs when integration, sampling and encoding cost nothing."""
     from rclpy.node import Node
 
-    from abb_ros.io import cdr, ros_messages
-    from abb_ros.io.bag_writer import BagWriter
+    from abb_ros.io.bag.writer import BagWriter
+    from abb_ros.io.wire import cdr, ros_messages
     from abb_ros.model.dynamics.integrate import Simulation
     from abb_ros.model.parameters.params import DriveParams
     from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuModel
     from abb_ros.model.sensors.sampling import PlantSampler
     from abb_ros.model.sensors.speed_sensor import SpeedSensor
-    from abb_ros.nodes.entry_point import run_node
-    from abb_ros.nodes.simulator import PUBLISH_DEPTH
+    from abb_ros.nodes.ros.entry_point import run_node
+    from abb_ros.nodes.simulator.node import PUBLISH_DEPTH
 
     params = DriveParams().replace(n=N_BALLS)
     sim = Simulation(params, params.omega0 * 1.5, 1e-4)
@@ -203,7 +203,7 @@ def bag_counts(bag: Path) -> tuple[dict, dict]:
 def bag_statuses(bag: Path) -> dict:
     """{status name: {level, message, values}}: the last /diagnostics status of each node
     in the bag."""
-    from abb_ros.io.bag_reader import read_bag
+    from abb_ros.io.bag.reader import read_bag
     statuses = {}
     for _, msg, _ in read_bag(bag, ['/diagnostics']):
         for status in msg.status:

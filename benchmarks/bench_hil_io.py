@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 from bench_simulator_node import cpu_seconds
 
-from abb_ros.io.markers import marker_array
+from abb_ros.io.wire.markers import marker_array
 from abb_ros.model.dynamics.initial import initial_state
 from abb_ros.model.parameters.params import DriveParams
 from abb_ros.model.sensors.faults import ImuFaults, SpeedFaults

@@ -35,7 +35,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_simulator_node import N_BALLS, Probe, start_node, stop_node  # noqa: E402
 
 from abb_ros.io import cdr  # noqa: E402
-from abb_ros.io.live_view import LiveView  # noqa: E402
+from abb_ros.io.live_view.server import LiveView  # noqa: E402
 from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation
 from abb_ros.model.dynamics.spindle import SpindleMotor  # noqa: E402
 from abb_ros.model.parameters.params import DriveParams  # noqa: E402
@@ -122,7 +122,7 @@ class SdkView:
         self._channels = {}
 
     def add_topic(self, topic: str, type_name: str) -> None:
-        from abb_ros.io import msgdefs
+        from abb_ros.io.wire import msgdefs
         name = '/' + topic.lstrip('/')
         full = msgdefs.normalize_type(type_name)
         schema = self._foxglove.Schema(name=full, encoding='ros2msg',

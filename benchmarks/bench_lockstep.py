@@ -22,9 +22,9 @@ os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 
 from rclpy.parameter import Parameter  # noqa: E402
 
-from abb_ros.io.scenario import load_scenario  # noqa: E402
-from abb_ros.nodes.simulator import make_executor  # noqa: E402
-from abb_ros.nodes.spin_controller import SpinController  # noqa: E402
+from abb_ros.io.files.scenario import load_scenario  # noqa: E402
+from abb_ros.nodes.simulator.node import make_executor  # noqa: E402
+from abb_ros.nodes.spin_controller.node import SpinController  # noqa: E402
 from abb_ros.testing.lockstep import LockstepPlant, drive_parameters  # noqa: E402
 
 P3 = load_scenario('p3')

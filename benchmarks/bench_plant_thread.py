@@ -11,7 +11,7 @@ old path) and ``thread`` (the plant's own thread, the default), one after the ot
   ``-r joint_states_throttle:=joint_states``), the new one ``joint_states_throttle`` (50 Hz);
 - **subscriber**: the simulator and a subscriber of ``joint_states`` in this process
   (reliable, depth 1000, its messages taken every 2 ms with their message info,
-  :class:`abb_ros.nodes.taps.Taps`): the publish-period jitter it sees, |interval - 1 ms|
+  :class:`abb_ros.nodes.ros.taps.Taps`): the publish-period jitter it sees, |interval - 1 ms|
   between the writer's source timestamps (when the simulator published) and between the
   reception timestamps (when the middleware of this process received them: delivery
   included, the reader's Python scheduling not), and stamps missing (lost); once more with
@@ -56,9 +56,9 @@ from rclpy.qos import QoSProfile  # noqa: E402
 from sensor_msgs.msg import JointState  # noqa: E402
 from std_msgs.msg import Float64  # noqa: E402
 
-from abb_ros.io.bag_reader import iter_raw  # noqa: E402
-from abb_ros.nodes.entry_point import make_executor  # noqa: E402
-from abb_ros.nodes.taps import Taps  # noqa: E402
+from abb_ros.io.bag.reader import iter_raw  # noqa: E402
+from abb_ros.nodes.ros.entry_point import make_executor  # noqa: E402
+from abb_ros.nodes.ros.taps import Taps  # noqa: E402
 from abb_ros.testing.procstat import cpu_seconds  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -228,7 +228,7 @@ def period_work_us(turns: int = 8, warm: int = 3000, cold: int = 1000
     """
     from rclpy.parameter import Parameter
 
-    from abb_ros.nodes.simulator import SimulatorNode
+    from abb_ros.nodes.simulator.node import SimulatorNode
     ctx = rclpy.Context()
     rclpy.init(context=ctx)
     node = SimulatorNode(context=ctx, parameter_overrides=[Parameter('start_paused', value=True)])

@@ -34,8 +34,8 @@ def bench_writers(n):
     from mcap_ros2.writer import Writer as Ros2Writer
     from rclpy.serialization import serialize_message
 
-    from abb_ros.io import msgdefs
-    from abb_ros.io.bag_writer import BagWriter
+    from abb_ros.io.bag.writer import BagWriter
+    from abb_ros.io.wire import msgdefs
 
     msgs = [joint_state(i) for i in range(n)]
     payloads = [serialize_message(m) for m in msgs]
@@ -87,7 +87,7 @@ def bench_recorder(seconds, rate):
     from rclpy.node import Node
     from sensor_msgs.msg import Imu, JointState
 
-    from abb_ros.io.bag_reader import iter_raw
+    from abb_ros.io.bag.reader import iter_raw
 
     os.environ.setdefault('ROS_DOMAIN_ID', str(random.randint(1, 101)))
     os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')

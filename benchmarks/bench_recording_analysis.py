@@ -49,7 +49,7 @@ os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 from bench_plant_thread import OTHER_TOPICS, SETTLE_S, Probe, lost, stamp_of  # noqa: E402
 from bench_simulator_node import stop_node  # noqa: E402
 
-from abb_ros.io.bag_reader import iter_raw  # noqa: E402
+from abb_ros.io.bag.reader import iter_raw  # noqa: E402
 from abb_ros.testing.procstat import CLK_TCK  # noqa: E402
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -152,8 +152,8 @@ def write_path(bag: Path, runs: int = 3) -> dict:
     from rclpy.node import Node
     from rclpy.qos import QoSProfile
 
-    from abb_ros.io.bag_writer import BagWriter
-    from abb_ros.nodes.recording import Recording
+    from abb_ros.io.bag.writer import BagWriter
+    from abb_ros.nodes.recorder.recording import Recording
     graph = tuple('/' + t.strip(" '") for t in OTHER_TOPICS.strip('[]').split(','))
     by_stamp: dict[int, list] = {}
     for topic, type_name, data, log_time in iter_raw(bag):

@@ -32,7 +32,7 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from sensor_msgs.msg import JointState
 
-from abb_ros.io import cdr
+from abb_ros.io.wire import cdr
 from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation
 from abb_ros.model.dynamics.spindle import SpindleMotor
 from abb_ros.model.parameters.params import DriveParams

@@ -28,7 +28,7 @@ os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_simulator_node import start_node, stop_node  # noqa: E402
 
-from abb_ros.nodes.simulator_live_view import COMMAND_PERIOD_S  # noqa: E402
+from abb_ros.nodes.simulator.live_view import COMMAND_PERIOD_S  # noqa: E402
 
 CALL_REQUEST, CALL_RESPONSE = 2, 3   # binary opcodes of the Foxglove WebSocket protocol
 

@@ -24,7 +24,7 @@ import sys
 import numpy as np
 
 from abb_ros.app.headless import run_scenario
-from abb_ros.io.scenario import load_scenario
+from abb_ros.io.files.scenario import load_scenario
 from abb_ros.model.parameters.ball_materials import with_steel_balls
 from abb_ros.model.stability.equilibrium import phi_star_two_balls
 

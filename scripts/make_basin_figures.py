@@ -143,7 +143,7 @@ def profile_figure(results: dict) -> None:
 
 def speed_figure(results: dict) -> None:
     """|lambda|max against speed above, P(balance) against speed below."""
-    from abb_ros.io.scenario import load_scenario
+    from abb_ros.io.files.scenario import load_scenario
     from abb_ros.model.stability.floquet import sweep_speed
     plt = _plt()
     p = load_scenario('p3').params

@@ -150,7 +150,7 @@ def make_speed_curves() -> None:
 def _title(head, scenario_name, sets):
     """Return the title: the figure, the scenario and its parameters as abb-sim run applies."""
     from abb_ros.commands.api import parse_settings
-    from abb_ros.io.scenario import load_scenario
+    from abb_ros.io.files.scenario import load_scenario
     from abb_ros.plots.labels import parameter_text
     scenario = load_scenario(scenario_name)
     if sets:
@@ -162,7 +162,7 @@ def _title(head, scenario_name, sets):
 
 def make_time_responses(names, workdir: Path) -> None:
     """Run the scenarios into bags in ``workdir`` (a bag already there is reused), plot."""
-    from abb_ros.io.time_response import load_time_response
+    from abb_ros.io.bag.time_response import load_time_response
     from abb_ros.plots import time_response as plots
     needed = list(dict.fromkeys(run for name in names for run in TIME_FIGURES[name][1]))
     responses = {}

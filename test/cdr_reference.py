@@ -1,7 +1,7 @@
 """Reference CDR encoder for the tests: rclpy message -> the bytes a Fast DDS publisher sends.
 
 Built on rosbags' CDR serialiser (exact length, zero padding), independent of the package's
-own encoder :mod:`abb_ros.io.cdr`, which the tests check against it; test_bag checks this one
+own encoder :mod:`abb_ros.io.wire.cdr`, which the tests check against it; test_bag checks this one
 against what a raw subscription receives over DDS. rosbags is a test-only dependency.
 """
 
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import functools
 
-from abb_ros.io import msgdefs
+from abb_ros.io.wire import msgdefs
 
 
 @functools.lru_cache(maxsize=1)

@@ -22,7 +22,7 @@ STRIDE = 100
 def run(name: str, **settings) -> np.ndarray:
     """States of scenario ``name`` every 100 ms, shape (rows, 2N)."""
     from abb_ros.app.headless import run_scenario
-    from abb_ros.io.scenario import load_scenario
+    from abb_ros.io.files.scenario import load_scenario
     scenario = load_scenario(name)
     if settings:
         scenario = scenario.with_settings(settings)

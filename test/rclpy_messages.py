@@ -1,8 +1,8 @@
 """Reference rclpy messages of a simulation sample, filled field by field from its contents.
 
 The package publishes and records CDR bytes encoded straight from the message contents
-(:func:`abb_ros.io.ros_messages.sample_contents`, :mod:`abb_ros.io.cdr`) and builds no rclpy
-message. test_cdr checks those bytes against these messages, serialised by an independent
+(:func:`abb_ros.io.wire.ros_messages.sample_contents`, :mod:`abb_ros.io.wire.cdr`) and builds no
+rclpy message. test_cdr checks those bytes against these messages, serialised by an independent
 encoder (cdr_reference.cdr_bytes).
 """
 
@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
-from abb_ros.io.ros_messages import (
+from abb_ros.io.wire.ros_messages import (
     TOPIC_FRAMES,
     TOPIC_TYPES,
     diagnostics_content,
@@ -18,7 +18,7 @@ from abb_ros.io.ros_messages import (
     sample_contents,
     time_msg,
 )
-from abb_ros.io.topics import SPINDLE_SPEED
+from abb_ros.io.wire.topics import SPINDLE_SPEED
 
 
 def _joint_state(msg, stamp, content):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from abb_ros.app.headless import run_scenario
-from abb_ros.io.scenario import load_scenario
+from abb_ros.io.files.scenario import load_scenario
 from abb_ros.model.dynamics import integrate as I
 from abb_ros.model.dynamics.initial import initial_state
 from abb_ros.model.dynamics.reference import reference_solution
@@ -141,7 +141,7 @@ def test_an_adaptive_bag_carries_every_topic_at_the_fixed_step_runs_stamps(abb_s
     """
     import json
 
-    from abb_ros.io.bag_reader import read_bag
+    from abb_ros.io.bag.reader import read_bag
     bags = {}
     for name in I.INTEGRATORS:
         out = tmp_path / name

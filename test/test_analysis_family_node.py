@@ -13,7 +13,7 @@ import pytest
 from diagnostic_msgs.msg import DiagnosticStatus
 from test_analysis_node import OMEGA0, Probe, _start, _wrapped_deg
 
-from abb_ros.io.drive_file import write_drive_yaml
+from abb_ros.io.files.drive_file import write_drive_yaml
 from abb_ros.model.parameters.params import DriveParams
 
 TEN_BALLS = DriveParams(c=0.66, n=10, m=0.03 * 0.026 * 2 / 10)

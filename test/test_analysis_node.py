@@ -29,7 +29,7 @@ from rclpy.parameter_client import AsyncParameterClient
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
-from abb_ros.io.drive_file import write_drive_yaml
+from abb_ros.io.files.drive_file import write_drive_yaml
 from abb_ros.model.parameters.params import DriveParams
 from abb_ros.testing.latency import status_delays
 

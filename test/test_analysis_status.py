@@ -11,8 +11,8 @@ import time
 import pytest
 import rclpy
 
-from abb_ros.io import cdr
-from abb_ros.nodes.analysis import AnalysisNode, restamped
+from abb_ros.io.wire import cdr
+from abb_ros.nodes.analysis.node import AnalysisNode, restamped
 
 pytestmark = pytest.mark.ros
 

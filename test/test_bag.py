@@ -28,10 +28,10 @@ from rosgraph_msgs.msg import Clock
 from sensor_msgs.msg import Imu, JointState
 from std_msgs.msg import Float64
 
-from abb_ros.io import msgdefs
-from abb_ros.io.bag_reader import is_finished, read_bag, read_drive_params
-from abb_ros.io.bag_recovery import recover
-from abb_ros.io.bag_writer import BagError, BagWriteError, BagWriter
+from abb_ros.io.bag.reader import is_finished, read_bag, read_drive_params
+from abb_ros.io.bag.recovery import recover
+from abb_ros.io.bag.writer import BagError, BagWriteError, BagWriter
+from abb_ros.io.wire import msgdefs
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -214,7 +214,7 @@ def replay_with_mcap_writer(source, target, chunk_size):
 
 
 def test_the_bag_holds_the_records_mcaps_own_writer_writes(tmp_path):
-    """The bag's MCAP file (written by abb_ros.io.mcap_file, not by mcap's Writer) holds the
+    """The bag's MCAP file (written by abb_ros.io.bag.mcap_file, not by mcap's Writer) holds the
     records that mcap's Writer writes for the same calls: the same chunks once decompressed,
     message indexes, metadata, statistics and summary (several chunks, out-of-order log times,
     a topic added mid-chunk, a flush)."""
@@ -347,7 +347,7 @@ def test_disk_full_closes_the_bag_cleanly_readable_up_to_the_last_chunk(tmp_path
 
 KILLED_WRITER = textwrap.dedent('''
     import os, signal, struct, sys
-    from abb_ros.io.bag_writer import BagWriter
+    from abb_ros.io.bag.writer import BagWriter
     bag = BagWriter(sys.argv[1], chunk_size=2048)
     bag.add_topic('spindle/speed_cmd', 'std_msgs/msg/Float64')
     for i in range(5000):
@@ -421,7 +421,7 @@ def test_message_objects_are_written_as_the_bytes_a_raw_subscription_receives():
 def test_message_sequence_numbers_count_from_zero_per_topic(tmp_path):
     from mcap.records import Channel, Message
 
-    from abb_ros.io.bag_reader import iter_records
+    from abb_ros.io.bag.reader import iter_records
     with BagWriter(tmp_path / 'seq') as bag:
         bag.add_topic('a', 'std_msgs/msg/Float64')
         bag.add_topic('b', 'std_msgs/msg/Float64')

@@ -16,10 +16,10 @@ from rclpy.executors import SingleThreadedExecutor
 from rclpy.node import Node
 
 from abb_ros.cli import main
-from abb_ros.io.scenario import load_scenario
+from abb_ros.io.files.scenario import load_scenario
 from abb_ros.model.parameters.params import PARAM_SPECS, DriveParams
-from abb_ros.nodes.analysis import AnalysisNode
-from abb_ros.nodes.simulator import SimulatorNode, make_executor
+from abb_ros.nodes.analysis.node import AnalysisNode
+from abb_ros.nodes.simulator.node import SimulatorNode, make_executor
 
 STEEL_P1 = ['--set', 'r_ball=2.873e-3', '--set', 'contact_E=2e11', '--set', 'rolling_mu=1e-6',
             '--set', 'ball_rotation=1']

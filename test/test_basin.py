@@ -14,7 +14,7 @@ from abb_ros.app.headless import run_scenario
 from abb_ros.basin.study import read_table
 from abb_ros.basin.summary import fraction_summary
 from abb_ros.cli import main
-from abb_ros.io.scenario import load_scenario
+from abb_ros.io.files.scenario import load_scenario
 from abb_ros.model.dynamics.state import StateLayout, wrap_degrees
 from abb_ros.model.parameters.params import DriveParams
 from abb_ros.model.stability.outcomes import classify, packed

@@ -15,7 +15,7 @@ import pytest
 from abb_ros.basin.spec import BasinSpec
 from abb_ros.basin.study import PARTS, read_table, run_basin
 from abb_ros.cli import main
-from abb_ros.io.scenario import load_scenario
+from abb_ros.io.files.scenario import load_scenario
 from abb_ros.sweep.runner import local_cluster
 
 pytestmark = pytest.mark.slow

@@ -1,4 +1,4 @@
-"""abb_ros.io.cdr encodes exactly what rclpy messages with the same contents serialise to.
+"""abb_ros.io.wire.cdr encodes exactly what rclpy messages with the same contents serialise to.
 
 The messages are filled field by field from ros_messages' contents (rclpy_messages); the
 reference encoder is cdr_reference.cdr_bytes (rosbags' CDR), which test_bag checks against
@@ -16,7 +16,7 @@ import rclpy_messages
 from cdr_reference import cdr_bytes
 from diagnostic_msgs.msg import DiagnosticStatus
 
-from abb_ros.io import cdr, ros_messages
+from abb_ros.io.wire import cdr, ros_messages
 from abb_ros.model.dynamics.state import n_coords
 from abb_ros.model.sensors import imu as deck_imu
 from abb_ros.model.sensors.imu import TYPICAL_IMU, ImuConfig, ImuReading

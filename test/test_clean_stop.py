@@ -9,7 +9,7 @@ finished (summary written) with metadata.yaml counting exactly the messages the 
 "Any moment" starts once the interpreter runs the package's first lines: the simulator runs
 as ``python -m abb_ros.nodes.simulator`` (the module installs the stop handler before its
 imports), the analysis node and the recorder as their console scripts, what ``ros2 run``
-starts (abb_ros.nodes.script installs it before importing the node module):
+starts (abb_ros.nodes.ros.script installs it before importing the node module):
 before that, during the interpreter's own start-up (site, .pth files; 0.05 s on an idle
 machine, up to ~0.5 s on this loaded one), Python's default handlers apply and nothing in the
 package can change that. The test waits until the process has begun importing rclpy (its
@@ -28,7 +28,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from abb_ros.io.bag_reader import is_finished, iter_raw
+from abb_ros.io.bag.reader import is_finished, iter_raw
 
 pytestmark = [pytest.mark.ros, pytest.mark.slow]
 

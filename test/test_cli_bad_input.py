@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from abb_ros.cli import main
-from abb_ros.io.bag_writer import INCOMPLETE_KEY, BagWriter
+from abb_ros.io.bag.writer import INCOMPLETE_KEY, BagWriter
 
 ALIAS_BOMB = ('a: &a ["lol","lol","lol","lol","lol","lol","lol","lol","lol"]\n'
               + ''.join(f'{c}: &{c} [*{p},*{p},*{p},*{p},*{p},*{p},*{p},*{p},*{p}]\n'
@@ -165,7 +165,7 @@ def test_a_bad_scenario_file_is_one_line_naming_the_field(tmp_path, capsys, case
 
 
 def test_the_shipped_scenarios_pass_the_schema():
-    from abb_ros.io.scenario import list_scenarios, load_scenario
+    from abb_ros.io.files.scenario import list_scenarios, load_scenario
     names = list_scenarios()
     assert len(names) >= 7
     for name in names:
@@ -343,8 +343,8 @@ def test_a_bag_that_outgrows_the_disk_is_removed(small_disk, capsys):
 
 
 def test_a_run_that_blows_up_keeps_its_bag_marked_incomplete(tmp_path, capsys):
-    from abb_ros.io.bag_reader import read_bag
-    from abb_ros.io.safe_yaml import load_file
+    from abb_ros.io.bag.reader import read_bag
+    from abb_ros.io.files.safe_yaml import load_file
     out = tmp_path / 'stiff'
     line = one_error_line(capsys, main(['run', '--set', 'k=1e9', '--duration', '0.1', '--out',
                                         str(out), '--no-progress']), 1)
@@ -357,9 +357,9 @@ def test_a_run_that_blows_up_keeps_its_bag_marked_incomplete(tmp_path, capsys):
 
 def test_metadata_never_counts_messages_of_a_chunk_that_did_not_reach_the_file(tmp_path):
     """A disk that refuses the second chunk: metadata.yaml counts the first chunk only."""
-    from abb_ros.io.bag_reader import read_bag
-    from abb_ros.io.bag_writer import BagWriteError
-    from abb_ros.io.safe_yaml import load_file
+    from abb_ros.io.bag.reader import read_bag
+    from abb_ros.io.bag.writer import BagWriteError
+    from abb_ros.io.files.safe_yaml import load_file
 
     class Disk:
         def __init__(self, path):
@@ -409,7 +409,7 @@ def test_every_yaml_file_is_read_through_safe_yaml():
                                           ('a:\n' + ''.join(' ' * i + f'k{i}:\n'
                                                             for i in range(1, 40)), 'nested')])
 def test_without_libyaml_the_same_limits_hold(monkeypatch, text, needle):
-    from abb_ros.io import safe_yaml
+    from abb_ros.io.files import safe_yaml
     monkeypatch.setattr(safe_yaml, '_LOADER', safe_yaml._PyLoader)
     t0 = time.perf_counter()
     with pytest.raises(safe_yaml.YamlFileError, match=needle):

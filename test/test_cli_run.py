@@ -55,7 +55,7 @@ def test_malformed_scenario_file_is_a_clear_error(abb_sim, tmp_path):
 
 
 def test_out_writes_a_bag_and_refuses_to_overwrite_it(abb_sim, tmp_path):
-    from abb_ros.io.bag_reader import read_bag
+    from abb_ros.io.bag.reader import read_bag
     out = tmp_path / 'p3bag'
     code, stdout, err = abb_sim('run', '--scenario', 'p3', '--duration', '0.2', '--out', str(out),
                                 '--json')
@@ -75,7 +75,7 @@ def test_out_writes_a_bag_and_refuses_to_overwrite_it(abb_sim, tmp_path):
 def test_a_run_that_blows_up_stops_with_a_clear_message_and_a_readable_bag(abb_sim, tmp_path):
     """k = 1e9 N/m is a valid washer, but its mode (~1.5e5 rad/s) is far beyond a 10 kHz RK4:
     the run stops at once, exit code 1, no traceback, and the bag written so far is closed."""
-    from abb_ros.io.bag_reader import read_bag
+    from abb_ros.io.bag.reader import read_bag
     out = tmp_path / 'stiff'
     code, stdout, err = abb_sim('run', '--set', 'k=1e9', '--duration', '0.1', '--out', str(out),
                                 '--no-progress')

@@ -113,9 +113,9 @@ def test_sigint_at_any_moment_of_start_up_is_exit_130_in_one_line(tmp_path):
 
 
 def _closed_or_marked(bag):
-    from abb_ros.io.bag_reader import read_bag
-    from abb_ros.io.bag_writer import INCOMPLETE_KEY
-    from abb_ros.io.safe_yaml import load_file
+    from abb_ros.io.bag.reader import read_bag
+    from abb_ros.io.bag.writer import INCOMPLETE_KEY
+    from abb_ros.io.files.safe_yaml import load_file
     info = load_file(bag / 'metadata.yaml')['rosbag2_bagfile_information']
     held = sum(1 for _ in read_bag(bag))
     assert info['message_count'] == held
@@ -124,8 +124,8 @@ def _closed_or_marked(bag):
 
 @pytest.mark.slow
 def test_sigterm_while_writing_a_bag_leaves_it_closed_and_marked(tmp_path):
-    from abb_ros.io.bag_writer import INCOMPLETE_KEY
-    from abb_ros.io.safe_yaml import load_file
+    from abb_ros.io.bag.writer import INCOMPLETE_KEY
+    from abb_ros.io.files.safe_yaml import load_file
     rng = np.random.default_rng(11)
     for i, delay in enumerate(rng.uniform(1.0, 3.0, 3)):
         out = tmp_path / f'bag{i}'

@@ -16,9 +16,9 @@ import yaml
 from mcap.reader import make_reader
 from mcap_ros2.decoder import DecoderFactory
 
-from abb_ros.io.bag_reader import bag_files, read_bag
-from abb_ros.io.bag_writer import topic_name
-from abb_ros.io.topics import sampled_topics
+from abb_ros.io.bag.reader import bag_files, read_bag
+from abb_ros.io.bag.writer import topic_name
+from abb_ros.io.wire.topics import sampled_topics
 
 ABB_SIM = os.path.join(os.path.dirname(sys.executable), 'abb-sim')
 

@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from race_ledger import collision_state
 
-from abb_ros.io.scenario import load_scenario
+from abb_ros.io.files.scenario import load_scenario
 from abb_ros.model.dynamics import kernels
 from abb_ros.model.dynamics.equations import solver_buffers
 from abb_ros.model.dynamics.initial import initial_state

@@ -22,7 +22,7 @@ import lagrange_sympy as L
 import numpy as np
 import pytest
 
-from abb_ros.io.scenario import load_scenario
+from abb_ros.io.files.scenario import load_scenario
 from abb_ros.model.dynamics import kernels
 from abb_ros.model.dynamics.equations import solver_buffers
 from abb_ros.model.dynamics.initial import initial_state

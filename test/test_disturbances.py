@@ -5,8 +5,8 @@ import math
 import numpy as np
 import pytest
 
-from abb_ros.io import ros_messages
-from abb_ros.io.scenario import load_scenario
+from abb_ros.io.files.scenario import load_scenario
+from abb_ros.io.wire import ros_messages
 from abb_ros.model.dynamics import kernels
 from abb_ros.model.dynamics.equations import n_coords
 from abb_ros.model.dynamics.initial import initial_state

@@ -12,8 +12,8 @@ from pathlib import Path
 import pytest
 
 from abb_ros import cli
-from abb_ros.io.scenario import list_scenarios
-from abb_ros.io.topics import recorded_topics
+from abb_ros.io.files.scenario import list_scenarios
+from abb_ros.io.wire.topics import recorded_topics
 
 ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / 'docs'
@@ -48,7 +48,7 @@ def test_every_shipped_scenario_is_described_in_cli_md_and_named_by_run_help(cap
 def test_ros_api_gives_the_recorders_default_topics_in_the_order_of_the_code():
     text = ' '.join((DOCS / 'ros_api.md').read_text().split())
     listed = re.search(r'a wanted topic appears \(default: (.*?), which is '
-                       r'`io/topics.recorded_topics\(\)`', text)
+                       r'`io/wire/topics.recorded_topics\(\)`', text)
     assert listed, 'the recorder default topic list is not where it was'
     assert re.findall(r'`([^`]+)`', listed.group(1)) == [t.name for t in recorded_topics()]
 
@@ -65,7 +65,7 @@ def test_the_node_refusals_quoted_in_ros_api_md_are_the_nodes_reasons():
     import rclpy
     from rclpy.parameter import Parameter
 
-    from abb_ros.nodes.simulator import SimulatorNode
+    from abb_ros.nodes.simulator.node import SimulatorNode
 
     [out_of_range] = quoted(DOCS / 'ros_api.md', 'Parameter drive.k out of range')
     [as_a_whole] = quoted(DOCS / 'ros_api.md', "parameter 'publish_rate_hz' = 3000")

@@ -12,7 +12,7 @@ or the faults switched on and off on the way.
 import numpy as np
 import pytest
 
-from abb_ros.io import cdr
+from abb_ros.io.wire import cdr
 from abb_ros.model.dynamics import kernels
 from abb_ros.model.dynamics.integrate import Simulation, StateError
 from abb_ros.model.dynamics.spindle import TorqueMotor

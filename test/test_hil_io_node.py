@@ -18,8 +18,8 @@ from std_srvs.srv import SetBool, Trigger
 from test_simulator_node import METAL_P, NOISE_OFF, Plant, stamp_ns
 from visualization_msgs.msg import Marker, MarkerArray
 
-from abb_ros.io import ros_messages
-from abb_ros.io.markers import ROTOR_HEIGHT, marker_poses
+from abb_ros.io.wire import ros_messages
+from abb_ros.io.wire.markers import ROTOR_HEIGHT, marker_poses
 from abb_ros.model.dynamics.integrate import Simulation
 from abb_ros.model.sensors.disturbances import apply_shock
 from abb_ros.model.stability.equilibrium import balanced_equilibrium

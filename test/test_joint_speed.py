@@ -7,8 +7,8 @@ from builtin_interfaces.msg import Time
 from rclpy.serialization import serialize_message
 from sensor_msgs.msg import JointState
 
-from abb_ros.io import cdr
-from abb_ros.io.joint_speed import JointSpeedReader
+from abb_ros.io.wire import cdr
+from abb_ros.io.wire.joint_speed import JointSpeedReader
 
 
 def message(names, velocity, position=None, frame='', sec=12, nanosec=345_000_000):

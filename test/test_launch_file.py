@@ -24,7 +24,7 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
-from abb_ros.io.bag_reader import is_finished, iter_raw
+from abb_ros.io.bag.reader import is_finished, iter_raw
 
 ROOT = Path(__file__).resolve().parents[1]
 LAUNCH = ROOT / 'launch' / 'bench.launch.py'
@@ -78,8 +78,8 @@ def test_the_recording_is_the_simulators_own_and_covers_every_topic_of_the_bench
     """record:=true sets the simulator's record.start and record_dir its record.path (no
     recorder node reads the 1 kHz topics from another process); its bag holds what the
     simulator publishes and OTHER_NODES_TOPICS, which together cover the recorder's defaults."""
-    from abb_ros.io.ros_messages import TOPIC_TYPES
-    from abb_ros.io.topics import recorded_topics
+    from abb_ros.io.wire.ros_messages import TOPIC_TYPES
+    from abb_ros.io.wire.topics import recorded_topics
     text = LAUNCH.read_text()
     assert "'record.start': ParameterValue(LaunchConfiguration('record')" in text
     assert "'record.path': ParameterValue(LaunchConfiguration('record_dir')" in text
@@ -90,7 +90,7 @@ def test_the_recording_is_the_simulators_own_and_covers_every_topic_of_the_bench
 
 
 def test_every_node_in_the_launch_file_is_a_console_script_of_this_package():
-    from abb_ros.nodes.script import NODE_MODULES
+    from abb_ros.nodes.ros.script import NODE_MODULES
     setup = (ROOT / 'setup.py').read_text()
     entry = dict(re.findall(r"'(\w+) = abb_ros\.nodes\.script:(\w+)'", setup))
     assert all(entry[name] == name for name in NODE_MODULES), entry
@@ -114,7 +114,7 @@ def test_the_bench_ends_when_the_simulator_ends():
 
 
 def test_the_simulators_own_recording_takes_the_other_nodes_topics_of_the_bench():
-    from abb_ros.io.topics import TOPICS
+    from abb_ros.io.wire.topics import TOPICS
     (topics,) = [n.value for n in tree().body if isinstance(n, ast.Assign)
                  and n.targets[0].id == 'OTHER_NODES_TOPICS']
     others = {t.name for t in TOPICS if set(t.publishers) != {'simulator'}}

@@ -205,8 +205,8 @@ def test_checker_reads_the_rows_of_the_layers_section_only(rules):
 
 @pytest.mark.parametrize('source', [
     'from abb_ros.nodes import simulator\n',
-    'import abb_ros.io.safe_yaml\n',
-    'def f():\n    from abb_ros.io.safe_yaml import load_file\n',
+    'import abb_ros.io.files.safe_yaml\n',
+    'def f():\n    from abb_ros.io.files.safe_yaml import load_file\n',
     'from abb_ros import nodes\n',
     'from ..nodes.recorder import Recorder\n',
     'import rclpy\n',

@@ -28,8 +28,8 @@ from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 
 from abb_ros.app.run_sinks import Sinks
-from abb_ros.io import msgdefs
-from abb_ros.io.live_view import LiveView, LiveViewError, parse_address, service_texts
+from abb_ros.io.live_view.server import LiveView, LiveViewError, parse_address, service_texts
+from abb_ros.io.wire import msgdefs
 
 ROOT = Path(__file__).resolve().parents[1]
 CLIENT_DIR = ROOT / 'test' / 'live_view_client'
@@ -279,7 +279,7 @@ def test_sinks_write_a_samples_messages_to_every_sink_with_or_without_write_many
 def test_simulator_node_serves_its_topics_and_takes_the_viewers_commands(subprotocol):
     from test_simulator_node import Plant
 
-    from abb_ros.io.ros_messages import TOPIC_TYPES
+    from abb_ros.io.wire.ros_messages import TOPIC_TYPES
 
     plant = Plant(**{'live_view.enabled': True, 'live_view.port': 0})
     margin = serialize_message(Float64(data=0.25))
@@ -354,7 +354,7 @@ def test_a_taken_port_fails_the_start_up_naming_the_parameter(tmp_path):
     from rclpy.parameter import Parameter
 
     from abb_ros.model.parameters.param_spec import ParamError
-    from abb_ros.nodes.simulator import SimulatorNode
+    from abb_ros.nodes.simulator.node import SimulatorNode
 
     taken = LiveView(port=0)
     ctx = rclpy.Context()
@@ -365,7 +365,7 @@ def test_a_taken_port_fails_the_start_up_naming_the_parameter(tmp_path):
                      Parameter('record.path', value=str(tmp_path / 'bag'))]
         with pytest.raises(ParamError, match='live_view.port'):
             SimulatorNode(context=ctx, parameter_overrides=overrides)
-        from abb_ros.io.bag_reader import is_finished
+        from abb_ros.io.bag.reader import is_finished
         assert is_finished(tmp_path / 'bag')   # the recording begun is finished
     finally:
         rclpy.shutdown(context=ctx)
@@ -398,7 +398,7 @@ def test_abb_sim_run_serves_the_headless_run_at_real_time(tmp_path):
     expected = {'/' + t.lstrip('/'): ty for t, ty in STATE_TOPIC_TYPES.items()}
     check_channels(seen, expected)
     assert 'time' in seen['serverInfo']['capabilities']
-    from abb_ros.io.bag_reader import iter_raw
+    from abb_ros.io.bag.reader import iter_raw
     sent = {('/' + t.lstrip('/'), stamp): data
             for t, _, data, stamp in iter_raw(tmp_path / 'bag')}
     assert check_messages(seen, expected, sent) == 3 * len(expected)

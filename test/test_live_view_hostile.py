@@ -21,7 +21,8 @@ from rclpy.serialization import serialize_message
 from std_msgs.msg import Float64
 from test_live_view import DEADLINE_S, b64, foxglove_client
 
-from abb_ros.io.live_view import DEFAULT_ALLOWED_ORIGINS, LiveView, origin_allowed
+from abb_ros.io.live_view.admission import DEFAULT_ALLOWED_ORIGINS, origin_allowed
+from abb_ros.io.live_view.server import LiveView
 
 FOREIGN = 'https://attacker.example'
 

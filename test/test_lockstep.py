@@ -7,8 +7,8 @@ from importlib.metadata import entry_points
 import numpy as np
 import pytest
 
-from abb_ros.io.scenario import load_scenario
-from abb_ros.nodes.spin_controller import SpinController
+from abb_ros.io.files.scenario import load_scenario
+from abb_ros.nodes.spin_controller.node import SpinController
 from abb_ros.testing.lockstep import LockstepPlant, drive_parameters
 
 pytestmark = pytest.mark.ros

@@ -9,15 +9,15 @@ import pytest
 from rclpy.serialization import deserialize_message, serialize_message
 from visualization_msgs.msg import Marker, MarkerArray
 
-from abb_ros.io import markers, ros_messages
-from abb_ros.io.markers import (
+from abb_ros.io.wire import markers, ros_messages
+from abb_ros.io.wire.markers import (
     DECK_THICKNESS,
     ROTOR_HEIGHT,
     ball_radius,
     marker_array,
     marker_poses,
 )
-from abb_ros.io.topics import MARKERS
+from abb_ros.io.wire.topics import MARKERS
 from abb_ros.model.dynamics.initial import initial_state
 from abb_ros.model.parameters.params import DriveParams
 from abb_ros.model.sensors.imu import euler_quaternion, euler_rotation

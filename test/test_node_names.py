@@ -91,7 +91,7 @@ def test_a_helper_keeps_the_command_lines_topic_remaps_and_takes_its_owners_name
     command line moves its subscription as it moves its owner's."""
     from sensor_msgs.msg import JointState
 
-    from abb_ros.nodes.taps import Taps
+    from abb_ros.nodes.ros.taps import Taps
 
     ctx = rclpy.Context()
     rclpy.init(context=ctx, args=['--ros-args', '-r', '__node:=owner', '-r', '__ns:=/a',

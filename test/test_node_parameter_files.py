@@ -14,13 +14,13 @@ from pathlib import Path
 
 import pytest
 
-from abb_ros.nodes.param_files import (
+from abb_ros.nodes.ros.param_files import (
     ParamFileError,
     check_arguments,
     node_name_matches,
     parse_ros_arguments,
 )
-from abb_ros.nodes.parameter_table import SPECS, specs_for
+from abb_ros.nodes.ros.parameter_table import SPECS, specs_for
 
 ROOT = Path(__file__).resolve().parents[1]
 NODES = {'simulator': 'abb_simulator', 'analysis': 'abb_analysis', 'recorder': 'abb_recorder',
@@ -158,7 +158,7 @@ def test_a_parameter_file_written_by_launch_ros_is_taken(tmp_path):
     malformed YAML (the simulator would exit 2 under every launch)."""
     import yaml
 
-    from abb_ros.io.safe_yaml import load_file
+    from abb_ros.io.files.safe_yaml import load_file
     topics = ('stability/margin', '/diagnostics')
     path = tmp_path / 'launch_params_x'
     path.write_text(yaml.dump({'/abb_simulator': {'ros__parameters': {
@@ -173,7 +173,7 @@ def test_a_parameter_file_written_by_launch_ros_is_taken(tmp_path):
 
 def test_no_other_python_tag_is_constructed(tmp_path):
     """Only the tuple tag is read: any other Python object stays refused."""
-    from abb_ros.io.safe_yaml import YamlFileError, load_file
+    from abb_ros.io.files.safe_yaml import YamlFileError, load_file
     path = tmp_path / 'evil.yaml'
     path.write_text("x: !!python/object/apply:os.system ['true']\n")
     with pytest.raises(YamlFileError, match='malformed YAML'):

@@ -26,9 +26,9 @@ from std_srvs.srv import Trigger
 from test_live_view import DEADLINE_S, client_command
 from test_simulator_recording import RAW_QOS
 
-from abb_ros.io.bag_reader import is_finished, iter_raw
-from abb_ros.io.ros_messages import TOPIC_TYPES
-from abb_ros.io.topics import DIAGNOSTICS, MARKERS
+from abb_ros.io.bag.reader import is_finished, iter_raw
+from abb_ros.io.wire.ros_messages import TOPIC_TYPES
+from abb_ros.io.wire.topics import DIAGNOSTICS, MARKERS
 
 RUN_S = 3.0
 plant_factory = test_simulator_node.plant_factory   # the fixture, shared

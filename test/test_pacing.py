@@ -1,4 +1,4 @@
-"""The real-time pacing of the simulator (abb_ros.nodes.pacing) on a fake clock, without DDS.
+"""The real-time pacing of the simulator (abb_ros.runtime.pacing) on a fake clock, without DDS.
 
 The node's plant thread calls :meth:`Pacer.due` once per publish period of wall time, at the
 deadlines :meth:`Pacer.deadline_ns` gives; here the
@@ -10,7 +10,7 @@ import sys
 
 import pytest
 
-from abb_ros.nodes.pacing import Pacer
+from abb_ros.runtime.pacing import Pacer
 
 DT_NS = 100_000            # 10 kHz steps
 EVERY = 10                 # 1 kHz publishing
@@ -46,7 +46,7 @@ def run(p, clock, ticks, steps=0, tick_ns=None):
 
 
 def test_the_pacing_module_imports_without_rclpy():
-    code = 'import sys, abb_ros.nodes.pacing; assert "rclpy" not in sys.modules'
+    code = 'import sys, abb_ros.runtime.pacing; assert "rclpy" not in sys.modules'
     subprocess.run([sys.executable, '-c', code], check=True)
 
 
@@ -277,7 +277,7 @@ def test_paused_windows_do_not_count_for_the_factor_since_start():
     assert paused.since_start == pytest.approx(1.0)
 
 
-# ---- the time rule (abb_ros.nodes.sim_clock): every transition on the fake clock --------------
+# ---- the time rule (abb_ros.runtime.sim_clock): every transition on the fake clock --------------
 
 def run_at(p, clock, factor, ticks, steps):
     """Set ``factor``, restart the pacing as the node does, tick ``ticks`` periods."""

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from abb_ros.app.headless import run_scenario
-from abb_ros.io.scenario import load_scenario
+from abb_ros.io.files.scenario import load_scenario
 from abb_ros.model.dynamics.state import StateLayout
 from abb_ros.model.stability.steady import locked_ball_angle
 

@@ -14,8 +14,8 @@ from abb_ros.commands import settings
 from abb_ros.model.parameters.drive_spec import DRIVE_SPECS
 from abb_ros.model.parameters.param_spec import ParamError
 from abb_ros.model.parameters.params import DriveParams
-from abb_ros.nodes import parameter_table
-from abb_ros.nodes.parameter_table import SPECS, specs_for
+from abb_ros.nodes.ros import parameter_table
+from abb_ros.nodes.ros.parameter_table import SPECS, specs_for
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -55,20 +55,20 @@ def test_docs_parameter_table_is_generated_from_the_spec():
 
 
 def test_module_defaults_are_the_spec_defaults():
-    from abb_ros.io.bag_writer import DEFAULT_CHUNK_SIZE
+    from abb_ros.io.bag.writer import DEFAULT_CHUNK_SIZE
     from abb_ros.model.dynamics.integrate import DEFAULT_DT
     from abb_ros.model.stability.speed_bands import TABLE_POINTS
     assert DriveParams().as_dict() == {s.short: s.default for s in DRIVE_SPECS}
     assert DEFAULT_DT == 1.0 / specs_for('simulator')['integration_rate_hz'].default
     assert TABLE_POINTS == specs_for('analysis')['table_points'].default
     assert DEFAULT_CHUNK_SIZE == specs_for('recorder')['chunk_size'].default
-    from abb_ros.nodes.run_up import GUARD_WBAR
+    from abb_ros.nodes.spin_controller.run_up import GUARD_WBAR
     assert GUARD_WBAR == specs_for('spin_controller')['guard_wbar'].default
     assert TABLE_POINTS == specs_for('spin_controller')['table_points'].default
 
 
 def test_recorder_default_topics_are_the_recorded_topics_of_the_topic_list():
-    from abb_ros.io import topics
+    from abb_ros.io.wire import topics
     assert specs_for('recorder')['topics'].default == [t.name for t in topics.recorded_topics()]
 
 
@@ -136,7 +136,7 @@ def test_run_refuses_bad_node_parameters_with_exit_code_2(capsys, setting, needl
 
 
 def _imu_samples(capsys, tmp_path, name, *settings):
-    from abb_ros.io.bag_reader import read_bag
+    from abb_ros.io.bag.reader import read_bag
     out = tmp_path / name
     argv = ['run', '--scenario', 'p3', '--duration', '0.05', '--no-progress', '--out', str(out)]
     for s in settings:

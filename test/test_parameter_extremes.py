@@ -25,8 +25,8 @@ from abb_ros.model.sensors.faults import ImuFaults, SpeedFaults
 from abb_ros.model.sensors.imu import ImuModel
 from abb_ros.model.sensors.sampling import PlantSampler
 from abb_ros.model.sensors.speed_sensor import SpeedSensor
-from abb_ros.nodes.rate_slots import RateSlots
-from abb_ros.nodes.ros_params import P3_WBAR, SIMULATOR_PARAMS, settings_from, with_ros_names
+from abb_ros.nodes.ros.ros_params import P3_WBAR, SIMULATOR_PARAMS, settings_from, with_ros_names
+from abb_ros.runtime.rate_slots import RateSlots
 
 HOSTILE = (1e308, 1e200, 1e20, -1e308, -1.0, 5e-324, -5e-324, 0.0)
 """Values no range should let through unless the plant stays finite with them."""
@@ -110,7 +110,7 @@ def test_every_floating_point_range_of_every_node_is_bounded():
     The other nodes' floats (the controller's target speed and acceleration, the recorder's
     discovery period) feed timers and commands, where 1e308 overflows as it did in the plant.
     """
-    from abb_ros.nodes.parameter_table import SPECS
+    from abb_ros.nodes.ros.parameter_table import SPECS
     unbounded = [s.name for s in SPECS if s.type in (DOUBLE, DOUBLE_ARRAY) and not (
         s.low is not None and s.high is not None and math.isfinite(s.low - s.high))]
     assert unbounded == []

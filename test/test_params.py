@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from abb_ros.io.drive_file import read_drive_yaml, write_drive_yaml
+from abb_ros.io.files.drive_file import read_drive_yaml, write_drive_yaml
 from abb_ros.model.parameters.params import METAL_C, DriveParams, ParamError, apply_settings
 
 TABLE1 = DriveParams()

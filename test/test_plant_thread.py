@@ -1,4 +1,4 @@
-"""The plant's thread (nodes/plant_thread.py): absolute deadlines, wake-ups, the shared lock.
+"""The plant's thread (runtime/plant_thread.py): absolute deadlines, wake-ups, the shared lock.
 
 A plain tick stands for the simulator's; no rclpy. Timing claims are checked loosely (this
 machine is shared): the point is that the deadlines are absolute, so a late wake-up is not
@@ -10,7 +10,7 @@ import time
 
 import pytest
 
-from abb_ros.nodes.plant_thread import AGAIN, IDLE, PlantThread, locked
+from abb_ros.runtime.plant_thread import AGAIN, IDLE, PlantThread, locked
 
 PERIOD_NS = 2_000_000
 

@@ -14,8 +14,8 @@ from scipy.spatial.transform import Rotation
 from sensor_msgs.msg import JointState
 
 from abb_ros.cli import main
-from abb_ros.io.bag_writer import BagWriter
-from abb_ros.io.time_response import euler_from_quaternion, load_time_response
+from abb_ros.io.bag.time_response import euler_from_quaternion, load_time_response
+from abb_ros.io.bag.writer import BagWriter
 
 R_RACE = 0.015
 PHI_END = np.radians(106.0)

@@ -18,9 +18,9 @@ from rosbags.highlevel import AnyReader
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
-from abb_ros.io.bag_reader import is_finished, read_bag
-from abb_ros.io.bag_writer import INCOMPLETE_KEY
-from abb_ros.io.safe_yaml import load_file
+from abb_ros.io.bag.reader import is_finished, read_bag
+from abb_ros.io.bag.writer import INCOMPLETE_KEY
+from abb_ros.io.files.safe_yaml import load_file
 
 pytestmark = pytest.mark.ros
 ROOT = Path(__file__).resolve().parents[1]

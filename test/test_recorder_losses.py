@@ -15,8 +15,8 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64
 from test_recorder import Publisher, finish, start_recorder
 
-from abb_ros.io.bag_reader import read_bag
-from abb_ros.nodes.recording import LossCounter
+from abb_ros.io.bag.reader import read_bag
+from abb_ros.nodes.recorder.recording import LossCounter
 
 pytestmark = pytest.mark.ros
 

@@ -1,9 +1,9 @@
 """A node's own messages recorded in process: queued as they are published, written by the drain.
 
-:meth:`abb_ros.nodes.recording.Recording.write` runs on the simulator's plant thread for every
-message it publishes; it only queues the message, and the drain (or the end of the recording)
-writes the queue. These tests hold the bag to what the node gave, in order, with the same
-bytes and log times, and a refused write to one failure, reported once.
+:meth:`abb_ros.nodes.recorder.recording.Recording.write` runs on the simulator's plant thread for
+every message it publishes; it only queues the message, and the drain (or the end of the recording)
+writes the queue. These tests hold the bag to what the node gave, in order, with the same bytes and
+log times, and a refused write to one failure, reported once.
 """
 
 import errno
@@ -15,10 +15,10 @@ from rclpy.node import Node
 from rclpy.qos import QoSProfile
 from test_bag import _Quota  # a file on which the disk fills up
 
-from abb_ros.io import cdr
-from abb_ros.io.bag_reader import iter_raw
-from abb_ros.io.bag_writer import BagWriter
-from abb_ros.nodes.recording import Recording
+from abb_ros.io.bag.reader import iter_raw
+from abb_ros.io.bag.writer import BagWriter
+from abb_ros.io.wire import cdr
+from abb_ros.nodes.recorder.recording import Recording
 
 pytestmark = pytest.mark.ros
 

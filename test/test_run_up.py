@@ -9,7 +9,7 @@ import pytest
 from abb_ros.model.parameters.params import DriveParams
 from abb_ros.model.stability.equilibrium import balanced_equilibrium
 from abb_ros.model.stability.speed_bands import Band
-from abb_ros.nodes.run_up import RunUp, hold_speed, in_band
+from abb_ros.nodes.spin_controller.run_up import RunUp, hold_speed, in_band
 from abb_ros.testing.assertions import (
     assert_balls_at_phi_star,
     peak,

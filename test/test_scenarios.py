@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from abb_ros.io.scenario import list_scenarios, load_scenario
+from abb_ros.io.files.scenario import list_scenarios, load_scenario
 from abb_ros.model.parameters.params import METAL_C, RUBBER_C
 
 POINTS = {  # Section 5: (mbar, wbar, washer damping c)

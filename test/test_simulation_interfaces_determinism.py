@@ -17,9 +17,9 @@ from test_live_vs_headless import IMU_FIELDS, SEED, stamp_of
 from test_simulator_node import Plant
 
 from abb_ros.app.headless import STATE_TOPIC_TYPES, run_scenario
-from abb_ros.io.bag_reader import iter_raw
-from abb_ros.io.bag_writer import BagWriter
-from abb_ros.io.scenario import load_scenario
+from abb_ros.io.bag.reader import iter_raw
+from abb_ros.io.bag.writer import BagWriter
+from abb_ros.io.files.scenario import load_scenario
 from abb_ros.model.sensors.imu import TYPICAL_IMU
 
 srv = pytest.importorskip('simulation_interfaces.srv', reason='simulation_interfaces is not '

@@ -3,8 +3,8 @@
 import pytest
 from diagnostic_msgs.msg import DiagnosticStatus
 
-from abb_ros.nodes.pacing import PacingWindow
-from abb_ros.nodes.simulator_diagnostics import level_and_message
+from abb_ros.nodes.simulator.diagnostics import level_and_message
+from abb_ros.runtime.pacing import PacingWindow
 
 OK, WARN, ERROR = DiagnosticStatus.OK, DiagnosticStatus.WARN, DiagnosticStatus.ERROR
 ON_TIME = PacingWindow(real_time_factor=1.0, since_start=1.0, stamp_lag=0.0002, slips=0)

@@ -30,8 +30,8 @@ from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 
 from abb_ros.model.parameters.params import DriveParams
-from abb_ros.nodes.simulator import SimulatorNode, make_executor
-from abb_ros.nodes.taps import Taps
+from abb_ros.nodes.ros.taps import Taps
+from abb_ros.nodes.simulator.node import SimulatorNode, make_executor
 
 pytestmark = pytest.mark.ros
 

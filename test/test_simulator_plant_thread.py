@@ -1,6 +1,6 @@
 """The simulator's plant on its own thread, and joint_states_throttle, over real rclpy and DDS.
 
-The plant is paced by its own thread (nodes/plant_thread.py), not by the executor: it keeps
+The plant is paced by its own thread (runtime/plant_thread.py), not by the executor: it keeps
 publishing while no executor spins the node, and a callback of the node holds the plant's
 lock (tested through the node's services in test_simulator_node.py and
 test_simulator_time.py). ``ABB_ROS_PACING=timer`` brings back the executor's timer;
@@ -21,7 +21,7 @@ from rclpy.parameter import Parameter
 from sensor_msgs.msg import JointState
 from test_simulator_node import stamp_ns
 
-from abb_ros.nodes.simulator import PACING_ENV, SimulatorNode
+from abb_ros.nodes.simulator.node import PACING_ENV, SimulatorNode
 
 pytestmark = pytest.mark.ros
 plant_factory = test_simulator_node.plant_factory   # the fixture, shared

@@ -27,10 +27,10 @@ from std_srvs.srv import Trigger
 from test_live_vs_headless import SEED, node_parameters, stamp_of
 
 from abb_ros.app.headless import STATE_TOPIC_TYPES, run_scenario
-from abb_ros.io import topics
-from abb_ros.io.bag_reader import is_finished, iter_raw
-from abb_ros.io.bag_writer import BagWriter
-from abb_ros.io.scenario import load_scenario
+from abb_ros.io.bag.reader import is_finished, iter_raw
+from abb_ros.io.bag.writer import BagWriter
+from abb_ros.io.files.scenario import load_scenario
+from abb_ros.io.wire import topics
 from abb_ros.model.sensors.imu import TYPICAL_IMU
 
 pytestmark = pytest.mark.ros

@@ -6,7 +6,7 @@ blocks its executor for a while, as a starved process would be. A stall shorter 
 ``stamp_lag`` with WARN; a longer one is dropped (``slips``, ERROR) and the wall-time stamps
 rejoin the wall clock.
 
-The time rule (abb_ros/nodes/sim_clock.py, docs/time_under_load.md) over DDS, one transition
+The time rule (abb_ros/runtime/sim_clock.py, docs/time_under_load.md) over DDS, one transition
 per test: a speed-up and back, a slow-down and back, pause, step, resume, reset. Each checks
 what a consumer sees: on the wall clock, the stamps of ``joint_states`` are the wall time
 while ``/clock`` is silent; on simulated time, ``/clock`` carries exactly the stamps.

@@ -54,7 +54,7 @@ def test_headless_cdr_of_joint_states_with_effort_is_what_rclpy_serialises():
     import numpy as np
     from rclpy.serialization import deserialize_message
 
-    from abb_ros.io import cdr, ros_messages
+    from abb_ros.io.wire import cdr, ros_messages
     from abb_ros.model.sensors.sampling import Sample
     y = np.arange(18, dtype=float) / 7.0
     sample = Sample(steps=12345, n=2, y=y, imu=None, effort=3.5e-3)

@@ -1,12 +1,14 @@
-"""The torque-mode speed loop (abb_ros/nodes/speed_loop.py) on a rigid rotor without ROS: it
-tracks a ramp, never asks for more current than the drive delivers, and does not wind up."""
+"""The torque-mode speed loop on a rigid rotor without ROS.
+
+The loop (abb_ros/nodes/spin_controller/speed_loop.py) tracks a ramp, never asks for more
+current than the drive delivers, and does not wind up."""
 
 import numpy as np
 import pytest
 
-from abb_ros.io.scenario import load_scenario
+from abb_ros.io.files.scenario import load_scenario
 from abb_ros.model.dynamics.spindle import TorqueMotor
-from abb_ros.nodes.speed_loop import SpeedLoop, rotor_inertia
+from abb_ros.nodes.spin_controller.speed_loop import SpeedLoop, rotor_inertia
 
 P3 = load_scenario('p3').params
 J = rotor_inertia(P3)

@@ -175,8 +175,8 @@ def test_the_pitch_pattern_has_zero_mean_the_rms_asked_for_and_comes_from_the_se
 
 def test_the_node_parameter_refuses_a_pitch_error_that_would_reorder_the_edges():
     from abb_ros.model.parameters.params import ParamError
-    from abb_ros.nodes.hil_settings import hil_settings
-    from abb_ros.nodes.parameter_table import specs_for
+    from abb_ros.nodes.ros.parameter_table import specs_for
+    from abb_ros.nodes.simulator.hil_settings import hil_settings
     values = {name: spec.default for name, spec in specs_for('simulator').items()}
     assert hil_settings(values).speed_sensor == SpeedSensorConfig()
     values['speed_sensor.pitch_error'] = 0.2

@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from abb_ros.io.scenario import load_scenario
+from abb_ros.io.files.scenario import load_scenario
 from abb_ros.model.stability import speed_bands
-from abb_ros.nodes.spin_controller import SpinController
+from abb_ros.nodes.spin_controller.node import SpinController
 from abb_ros.testing.assertions import assert_balls_at_phi_star, peak, settling_time, time_in_bands
 from abb_ros.testing.lockstep import drive_parameters
 

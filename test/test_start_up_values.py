@@ -19,8 +19,8 @@ from rclpy.parameter import Parameter
 from rclpy.qos import qos_profile_parameter_events
 
 from abb_ros.model.parameters.params import ParamError
-from abb_ros.nodes import ros_params
-from abb_ros.nodes.parameter_table import specs_for
+from abb_ros.nodes.ros import ros_params
+from abb_ros.nodes.ros.parameter_table import specs_for
 
 pytestmark = pytest.mark.ros
 

@@ -13,7 +13,7 @@ import numpy as np
 import pytest
 
 from abb_ros.app.headless import run_scenario
-from abb_ros.io.scenario import load_scenario
+from abb_ros.io.files.scenario import load_scenario
 from abb_ros.model.parameters.ball_materials import with_steel_balls
 from abb_ros.model.stability.equilibrium import phi_star_two_balls
 

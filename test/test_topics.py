@@ -1,6 +1,6 @@
-"""The topic list (io/topics.py): one entry per topic, the derived lists in its order."""
+"""The topic list (io/wire/topics.py): one entry per topic, the derived lists in its order."""
 
-from abb_ros.io import topics
+from abb_ros.io.wire import topics
 
 
 def test_every_topic_has_one_entry_and_the_derived_lists_keep_its_order():
@@ -37,7 +37,7 @@ def test_topic_names_are_written_only_in_the_topic_list():
         hits = topic_name_literals(path.read_text())
         if hits:
             found[str(path.relative_to(package))] = hits
-    assert not found, f'topic names written outside io/topics.py (use its constants): {found}'
+    assert not found, f'topic names written outside io/wire/topics.py (use its constants): {found}'
 
 
 def test_the_topic_name_check_sees_a_literal_but_not_a_sentence():

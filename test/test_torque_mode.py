@@ -11,7 +11,7 @@ import re
 import numpy as np
 import pytest
 
-from abb_ros.io.scenario import CurrentCommand, load_scenario
+from abb_ros.io.files.scenario import CurrentCommand, load_scenario
 from abb_ros.model.dynamics import kernels
 from abb_ros.model.dynamics.initial import initial_state
 from abb_ros.model.dynamics.integrate import Simulation
@@ -247,7 +247,7 @@ def test_headless_torque_run_records_the_motor_torque_as_joint_effort(tmp_path):
     (far below the voltage limit); the spindle accelerates.
     """
     from abb_ros.cli import main
-    from abb_ros.io.bag_reader import read_bag
+    from abb_ros.io.bag.reader import read_bag
     out = tmp_path / 'bag'
     assert main(['run', '--scenario', 'runup_torque_weak', '--duration', '0.1', '--out',
                  str(out), '--no-progress']) == 0

@@ -10,9 +10,9 @@ import textwrap
 
 import pytest
 
-from abb_ros.io.drive_file import read_drive_yaml
-from abb_ros.io.safe_yaml import _PyLoader, load_text
-from abb_ros.io.scenario import load_scenario
+from abb_ros.io.files.drive_file import read_drive_yaml
+from abb_ros.io.files.safe_yaml import _PyLoader, load_text
+from abb_ros.io.files.scenario import load_scenario
 from abb_ros.sweep.spec import load_spec
 
 SPELLINGS = [('5e-5', 5e-5), ('1E3', 1000.0), ('-2e+3', -2000.0), ('.5e1', 5.0),
@@ -24,7 +24,7 @@ SPELLINGS = [('5e-5', 5e-5), ('1E3', 1000.0), ('-2e+3', -2000.0), ('.5e1', 5.0),
 def test_an_exponent_without_a_dot_is_a_float(monkeypatch, loader, text, value):
     """The safe loader reads YAML 1.2 floats as floats with and without libyaml."""
     if loader == 'pure python':
-        from abb_ros.io import safe_yaml
+        from abb_ros.io.files import safe_yaml
         monkeypatch.setattr(safe_yaml, '_LOADER', safe_yaml._ros_loader(_PyLoader))
     got = load_text(f'x: {text}')['x']
     assert isinstance(got, float) and got == value

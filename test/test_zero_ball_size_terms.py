@@ -11,7 +11,7 @@ import paper_reference
 import pytest
 
 from abb_ros.app.headless import run_scenario
-from abb_ros.io.scenario import load_scenario
+from abb_ros.io.files.scenario import load_scenario
 
 ZEROS = dict(r_ball=0.0, contact_E=0.0, contact_nu=0.0, contact_damping=0.0, rolling_mu=0.0,
              ball_rotation=0)

@@ -1,8 +1,8 @@
 """Headless runs: a scenario integrated as fast as possible, without DDS, optionally to a bag.
 
 The plant is stepped by the same :class:`~abb_ros.model.sensors.sampling.PlantSampler` as the live
-simulator node and its messages hold the same contents (:mod:`abb_ros.io.ros_messages`),
-encoded straight to CDR by :mod:`abb_ros.io.cdr` (byte-identical to the serialised rclpy
+simulator node and its messages hold the same contents (:mod:`abb_ros.io.wire.ros_messages`),
+encoded straight to CDR by :mod:`abb_ros.io.wire.cdr` (byte-identical to the serialised rclpy
 messages, without building them), so a headless bag and a live bag of the same scenario hold
 the same messages (test/test_live_vs_headless.py).
 Speed commands of the scenario take effect at the first publish instant at or after their
@@ -16,8 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from abb_ros.io import topics
-from abb_ros.io.scenario import Scenario
+from abb_ros.io.files.scenario import Scenario
+from abb_ros.io.wire import topics
 from abb_ros.model.dynamics.initial import initial_state
 from abb_ros.model.dynamics.integrate import (
     DEFAULT_DT,
@@ -101,7 +101,7 @@ def run_scenario(
     The FG speed sensor (``spindle/speed``) has ``speed_config`` (default the node's) and the
     same ``seed`` as the IMU, so a node with the same settings publishes the same readings.
 
-    bag : abb_ros.io.bag_writer.BagWriter, optional
+    bag : abb_ros.io.bag.writer.BagWriter, optional
         Receives every message (with ``/clock``, as the node does on simulated time).
     progress : callable(float), optional
         Called with the simulated seconds done after each chunk (for a progress bar).
@@ -203,7 +203,7 @@ class _Collector:
         self.times.extend(sim.t0 + (sim.steps - every * np.arange(chunk - 1, -1, -1)) * sim.dt)
 
     def _batched(self, chunk: int) -> None:
-        from abb_ros.io import cdr
+        from abb_ros.io.wire import cdr
         batch = self.sampler.next_periods(chunk)
         for stamp_ns, encoded in cdr.batch_cdr(batch, self.dt_ns, self.imu_config,
                                                with_clock=True):
@@ -215,7 +215,7 @@ class _Collector:
         self.states.append(batch.y)
 
     def _write(self, samples) -> None:
-        from abb_ros.io import cdr
+        from abb_ros.io.wire import cdr
         for sample in samples:
             stamp_ns, encoded = cdr.sample_cdr(sample, self.dt_ns, self.imu_config,
                                                with_clock=True)

@@ -27,7 +27,7 @@ def apply_settings(scenario, settings: dict):
 
     Returns
     -------
-    scenario : abb_ros.io.scenario.Scenario
+    scenario : abb_ros.io.files.scenario.Scenario
         The scenario with the drive's settings and the spindle's applied.
     options : dict
         :func:`run_options` of the node parameters among the settings.

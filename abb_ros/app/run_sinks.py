@@ -25,7 +25,7 @@ class Sinks:
     ----------
     sinks : list
         Objects with ``add_topic(topic, type_name)`` and ``write(topic, data, stamp_ns)``
-        (:class:`abb_ros.io.bag_writer.BagWriter`, :class:`abb_ros.io.live_view.LiveView`).
+        (:class:`abb_ros.io.bag.writer.BagWriter`, :class:`abb_ros.io.live_view.server.LiveView`).
     real_time : bool
         Whether to hold each message until the wall clock reaches its stamp.
     clock : callable

@@ -13,8 +13,8 @@ import signal
 from pathlib import Path
 
 from abb_ros.commands.settings import cli_names, spec_for_command
-from abb_ros.io.drive_file import read_drive_yaml
-from abb_ros.io.safe_yaml import YamlFileError, load_file, load_text
+from abb_ros.io.files.drive_file import read_drive_yaml
+from abb_ros.io.files.safe_yaml import YamlFileError, load_file, load_text
 from abb_ros.model.parameters.param_spec import STRING, ParamError, ParamSpec
 from abb_ros.model.parameters.params import (
     DIMENSIONLESS_NAMES,
@@ -209,7 +209,7 @@ def _written_here(metadata: Path) -> str:
     versions: their ``abb_ros.drive_params``). A user's folder that merely holds a
     ``metadata.yaml`` and an ``.mcap`` is not replaced.
     """
-    from abb_ros.io.bag_writer import DRIVE_METADATA, WRITER_KEY  # mcap: not for --help
+    from abb_ros.io.bag.writer import DRIVE_METADATA, WRITER_KEY  # mcap: not for --help
     try:
         info = (load_file(metadata) or {}).get('rosbag2_bagfile_information') or {}
         custom = info.get('custom_data') or {}
@@ -273,7 +273,7 @@ def run_scenario_from_args(name: str, config, set_items, no_abb: bool = False,
 
     from abb_ros.app.headless import PUBLISH_DT, check_duration
     from abb_ros.app.run_settings import apply_settings
-    from abb_ros.io.scenario import load_scenario
+    from abb_ros.io.files.scenario import load_scenario
     base = drive_params(config) if config else None
     try:
         scenario = load_scenario(name, base=base)

@@ -107,7 +107,7 @@ def run(args) -> dict:
 
     from tqdm import tqdm
 
-    from abb_ros.io.map_file import save_map
+    from abb_ros.io.files.map_file import save_map
     from abb_ros.model.stability.floquet import stability_map
     from abb_ros.plots.maps import plot_map
     if args.x == args.y:

@@ -11,7 +11,7 @@ from pathlib import Path
 
 import numpy as np
 
-from abb_ros.io.bag_writer import BagError
+from abb_ros.io.bag.writer import BagError
 
 
 def add_arguments(parser) -> None:
@@ -31,7 +31,7 @@ def add_arguments(parser) -> None:
 def run(args) -> dict:
     """Read the bag(s), write the time-response figures; return the summary."""
     from abb_ros.commands.api import CommandFailed, UsageError, check_output, output_files
-    from abb_ros.io.time_response import TimeResponseError, load_time_response
+    from abb_ros.io.bag.time_response import TimeResponseError, load_time_response
     from abb_ros.model.dynamics.state import wrap_degrees
     from abb_ros.plots import time_response as plots
 

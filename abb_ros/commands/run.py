@@ -19,7 +19,7 @@ def add_arguments(parser):
     """Add the options of ``abb-sim run`` to ``parser``."""
     parser.add_argument('--config', help='ROS 2 parameter file with drive.* parameters '
                         '(default: Table 1, config/cdrom_table1.yaml)')
-    from abb_ros.io.scenario import list_scenarios
+    from abb_ros.io.files.scenario import list_scenarios
     parser.add_argument('--scenario', default=DEFAULT_SCENARIO,
                         help=f'{", ".join(list_scenarios())} (config/scenarios) or a YAML '
                         'file (default: %(default)s)')
@@ -62,7 +62,7 @@ def _live_view(address: str | None):
     if address is None:
         return None
     from abb_ros.commands.api import UsageError
-    from abb_ros.io.live_view import LiveView, LiveViewError, parse_address
+    from abb_ros.io.live_view.server import LiveView, LiveViewError, parse_address
     try:
         live = LiveView(*parse_address(address), server_time=True,
                         log=lambda line: print(line, file=sys.stderr, flush=True))
@@ -76,7 +76,7 @@ def _live_view(address: str | None):
 def _finish(bag, path, staged) -> None:
     """Close the bag (signals held meanwhile) and move it into place; a failed close removes it."""
     from abb_ros.commands.api import CommandFailed, commit_directory, signals_deferred
-    from abb_ros.io.bag_writer import BagWriteError
+    from abb_ros.io.bag.writer import BagWriteError
     try:
         with signals_deferred():
             bag.close()
@@ -102,7 +102,7 @@ def _scenario(args):
 def _open_bag(args, staged, params, live):
     """Open the bag of ``--out`` in ``staged``; a failure closes ``live`` and removes it."""
     from abb_ros.commands.api import CommandFailed, UsageError, commit_directory, signals_deferred
-    from abb_ros.io.bag_writer import BagError, BagExistsError, BagWriter
+    from abb_ros.io.bag.writer import BagError, BagExistsError, BagWriter
     try:
         with signals_deferred():
             bag = BagWriter(staged)
@@ -138,7 +138,7 @@ def _integrate(args, scenario, options, bag, live, staged):
     from abb_ros.app.headless import run_scenario
     from abb_ros.app.run_sinks import Sinks
     from abb_ros.commands.api import CommandFailed, signals_deferred, stop_point
-    from abb_ros.io.bag_writer import BagWriteError
+    from abb_ros.io.bag.writer import BagWriteError
     from abb_ros.model.dynamics.integrate import StateError
     sinks = [sink for sink in (bag, live) if sink is not None]
     real_time = live is not None if args.real_time is None else args.real_time

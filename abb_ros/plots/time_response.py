@@ -1,7 +1,7 @@
 """Time-response figures of the paper (Figs. 9-16) from a recorded bag.
 
-The ``plot_*`` functions draw a :class:`abb_ros.io.time_response.TimeResponse` (a bag's deck
-coordinates and ball angles, loaded by :func:`abb_ros.io.time_response.load_time_response`).
+The ``plot_*`` functions draw a :class:`abb_ros.io.bag.time_response.TimeResponse` (a bag's deck
+coordinates and ball angles, loaded by :func:`abb_ros.io.bag.time_response.load_time_response`).
 matplotlib is imported only when drawing. SI inside; mm and degrees on the axes.
 """
 
@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from abb_ros.io.time_response import TimeResponse
+from abb_ros.io.bag.time_response import TimeResponse
 from abb_ros.model.dynamics.state import wrap_degrees
 
 LEGEND_OUTSIDE = dict(loc='upper left', bbox_to_anchor=(1.01, 1.0), fontsize=8, borderaxespad=0)

@@ -39,8 +39,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from abb_ros.io import fields
-from abb_ros.io.safe_yaml import YamlFileError, load_file
+from abb_ros.io.files import fields
+from abb_ros.io.files.safe_yaml import YamlFileError, load_file
 from abb_ros.model.parameters.drive_spec import MAX_OMEGA
 from abb_ros.model.parameters.param_spec import ParamError
 from abb_ros.model.parameters.params import DIMENSIONLESS_NAMES, PARAM_SPECS, apply_settings
@@ -97,7 +97,7 @@ DEFAULT_RBAR_LIMIT = 1.0e-3
 def load_yaml(path) -> object:
     """Read the YAML document at ``path`` with the package's one loader.
 
-    That is abb_ros/io/safe_yaml.py: size-capped at MAX_SPEC_BYTES, no aliases, nesting
+    That is abb_ros/io/files/safe_yaml.py: size-capped at MAX_SPEC_BYTES, no aliases, nesting
     capped; a ParamError naming 'spec' otherwise.
     """
     try:
@@ -129,7 +129,7 @@ class SweepSpec:
 
     doc: dict
     name: str
-    scenario: object           # abb_ros.io.scenario.Scenario (nominal drive, base applied)
+    scenario: object           # abb_ros.io.files.scenario.Scenario (nominal drive, base applied)
     base: dict
     parameters: dict           # name -> normalised distribution mapping
     samples: int               # draws per grid point
@@ -207,7 +207,7 @@ def parse_spec(doc, base_dir=None) -> SweepSpec:
 
 def _scenario(doc, base_dir):
     """Return (its name, the scenario with ``base`` applied, ``base``) of a spec."""
-    from abb_ros.io.scenario import load_scenario
+    from abb_ros.io.files.scenario import load_scenario
     scen_name = _str('scenario', doc.get('scenario', 'p3'))
     if base_dir and (scen_name.endswith(('.yaml', '.yml')) or os.sep in scen_name) \
             and not os.path.isabs(scen_name):

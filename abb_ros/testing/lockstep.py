@@ -32,7 +32,13 @@ from dataclasses import fields
 
 import numpy as np
 
-from abb_ros.io.topics import CURRENT_CMD, DECK_POSE, JOINT_STATES, SPEED_CMD, STABILITY_MARGIN
+from abb_ros.io.wire.topics import (
+    CURRENT_CMD,
+    DECK_POSE,
+    JOINT_STATES,
+    SPEED_CMD,
+    STABILITY_MARGIN,
+)
 from abb_ros.model.dynamics.state import rbar
 from abb_ros.model.parameters.params import DriveParams
 from abb_ros.model.parameters.plant_spec import MOTOR_DEFAULTS
@@ -98,7 +104,7 @@ class LockstepPlant:
         from sensor_msgs.msg import JointState
         from std_srvs.srv import Trigger
 
-        from abb_ros.nodes.simulator import SimulatorNode, make_executor
+        from abb_ros.nodes.simulator.node import SimulatorNode, make_executor
 
         self._qos = QoSProfile(history=HistoryPolicy.KEEP_ALL,
                                reliability=ReliabilityPolicy.RELIABLE)
@@ -124,7 +130,7 @@ class LockstepPlant:
         self._nodes = [self.sim]
         self.analysis = None
         if analysis:
-            from abb_ros.nodes.analysis import AnalysisNode
+            from abb_ros.nodes.analysis.node import AnalysisNode
             followed = [p for p in overrides if p.name.startswith('drive.')
                         or p.name == 'max_spindle_speed']
             self.analysis = AnalysisNode(context=self.context, namespace=ns,
@@ -163,7 +169,7 @@ class LockstepPlant:
         """
         from std_msgs.msg import Float64
 
-        from abb_ros.io import ros_messages
+        from abb_ros.io.wire import ros_messages
         got = []
         kind = kind or ros_messages.TOPIC_TYPES.get(topic) or (
             Float64 if topic in (SPEED_CMD, CURRENT_CMD, STABILITY_MARGIN) else None)

@@ -9,7 +9,7 @@ take). :meth:`ParamSpec.check` is the one validation; an invalid value raises
 The lists live beside what they configure: the drive's in
 :mod:`abb_ros.model.parameters.drive_spec`, the plant's (step and publish rates, spindle, IMU,
 motor) in :mod:`abb_ros.model.parameters.plant_spec`, each node's own in
-``abb_ros/nodes/<node>_params.py``; :mod:`abb_ros.nodes.parameter_table` collects them all
+``abb_ros/nodes/<node>_params.py``; :mod:`abb_ros.nodes.ros.parameter_table` collects them all
 (descriptors, docs/parameters.md).
 """
 

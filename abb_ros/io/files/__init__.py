@@ -1,0 +1,1 @@
+"""The files the package reads: scenarios, drive and map files, their fields, safe YAML."""

@@ -1,0 +1,1 @@
+"""The live view: a Foxglove WebSocket server, its connections, its protocol."""

@@ -1,0 +1,190 @@
+"""The simulator's plant loop: pacing, integration and the one publish path, on the plant's thread.
+
+:class:`PlantLoop` is the part of :class:`abb_ros.nodes.simulator.node.SimulatorNode` that runs the
+plant: :class:`abb_ros.runtime.plant_thread.PlantThread` calls :meth:`PlantLoop._plant_tick`
+at the deadlines of :class:`abb_ros.runtime.pacing.Pacer` (or an rclpy timer does, with
+``ABB_ROS_PACING=timer``); a tick integrates the publish periods due, encodes each sample to
+CDR bytes (:mod:`abb_ros.io.wire.cdr`) and publishes them through :meth:`PlantLoop.send`, the one
+path of every message the node publishes. The node's executor callbacks hold the plant's
+lock: :meth:`PlantLoop.create_subscription`, :meth:`PlantLoop.create_service` and
+:meth:`PlantLoop.create_timer` wrap them (rclpy's parameter services included, which Node
+creates through them).
+
+A mixin: the node makes the state it uses (``sim``, ``sampler``, ``pacer``, ``imu``, ``hil``,
+``recorder``, ``live``, ``run_state``, ``fault``, ``plant``, ``plant_lock`` ...) in its
+constructor.
+"""
+
+from __future__ import annotations
+
+import time
+
+from abb_ros.io.wire import cdr
+from abb_ros.io.wire.topics import CLOCK_TOPIC, JOINT_STATES, JOINT_STATES_THROTTLE
+from abb_ros.model.dynamics.integrate import StateError
+from abb_ros.runtime.plant_thread import AGAIN, IDLE, locked
+
+__all__ = ['BATCH_WALL_S', 'PlantLoop']
+
+BATCH_WALL_S = 0.005
+"""As fast as possible: wall time spent integrating per tick before yielding."""
+
+
+class PlantLoop:
+    """Pacing, integration and publishing of the simulator node (see the module docstring)."""
+
+    # ---- time ---------------------------------------------------------------------------
+    def stamp_ns(self, steps: int | None = None) -> int:
+        """Stamp of the state after ``steps`` steps (default: now) [ns]."""
+        return self.pacer.stamp_ns(self.sim.steps if steps is None else steps)
+
+    def _max_stamp_lag_ns(self) -> float:
+        """Return the ``max_stamp_lag`` parameter [ns]."""
+        return self.get_parameter('max_stamp_lag').value * 1e9
+
+    def _restart_pacing(self) -> None:
+        """(Re)start the integration for the current mode, anchored now."""
+        if self._timer is not None:
+            self.destroy_timer(self._timer)
+            self._timer = None
+        self._want_scheduling()
+        self._running = not (self.paused or self.fault)
+        if not self._running:
+            if self.pacer.hold():   # /clock starts now, at the held time
+                stamp_ns = self.stamp_ns()
+                self.send(CLOCK_TOPIC, cdr.clock(*divmod(stamp_ns, 1_000_000_000)), stamp_ns)
+            return
+        self.pacer.start(self.sim.steps)
+        if self.plant is not None:
+            self.plant.wake()
+        elif self.pacer.real_time_factor == 0.0:
+            self._timer = self.create_timer(0.0, self._tick_fast, clock=self._steady)
+        else:
+            self._timer = self.create_timer(self.pacer.tick_period_s, self._tick_paced,
+                                            clock=self._steady)
+
+    def _want_scheduling(self) -> None:
+        """Want SCHED_FIFO at realtime_priority only while paced.
+
+        A FIFO thread that never sleeps (real_time_factor 0) would hold a core.
+        """
+        paced = self.settings.real_time_factor > 0
+        self.scheduling.want(self.get_parameter('realtime_priority').value if paced else 0)
+
+    # ---- integration ---------------------------------------------------------------------
+    def _tick_starts(self) -> bool:
+        """Apply what changed since the last tick; whether the plant still runs."""
+        self._apply_parameters()
+        if not self._running:
+            return False
+        if self.scheduling.pending:   # in this (the integrating) thread
+            self.scheduling.apply_logged(self.get_logger())
+        return True
+
+    def _plant_tick(self):
+        """Tick the plant (on its thread, under the lock).
+
+        Return the deadline of the next tick, AGAIN or IDLE (:mod:`abb_ros.runtime.plant_thread`).
+        """
+        if self.pacer.real_time_factor == 0.0:
+            self._tick_fast()
+        else:
+            self._tick_paced()
+        if not self._running:   # the factor, the pause or a fault may have changed in the tick
+            return IDLE
+        if self.pacer.real_time_factor == 0.0:
+            return AGAIN
+        return self.pacer.deadline_ns(self.sim.steps)
+
+    def _on_plant_error(self, exc: Exception) -> None:
+        """Stop the plant after a tick raised (a bug), log why, and end the node with exit 1."""
+        self._running = False
+        self.get_logger().fatal(f'the plant thread failed: {exc!r}; stopping')
+        self.exit_code = 1
+
+    def _tick_paced(self) -> None:
+        """Integrate the publish periods due on the wall clock."""
+        if not self._tick_starts() or self.pacer.real_time_factor == 0.0:
+            return
+        for _ in range(self.pacer.due(self.sim.steps)):
+            if not self._integrate_period():
+                return
+
+    def _tick_fast(self) -> None:
+        """Integrate publish periods for ``BATCH_WALL_S`` of wall time."""
+        if not self._tick_starts() or self.pacer.real_time_factor != 0.0:
+            return
+        end = time.perf_counter() + BATCH_WALL_S
+        while time.perf_counter() < end:
+            if not self._integrate_period():
+                return
+
+    def _integrate_period(self) -> bool:
+        """Advance one publish period and publish what is due; False on a fault."""
+        try:
+            samples = self.sampler.next_period()
+        except StateError as err:
+            self._set_fault(str(err))
+            return False
+        for sample in samples:
+            if not sample.is_finite():
+                self._set_fault(f'non-finite output at t = {self.sim.t:.6f} s')
+                return False
+            self._publish(sample)
+        return True
+
+    def _publish(self, sample) -> None:
+        """Publish the messages of ``sample`` (None: nothing due)."""
+        if sample is None:
+            return
+        pacer = self.pacer
+        stamp_ns, encoded = cdr.sample_cdr(sample, pacer.dt_ns, self.imu.config,
+                                           pacer.epoch_ns, pacer.publishes_clock)
+        for topic, data in encoded:
+            self.send(topic, data, stamp_ns)
+            if topic == JOINT_STATES and self._throttle_slots.opens(stamp_ns, self._throttle_hz):
+                self.send(JOINT_STATES_THROTTLE, data, stamp_ns)
+        self.hil.on_sample(sample, stamp_ns)
+
+    def send(self, topic: str, data: bytes, stamp_ns: int) -> None:
+        """Publish the CDR bytes of one message of ``topic`` (a key of the topic list).
+
+        The one path of every message the node publishes: the middleware, the
+        ``published <topic>`` counters of /diagnostics, the live view and the bag being
+        recorded get the same messages.
+        """
+        try:
+            self._pubs[topic].publish(data)
+        except RuntimeError:   # rcl's error: publishing on a context that was shut down
+            if self.context.ok():
+                raise
+            return  # the context was shut down by its owner (tests): nothing to publish to
+        self.published[topic] += 1
+        if self.live is not None:
+            self.live.write(self._bag_topics[topic][0], data, stamp_ns)
+        recording = self.recorder.current
+        if recording is not None:
+            recording.write(*self._bag_topics[topic], data, stamp_ns)
+
+    def _set_fault(self, cause: str) -> None:
+        """Stop the plant on ``cause`` until ``~/reset``."""
+        self.fault = cause
+        self.get_logger().error(f'{cause}; call ~/reset to recover')
+        self._restart_pacing()
+        self.publish_diagnostics()
+
+    # ---- the executor's callbacks hold the plant's lock --------------------------------
+    def create_subscription(self, msg_type, topic, callback, *args, **kwargs):
+        """Create the subscription as rclpy does, its callback run under the plant's lock."""
+        return super().create_subscription(msg_type, topic, locked(self.plant_lock, callback),
+                                           *args, **kwargs)
+
+    def create_service(self, srv_type, srv_name, callback, *args, **kwargs):
+        """Create the service as rclpy does, its callback run under the plant's lock."""
+        return super().create_service(srv_type, srv_name, locked(self.plant_lock, callback),
+                                      *args, **kwargs)
+
+    def create_timer(self, timer_period_sec, callback, *args, **kwargs):
+        """Create the timer as rclpy does, its callback run under the plant's lock."""
+        return super().create_timer(timer_period_sec, locked(self.plant_lock, callback),
+                                    *args, **kwargs)

@@ -1,0 +1,1 @@
+"""The spin controller node: node, parameters, run-up and speed loop."""
