@@ -16,8 +16,14 @@ package can change that. The test waits until the process has begun importing rc
 shared library is mapped), which comes after those lines.
 
 Importing a node module, by contrast, installs no handler at all.
+
+Ctrl-C of a launched bench reaches each node two or three times: the terminal signals the whole
+process group, ``ros2 launch`` forwards its own SIGINT to each child, and an impatient user presses
+again. A signal that lands while Python finalizes (when CPython has put the default handlers back)
+must not kill the node with -2.
 """
 
+import os
 import random
 import signal
 import subprocess
@@ -35,6 +41,7 @@ pytestmark = [pytest.mark.ros, pytest.mark.slow]
 ROOT = Path(__file__).resolve().parents[1]
 ROUNDS = 3
 LATEST_SIGNAL_S = 6.0
+CTRL_C_ROUNDS = 20
 NODE_MODULES = ('simulator', 'analysis', 'recorder', 'spin_controller')
 
 
@@ -46,7 +53,7 @@ def test_importing_a_node_module_leaves_the_signal_handlers_as_they_were(module)
     subprocess.run([sys.executable, '-c', code], cwd=ROOT, check=True, timeout=120)
 
 
-def node(module, *params, console_script=False):
+def node(module, *params, console_script=False, process_group=None):
     if console_script:
         cmd = [str(Path(sys.executable).with_name(module)), '--ros-args']
     else:
@@ -54,7 +61,7 @@ def node(module, *params, console_script=False):
     for p in params:
         cmd += ['-p', p]
     return subprocess.Popen(cmd, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT,
-                            stdin=subprocess.DEVNULL, text=True)
+                            stdin=subprocess.DEVNULL, text=True, process_group=process_group)
 
 
 @pytest.fixture
@@ -110,3 +117,42 @@ def test_a_signal_at_a_random_moment_under_load_exits_0_without_traceback_or_fat
         for bag in (sim_bag, rec_bag):
             if bag.exists():   # not yet created if the signal came before construction
                 bag_consistent(bag)
+
+
+def group_ctrl_c(procs, rng):
+    """What a terminal's Ctrl-C under ``ros2 launch`` does: the group, then a forwarded SIGINT each.
+
+    A third SIGINT follows a little later (the user pressing again while the nodes shut down).
+    """
+    os.killpg(procs[0].pid, signal.SIGINT)
+    for latest in (0.3, 1.5):
+        time.sleep(rng.uniform(0.0, latest))
+        for p in procs:
+            if p.poll() is None:
+                p.send_signal(signal.SIGINT)
+
+
+@pytest.mark.usefixtures('cpu_hog')
+def test_ctrl_c_to_the_process_group_with_forwarded_sigints_ends_every_node_with_0(tmp_path):
+    rng = random.Random()
+    for k in range(CTRL_C_ROUNDS):
+        params = {'simulator': (), 'analysis': (), 'recorder': (f'output:={tmp_path / f"rec{k}"}',),
+                  'spin_controller': ()}
+        procs = {}
+        for name, p in params.items():
+            group = next(iter(procs.values())).pid if procs else 0
+            procs[name] = node(name, *p, console_script=True, process_group=group)
+        wait_for_package_code(procs.values())
+        delay = rng.uniform(0.0, 3.0)
+        time.sleep(delay)
+        group_ctrl_c(list(procs.values()), rng)
+        for name, p in procs.items():
+            try:
+                out, _ = p.communicate(timeout=60)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                out, _ = p.communicate()
+                pytest.fail(f'round {k}: {name} still running 60 s after Ctrl-C:\n{out}')
+            what = f'round {k}: {name}, Ctrl-C {delay:.2f} s after importing rclpy began:\n{out}'
+            assert p.returncode == 0, what
+            assert 'Traceback' not in out, what

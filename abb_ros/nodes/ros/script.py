@@ -6,6 +6,12 @@ abb_ros <node>`` and the launch file start) are the functions here named in :dat
 So SIGINT or SIGTERM while rclpy, numpy and numba load (a second or more under load) only sets the
 stop flag (:mod:`abb_ros.nodes.ros.stop`): the node then exits 0 without starting, without a
 KeyboardInterrupt traceback. Importing a node module installs nothing.
+
+When main() has returned, SIGINT and SIGTERM are ignored for the rest of the process: at
+interpreter finalization CPython puts every signal with a Python handler back to its default
+action, so a late second or third SIGINT (a terminal's Ctrl-C reaches the whole process group and
+``ros2 launch`` forwards its own) would otherwise kill the exiting node with -2 instead of 0. An
+ignored signal stays ignored through finalization.
 """
 
 from __future__ import annotations
@@ -23,7 +29,11 @@ __all__ = ['NODE_MODULES', 'run_module', 'simulator', 'analysis', 'recorder',
 def run_module(module: str) -> None:
     """Install the stop handlers, import ``module`` and exit with what its main() returns."""
     stop.install()
-    sys.exit(importlib.import_module(module).main())
+    try:
+        code = importlib.import_module(module).main()
+    finally:
+        stop.ignore_from_now_on()
+    sys.exit(code)
 
 
 NODE_MODULES = {name: f'abb_ros.nodes.{name}.node'

@@ -43,3 +43,14 @@ def install() -> dict:
         return {}
     return {s: signal.signal(s, REQUEST) for s in STOP_SIGNALS}
 
+
+
+def ignore_from_now_on() -> None:
+    """Ignore SIGINT/SIGTERM from here to the end of the process (a node that is exiting).
+
+    ``SIG_IGN`` survives interpreter finalization, which resets Python-level handlers to the
+    default action (the process would die of a signal that arrives during teardown).
+    """
+    if threading.current_thread() is threading.main_thread():
+        for signum in STOP_SIGNALS:
+            signal.signal(signum, signal.SIG_IGN)
