@@ -120,7 +120,7 @@ def test_a_signal_at_a_random_moment_under_load_exits_0_without_traceback_or_fat
 
 
 def group_ctrl_c(procs, rng):
-    """What a terminal's Ctrl-C under ``ros2 launch`` does: the group, then a forwarded SIGINT each.
+    """A terminal's Ctrl-C under ``ros2 launch``: the group, then a forwarded SIGINT to each.
 
     A third SIGINT follows a little later (the user pressing again while the nodes shut down).
     """
@@ -136,8 +136,8 @@ def group_ctrl_c(procs, rng):
 def test_ctrl_c_to_the_process_group_with_forwarded_sigints_ends_every_node_with_0(tmp_path):
     rng = random.Random()
     for k in range(CTRL_C_ROUNDS):
-        params = {'simulator': (), 'analysis': (), 'recorder': (f'output:={tmp_path / f"rec{k}"}',),
-                  'spin_controller': ()}
+        params = {'simulator': (), 'analysis': (),
+                  'recorder': (f'output:={tmp_path / f"rec{k}"}',), 'spin_controller': ()}
         procs = {}
         for name, p in params.items():
             group = next(iter(procs.values())).pid if procs else 0
