@@ -145,7 +145,8 @@ def test_installed_warmup_compiles_the_kernels_into_the_install_tree(install, so
     """The colcon route's set-up step (`ros2 run abb_ros warmup`): numba's cache of the
     installed sources lands beside them, in the install tree."""
     prefix = install / PACKAGE
-    result = subprocess.run([str(prefix / 'lib' / PACKAGE / 'warmup')], env=sourced_env,
+    result = subprocess.run([str(prefix / 'lib' / PACKAGE / 'warmup'), '--sets', 'simulator'],
+                            env=sourced_env,
                             stdin=subprocess.DEVNULL, capture_output=True, text=True,
                             timeout=WARMUP_TIMEOUT_S)
     assert result.returncode == 0, result.stdout + result.stderr

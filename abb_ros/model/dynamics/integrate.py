@@ -285,6 +285,15 @@ class Simulation:
         """Simulated time [s] = t0 + steps * dt."""
         return self.t0 + self.steps * self.dt
 
+    def on_paper(self) -> bool:
+        """Whether only the paper's terms act now (Eqs. 18-24: :func:`~.kernels.rhs.on_paper`).
+
+        Then :meth:`advance` calls the paper's own compiled stepping (the same numbers, a
+        fraction of the compile time); a torque command, contact or rolling resistance takes
+        the general one.
+        """
+        return bool(kernels.PY.on_paper(self.params.n, self._P, self._S))
+
     def advance(self, nsteps: int) -> None:
         """Advance by nsteps steps.
 
@@ -295,8 +304,9 @@ class Simulation:
             if int(nsteps) > 0:
                 self._adaptive(int(nsteps), int(nsteps), np.empty((1, self.y.size)))
             return
-        done, status = self.kern.advance(self.y, self.t0, self.dt, self.steps, int(nsteps),
-                                         self._P, self._S, self._work)
+        advance = self.kern.paper_advance if self.on_paper() else self.kern.advance
+        done, status = advance(self.y, self.t0, self.dt, self.steps, int(nsteps),
+                               self._P, self._S, self._work)
         self.steps += int(done)
         if status != kernels.OK:
             raise StateError(int(status), self.t)
@@ -312,8 +322,10 @@ class Simulation:
             self.advance(nsteps)
             qdd[:] = self.accelerations()
             return
-        done, status = self.kern.advance_accel(self.y, self.t0, self.dt, self.steps,
-                                               int(nsteps), self._P, self._S, self._work, qdd)
+        advance_accel = (self.kern.paper_advance_accel if self.on_paper()
+                         else self.kern.advance_accel)
+        done, status = advance_accel(self.y, self.t0, self.dt, self.steps, int(nsteps),
+                                     self._P, self._S, self._work, qdd)
         self.steps += int(done)
         if status != kernels.OK:
             raise StateError(int(status), self.t)

@@ -226,6 +226,25 @@ def advance(y, t0, dt, step0, nsteps, P, S, work):
 
 
 @kernel
+def paper_advance(y, t0, dt, step0, nsteps, P, S, work):
+    """:func:`advance` where :func:`~.rhs.on_paper` holds: :func:`paper_step` only.
+
+    The same numbers as :func:`advance` on that path. Its machine code holds none of the
+    contact, rolling and torque steps, so it compiles in a fraction of :func:`advance`'s time:
+    what a node on the paper's path needs before its first message. Returns
+    (steps_done, status).
+    """
+    n = y.shape[0] // 2 - PHI
+    stages = work_stages(work)
+    solver = solver_scratch(n)
+    for s in range(nsteps):
+        status = paper_step(t0 + (step0 + s) * dt, dt, y, n, P, S, stages, solver)
+        if status != OK:
+            return s, status
+    return nsteps, OK
+
+
+@kernel
 def trajectory(y, t0, dt, step0, nsteps, every, P, S, work, out):
     """Like :func:`advance`, storing y after every ``every`` steps into ``out`` rows.
 
@@ -254,6 +273,19 @@ def advance_accel(y, t0, dt, step0, nsteps, P, S, work, qdd):
     one call (the live node's publish period: its IMU reads q''). Returns (steps_done, status).
     """
     done, status = advance(y, t0, dt, step0, nsteps, P, S, work)
+    return accel_reached(y, t0, dt, step0, done, status, P, S, qdd)
+
+
+@kernel
+def paper_advance_accel(y, t0, dt, step0, nsteps, P, S, work, qdd):
+    """:func:`advance_accel` where :func:`~.rhs.on_paper` holds (:func:`paper_advance`)."""
+    done, status = paper_advance(y, t0, dt, step0, nsteps, P, S, work)
+    return accel_reached(y, t0, dt, step0, done, status, P, S, qdd)
+
+
+@kernel
+def accel_reached(y, t0, dt, step0, done, status, P, S, qdd):
+    """q'' at the state reached into ``qdd`` when the steps went well; (done, status) back."""
     if status == OK:
         n = y.shape[0] // 2 - PHI
         accel(t0 + (step0 + done) * dt, y, n, P, S, qdd, solver_scratch(n))
