@@ -16,6 +16,16 @@ the stopped node's messages are drained; a ``joint_states`` stamped before the s
 counted. The load average is printed: on a busy machine the figures grow with it.
 
     .venv/bin/python benchmarks/bench_startup.py [--repeat 5]
+    .venv/bin/python benchmarks/bench_startup.py --fresh      # a newcomer's first run
+
+``--fresh``: what a newcomer waits for. Two clones of the committed HEAD in a temporary
+directory, each with its own venv, sharing a build cache of their own (``ABB_ROS_CACHE_DIR``,
+empty at the start); for each, ``scripts/run`` from nothing to the first ``joint_states``, with
+the time of every set-up phase read from its progress lines as they come: the requirements'
+install (pip, the baseline: the same run's pip time), the kernels the simulator compiles first,
+and the rest of the set-up that ``scripts/run`` leaves to a background process (the other
+kernel sets, each timed, and the simulation_interfaces build: uncached in the first clone,
+from the cache in the second). Then a second start of the first clone (warm).
 """
 
 from __future__ import annotations
@@ -23,10 +33,13 @@ from __future__ import annotations
 import argparse
 import os
 import random
+import re
 import signal
 import statistics
 import subprocess
 import sys
+import tempfile
+import threading
 import time
 from pathlib import Path
 
@@ -109,9 +122,122 @@ def start_once(executor, listener, node: str, wanted: str) -> dict:
     return dict(seconds=seconds, cpu=cpu, exit=code)
 
 
+ROOT = Path(__file__).resolve().parents[1]
+FRESH_TIMEOUT_S = 900.0
+PHASES = {'requirements': 'installing requirements.txt', 'package': 'installing abb_ros from',
+          'kernels': 'compiling the kernels of', 'interfaces cached': 'from the build cache',
+          'background': 'finishing in the background'}
+IFACE_LINE = re.compile(r'simulation_interfaces (built|installed from the build cache)\S* '
+                        r'(?:\S+ )?in (\d+) s')
+SET_LINE = re.compile(r'abb_ros: (\w+) kernels compiled or loaded in ([0-9.]+) s')
+
+
+class Lines:
+    """The lines of a stream with their arrival (monotonic), read by a thread."""
+
+    def __init__(self, stream):
+        self.lines: list[tuple[float, str]] = []
+        self._thread = threading.Thread(target=self._read, args=(stream,), daemon=True)
+        self._thread.start()
+
+    def _read(self, stream) -> None:
+        for line in stream:
+            self.lines.append((time.monotonic(), line.rstrip()))
+
+    def first(self, text: str) -> float | None:
+        return next((t for t, line in self.lines if text in line), None)
+
+
+def fresh_start(executor, listener, clone: Path, env: dict) -> dict:
+    """Run ``scripts/run`` in ``clone``; time the phases and the first joint_states; SIGINT."""
+    listener.arm()
+    t0 = time.monotonic()
+    proc = subprocess.Popen([str(clone / 'scripts' / 'run')], cwd=clone, env=env,
+                            stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
+                            stdin=subprocess.DEVNULL)
+    lines = Lines(proc.stderr)
+    while 'joint_states' not in listener.first and time.monotonic() - t0 < FRESH_TIMEOUT_S:
+        if proc.poll() is not None:
+            break
+        executor.spin_once(timeout_sec=0.05)
+    first = listener.first.get('joint_states')
+    proc.send_signal(signal.SIGINT)
+    try:
+        code = proc.wait(timeout=30)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        code = proc.wait()
+    found = {name: lines.first(text) for name, text in PHASES.items()}
+    result = {'first': None if first is None else first - t0, 'exit': code,
+              'lines': [line for _, line in lines.lines]}
+    for name, at in found.items():
+        result[name] = None if at is None else at - t0
+    return result
+
+
+def wait_for_background(clone: Path) -> float:
+    """Wait until no set-up of ``clone`` runs any more; return the seconds waited."""
+    start = time.monotonic()
+    script = str(clone / 'scripts' / 'ensure-venv')
+    while (subprocess.run(['pgrep', '-f', script], capture_output=True).returncode == 0
+           and time.monotonic() - start < FRESH_TIMEOUT_S):
+        time.sleep(0.5)
+    return time.monotonic() - start
+
+
+def fresh(executor, listener) -> int:
+    """Print the newcomer's figures of two fresh clones (module docstring, ``--fresh``)."""
+    head = subprocess.run(['git', 'rev-parse', '--short', 'HEAD'], cwd=ROOT, text=True,
+                          capture_output=True, check=True).stdout.strip()
+    print(f'fresh clones of {head}, {os.cpu_count()} CPUs, load average '
+          f'{os.getloadavg()[0]:.2f} at the start')
+    with tempfile.TemporaryDirectory(prefix='abb_fresh_') as tmp:
+        env = dict(os.environ, ABB_ROS_CACHE_DIR=str(Path(tmp) / 'cache'))
+        env.pop('VIRTUAL_ENV', None)
+        for k in range(2):
+            clone = Path(tmp) / f'clone{k + 1}'
+            subprocess.run(['git', 'clone', '-q', str(ROOT), str(clone)], check=True)
+            r = fresh_start(executor, listener, clone, env)
+            describe_fresh(f'clone {k + 1}, first start', r)
+            waited = wait_for_background(clone)
+            log = (clone / '.venv' / 'setup-background.log')
+            text = log.read_text() if log.is_file() else ''
+            sets = ', '.join(f'{m[1]} {float(m[2]):.1f} s' for m in SET_LINE.finditer(text))
+            print(f'  background set-up done {waited:.1f} s after the first start ended'
+                  f' (kernel sets, each in its process: {sets or "none"})')
+            iface = IFACE_LINE.search(text) or IFACE_LINE.search('\n'.join(r['lines']))
+            print('  simulation_interfaces: ' + (f'{iface[1]} in {iface[2]} s' if iface
+                                                 else 'not built (no cmake or compiler?)'))
+            if k == 0:
+                r2 = fresh_start(executor, listener, clone, env)
+                describe_fresh('clone 1, second start', r2)
+    print(f'load average {os.getloadavg()[0]:.2f} at the end')
+    return 0
+
+
+def describe_fresh(what: str, r: dict) -> None:
+    def at(key):
+        return 'n/a' if r[key] is None else f'{r[key]:.1f} s'
+    pip = (None if r['requirements'] is None or r['package'] is None
+           else r['package'] - r['requirements'])
+    after_pip = (None if r['first'] is None or r['package'] is None
+                 else r['first'] - r['package'])
+    print(f'{what}: first joint_states {at("first")} after scripts/run (exit {r["exit"]})')
+    if pip is not None:
+        print(f'  pip install of the requirements {pip:.1f} s (baseline); first joint_states '
+              f'{after_pip:.1f} s after it ({after_pip / pip:.2f} x the pip time)')
+    print(f'  phases from the start: requirements {at("requirements")}, package '
+          f'{at("package")}, simulator kernels {at("kernels")}, background handed over '
+          f'{at("background")}')
+    if r['first'] is None:
+        print('  its set-up said:\n    ' + '\n    '.join(r['lines'][-20:]))
+
+
 def main() -> int:
     ap = argparse.ArgumentParser(description=__doc__.split('\n\n')[0])
     ap.add_argument('--repeat', type=int, default=5, help='starts per node [5]')
+    ap.add_argument('--fresh', action='store_true',
+                    help="a newcomer's first run: two fresh clones (minutes)")
     args = ap.parse_args()
     for node in TARGETS_S:
         if not (BIN / node).exists():
@@ -123,6 +249,12 @@ def main() -> int:
     executor = SingleThreadedExecutor()
     executor.add_node(listener)
     spin_for(executor, 1.0)
+    if args.fresh:
+        code = fresh(executor, listener)
+        executor.shutdown()
+        listener.destroy_node()
+        rclpy.shutdown()
+        return code
     print(f'start-up of the console scripts in {BIN}, {os.cpu_count()} CPUs, '
           f'load average {os.getloadavg()[0]:.2f} at the start')
     plant = None
