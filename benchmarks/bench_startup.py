@@ -223,14 +223,16 @@ def describe_fresh(what: str, r: dict) -> None:
     after_pip = (None if r['first'] is None or r['package'] is None
                  else r['first'] - r['package'])
     print(f'{what}: first joint_states {at("first")} after scripts/run (exit {r["exit"]})')
+    if r['first'] is None:
+        print('  its set-up said:\n    ' + '\n    '.join(r['lines'][-20:]))
     if pip is not None:
         print(f'  pip install of the requirements {pip:.1f} s (baseline); first joint_states '
               f'{after_pip:.1f} s after it ({after_pip / pip:.2f} x the pip time)')
+    if all(r[key] is None for key in PHASES):
+        return
     print(f'  phases from the start: requirements {at("requirements")}, package '
           f'{at("package")}, simulator kernels {at("kernels")}, background handed over '
           f'{at("background")}')
-    if r['first'] is None:
-        print('  its set-up said:\n    ' + '\n    '.join(r['lines'][-20:]))
 
 
 def main() -> int:

@@ -68,6 +68,7 @@ BENCHMARKS: dict[str, Benchmark] = {
     'bench_hil_bench': Benchmark('bench_hil_bench', ('--duration', '600', '--hog'),
                              ('--duration', '60', '--hog')),
     'bench_startup': Benchmark('bench_startup', ('--repeat', '5')),
+    'bench_startup_fresh': Benchmark('bench_startup', ('--fresh',)),
     'bench_contact': Benchmark('bench_contact', ('--seconds', '2')),
     'bench_contact_node': Benchmark('bench_contact_node', ('--duration', '10', '--runs', '3')),
     'bench_basin': Benchmark('bench_basin', (), ('--quick',)),
