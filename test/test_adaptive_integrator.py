@@ -157,3 +157,16 @@ def test_an_adaptive_bag_carries_every_topic_at_the_fixed_step_runs_stamps(abb_s
                        for ma, mr in imu) < 1e-3
     code, _, err = abb_sim('run', '--integrator', 'euler')
     assert code == 2 and '--integrator' in err
+
+
+def test_the_dormand_prince_tableau_is_scipys_rk45_one():
+    """c, a and b equal scipy's RK45 tableau to the last bit; its error weights are the
+    fourth- minus fifth-order ones, ours the fifth- minus fourth-order (the opposite sign)."""
+    from scipy.integrate import RK45
+
+    from abb_ros.model.dynamics.kernels import adaptive
+    assert np.array_equal(adaptive.DP_C, RK45.C)
+    assert np.array_equal(adaptive.DP_A, RK45.A)
+    assert np.array_equal(adaptive.DP_B, RK45.B)
+    assert np.array_equal(adaptive.DP_E, -RK45.E)
+    assert adaptive.A54 == RK45.A[4, 3] and adaptive.E7 == -RK45.E[6]

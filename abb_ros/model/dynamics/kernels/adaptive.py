@@ -40,22 +40,38 @@ MAX_FACTOR = 10.0
 MIN_STEP = 1e-12
 """Smallest step [s]: below it the run stops as non-finite (a singular right-hand side)."""
 
-C2, C3, C4, C5 = 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0
-A21 = 1.0 / 5.0
-A31, A32 = 3.0 / 40.0, 9.0 / 40.0
-A41, A42, A43 = 44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0
-A51, A52, A53, A54 = 19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0
-A61, A62, A63, A64, A65 = (9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0,
-                           -5103.0 / 18656.0)
-B1, B3, B4, B5, B6 = 35.0 / 384.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0, 11.0 / 84.0
-"""The fifth-order weights (the seventh stage's row: FSAL)."""
-E1, E3, E4, E5, E6, E7 = (71.0 / 57600.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253.0 / 339200.0,
-                          22.0 / 525.0, -1.0 / 40.0)
-"""Fifth- minus fourth-order weights: the error estimate is h sum E_i k_i."""
-D1, D3, D4, D5, D6, D7 = (-12715105075.0 / 11282082432.0, 87487479700.0 / 32700410799.0,
-                          -10690763975.0 / 1880347072.0, 701980252875.0 / 199316789632.0,
-                          -1453857185.0 / 822651844.0, 69997945.0 / 29380423.0)
-"""Weights of the continuous extension's last coefficient (Hairer's CONTD5)."""
+DP_C = np.array([0.0, 1.0 / 5.0, 3.0 / 10.0, 4.0 / 5.0, 8.0 / 9.0, 1.0])
+"""The Dormand-Prince tableau, c: where stage i is evaluated, t + c_i h."""
+DP_A = np.array([
+    [0.0, 0.0, 0.0, 0.0, 0.0],
+    [1.0 / 5.0, 0.0, 0.0, 0.0, 0.0],
+    [3.0 / 40.0, 9.0 / 40.0, 0.0, 0.0, 0.0],
+    [44.0 / 45.0, -56.0 / 15.0, 32.0 / 9.0, 0.0, 0.0],
+    [19372.0 / 6561.0, -25360.0 / 2187.0, 64448.0 / 6561.0, -212.0 / 729.0, 0.0],
+    [9017.0 / 3168.0, -355.0 / 33.0, 46732.0 / 5247.0, 49.0 / 176.0, -5103.0 / 18656.0]])
+"""The tableau's a_ij: stage i at y + h sum_j a_ij k_j (row i, stages 1..6)."""
+DP_B = np.array([35.0 / 384.0, 0.0, 500.0 / 1113.0, 125.0 / 192.0, -2187.0 / 6784.0,
+                 11.0 / 84.0])
+"""The fifth-order weights b_i (also the seventh stage's row: FSAL)."""
+DP_E = np.array([71.0 / 57600.0, 0.0, -71.0 / 16695.0, 71.0 / 1920.0, -17253.0 / 339200.0,
+                 22.0 / 525.0, -1.0 / 40.0])
+"""Fifth- minus fourth-order weights of the seven stages: the error estimate is h sum e_i k_i."""
+DP_D = np.array([-12715105075.0 / 11282082432.0, 0.0, 87487479700.0 / 32700410799.0,
+                 -10690763975.0 / 1880347072.0, 701980252875.0 / 199316789632.0,
+                 -1453857185.0 / 822651844.0, 69997945.0 / 29380423.0])
+"""Weights of the continuous extension's last coefficient (Hairer's CONTD5), seven stages."""
+
+# The kernels read the tableau as scalars (constants to numba, sums written out: no loop over
+# the zero entries); the same numbers as the arrays above.
+C2, C3, C4, C5 = (float(c) for c in DP_C[1:5])
+A21 = float(DP_A[1, 0])
+A31, A32 = (float(a) for a in DP_A[2, :2])
+A41, A42, A43 = (float(a) for a in DP_A[3, :3])
+A51, A52, A53, A54 = (float(a) for a in DP_A[4, :4])
+A61, A62, A63, A64, A65 = (float(a) for a in DP_A[5, :5])
+B1, B3, B4, B5, B6 = (float(DP_B[i]) for i in (0, 2, 3, 4, 5))
+E1, E3, E4, E5, E6, E7 = (float(DP_E[i]) for i in (0, 2, 3, 4, 5, 6))
+D1, D3, D4, D5, D6, D7 = (float(DP_D[i]) for i in (0, 2, 3, 4, 5, 6))
 
 AD_T, AD_H, AD_LIVE, AD_T_OLD, AD_REJECTED, AD_NFEV, AD_ACCEPTED, AD_REJECTS = range(8)
 AD_SIZE = 8
