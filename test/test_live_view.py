@@ -258,11 +258,14 @@ def test_sinks_hold_messages_until_their_stamp_is_due():
 def test_sinks_write_a_samples_messages_to_every_sink_with_or_without_write_many():
     got = []
 
-    class Each:
+    class Each:                        # a MessageSink
+        def add_topic(self, topic, type_name):
+            pass
+
         def write(self, topic, data, stamp_ns):
             got.append(('each', topic, data, stamp_ns))
 
-    class Many:
+    class Many(Each):                  # a BatchSink
         def write_many(self, messages, stamp_ns):
             got.append(('many', list(messages), stamp_ns))
 

@@ -12,6 +12,8 @@ from __future__ import annotations
 
 import time
 
+from abb_ros.io.sink import BatchSink
+
 __all__ = ['AHEAD_S', 'Sinks']
 
 AHEAD_S = 0.002
@@ -23,9 +25,9 @@ class Sinks:
 
     Parameters
     ----------
-    sinks : list
-        Objects with ``add_topic(topic, type_name)`` and ``write(topic, data, stamp_ns)``
-        (:class:`abb_ros.io.bag.writer.BagWriter`, :class:`abb_ros.io.live_view.server.LiveView`).
+    sinks : list of abb_ros.io.sink.MessageSink
+        :class:`abb_ros.io.bag.writer.BagWriter`, :class:`abb_ros.io.live_view.server.LiveView`
+        (a :class:`~abb_ros.io.sink.BatchSink` itself).
     real_time : bool
         Whether to hold each message until the wall clock reaches its stamp.
     clock : callable
@@ -75,10 +77,9 @@ class Sinks:
 
 
 def _write_many_of(sink):
-    """Return ``sink.write_many``, or a loop over ``sink.write`` for a sink without it."""
-    many = getattr(sink, 'write_many', None)
-    if many is not None:
-        return many
+    """Return ``sink.write_many`` (a BatchSink), or a loop over ``sink.write``."""
+    if isinstance(sink, BatchSink):
+        return sink.write_many
 
     def write_each(messages, stamp_ns: int) -> None:
         for topic, data in messages:

@@ -343,6 +343,11 @@ class LiveView:
             for connection in list(self.connections):
                 connection.queue(frame)
 
+    def write_many(self, messages, stamp_ns: int) -> None:
+        """Send several messages of one stamp, (topic, CDR bytes) pairs: :meth:`write` each."""
+        for topic, data in messages:
+            self.write(topic, data, stamp_ns)
+
     def close(self) -> None:
         """Stop the server (the viewers see the connection close); idempotent."""
         if self.closed:
