@@ -67,10 +67,6 @@ def contact_step_note(params, dt: float) -> str:
             'impacts\' accuracy is verified (docs/ball_size_contact_rolling.md)')
 
 
-INTEGRATORS = ('rk4', 'adaptive')
-"""The integrators of :class:`Simulation`: ``rk4``, the fixed step of ``dt`` (the live node's,
-byte for byte), and ``adaptive``, Dormand-Prince 5(4) with error control, sampled by its dense
-output at the same instants (:mod:`abb_ros.model.dynamics.kernels.adaptive`)."""
 
 ADAPTIVE_RTOL = 1e-9
 """Relative tolerance of the adaptive integrator (absolute: :func:`adaptive_atol`). The
@@ -300,16 +296,7 @@ class Simulation:
         Raises :class:`StateError` on a bad state (the last good state is kept and time stops
         there).
         """
-        if self.integrator_used == 'adaptive':
-            if int(nsteps) > 0:
-                self._adaptive(int(nsteps), int(nsteps), np.empty((1, self.y.size)))
-            return
-        advance = self.kern.paper_advance if self.on_paper() else self.kern.advance
-        done, status = advance(self.y, self.t0, self.dt, self.steps, int(nsteps),
-                               self._P, self._S, self._work)
-        self.steps += int(done)
-        if status != kernels.OK:
-            raise StateError(int(status), self.t)
+        INTEGRATORS[self.integrator_used].advance(self, int(nsteps))
 
     def advance_accelerations(self, nsteps: int, qdd: np.ndarray) -> None:
         """Advance by nsteps steps, then write q'' at the state reached into ``qdd`` (N,).
@@ -318,14 +305,10 @@ class Simulation:
         the fixed-step path. Raises :class:`StateError` like :meth:`advance` (``qdd`` is then
         not written).
         """
-        if self.integrator_used == 'adaptive':
-            self.advance(nsteps)
-            qdd[:] = self.accelerations()
-            return
-        advance_accel = (self.kern.paper_advance_accel if self.on_paper()
-                         else self.kern.advance_accel)
-        done, status = advance_accel(self.y, self.t0, self.dt, self.steps, int(nsteps),
-                                     self._P, self._S, self._work, qdd)
+        INTEGRATORS[self.integrator_used].advance_accelerations(self, int(nsteps), qdd)
+
+    def _check(self, done, status) -> None:
+        """Count the steps done; raise :class:`StateError` when the kernel's status is bad."""
         self.steps += int(done)
         if status != kernels.OK:
             raise StateError(int(status), self.t)
@@ -341,25 +324,8 @@ class Simulation:
         rows = int(nsteps) // int(every)
         if out is None:
             out = np.empty((rows, self.y.size))
-        if self.integrator_used == 'adaptive':
-            return out[:self._adaptive(int(nsteps), int(every), out)]
-        done, got, status = self.kern.trajectory(
-            self.y, self.t0, self.dt, self.steps, int(nsteps), int(every), self._P, self._S,
-            self._work, out)
-        self.steps += int(done)
-        if status != kernels.OK:
-            raise StateError(int(status), self.t)
-        return out[:got]
-
-    def _adaptive(self, nsteps: int, every: int, out: np.ndarray) -> int:
-        """Sample the adaptive integrator every ``every`` of nsteps steps; return the rows."""
-        done, got, status = self.kern.adaptive_trajectory(
-            self.y, self.t0, self.dt, self.steps, nsteps, every, self._P, self._S,
-            AdaptiveState(ADAPTIVE_RTOL, self._atol, self._ad, self._aw), out)
-        self.steps += int(done)
-        if status != kernels.OK:
-            raise StateError(int(status), self.t)
-        return int(got)
+        return out[:INTEGRATORS[self.integrator_used].trajectory(self, int(nsteps), int(every),
+                                                                  out)]
 
     # ---- outputs ------------------------------------------------------------------------
     def accelerations(self) -> np.ndarray:
@@ -445,3 +411,68 @@ class Simulation:
     def rbar(self) -> float:
         """Deck translation over race radius, sqrt(X^2 + Y^2 + Z^2) / R."""
         return float(self.layout.rbar(self.y, self.params.R))
+
+
+class FixedStep:
+    """The ``rk4`` integrator: classical RK4 steps of ``dt``, the live node's byte for byte.
+
+    The paper's own compiled stepping while only its terms act (:meth:`Simulation.on_paper`).
+    """
+
+    @staticmethod
+    def advance(sim: Simulation, nsteps: int) -> None:
+        """Take nsteps steps (:meth:`Simulation.advance`)."""
+        advance = sim.kern.paper_advance if sim.on_paper() else sim.kern.advance
+        sim._check(*advance(sim.y, sim.t0, sim.dt, sim.steps, nsteps, sim._P, sim._S,
+                            sim._work))
+
+    @staticmethod
+    def advance_accelerations(sim: Simulation, nsteps: int, qdd: np.ndarray) -> None:
+        """Take nsteps steps, then q'' into ``qdd`` (:meth:`Simulation.advance_accelerations`)."""
+        advance_accel = (sim.kern.paper_advance_accel if sim.on_paper()
+                         else sim.kern.advance_accel)
+        sim._check(*advance_accel(sim.y, sim.t0, sim.dt, sim.steps, nsteps, sim._P, sim._S,
+                                  sim._work, qdd))
+
+    @staticmethod
+    def trajectory(sim: Simulation, nsteps: int, every: int, out: np.ndarray) -> int:
+        """Store the state every ``every`` of nsteps steps in ``out``; return the rows."""
+        done, got, status = sim.kern.trajectory(sim.y, sim.t0, sim.dt, sim.steps, nsteps,
+                                                every, sim._P, sim._S, sim._work, out)
+        sim._check(done, status)
+        return int(got)
+
+
+class Adaptive:
+    """The ``adaptive`` integrator: Dormand-Prince 5(4) with error control.
+
+    Sampled by its dense output at the fixed step's instants (:mod:`~.kernels.adaptive`).
+    """
+
+    @staticmethod
+    def advance(sim: Simulation, nsteps: int) -> None:
+        """Integrate over nsteps steps of ``dt`` (:meth:`Simulation.advance`)."""
+        if nsteps > 0:
+            Adaptive.trajectory(sim, nsteps, nsteps, np.empty((1, sim.y.size)))
+
+    @staticmethod
+    def advance_accelerations(sim: Simulation, nsteps: int, qdd: np.ndarray) -> None:
+        """Integrate over nsteps steps, then q'' into ``qdd``."""
+        Adaptive.advance(sim, nsteps)
+        qdd[:] = sim.accelerations()
+
+    @staticmethod
+    def trajectory(sim: Simulation, nsteps: int, every: int, out: np.ndarray) -> int:
+        """Sample the state every ``every`` of nsteps steps into ``out``; return the rows."""
+        done, got, status = sim.kern.adaptive_trajectory(
+            sim.y, sim.t0, sim.dt, sim.steps, nsteps, every, sim._P, sim._S,
+            AdaptiveState(ADAPTIVE_RTOL, sim._atol, sim._ad, sim._aw), out)
+        sim._check(done, status)
+        return int(got)
+
+
+INTEGRATORS = {'rk4': FixedStep, 'adaptive': Adaptive}
+"""The integrators of :class:`Simulation` by name: ``rk4``, the fixed step of ``dt`` (the live
+node's, byte for byte), and ``adaptive``, Dormand-Prince 5(4) with error control, sampled by
+its dense output at the same instants (:mod:`abb_ros.model.dynamics.kernels.adaptive`). Each
+takes the same three calls (advance, advance with q'', trajectory) on a Simulation's state."""

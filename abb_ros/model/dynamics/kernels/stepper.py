@@ -285,7 +285,7 @@ def paper_advance_accel(y, t0, dt, step0, nsteps, P, S, work, qdd):
 
 @kernel
 def accel_reached(y, t0, dt, step0, done, status, P, S, qdd):
-    """q'' at the state reached into ``qdd`` when the steps went well; (done, status) back."""
+    """Write q'' at the state reached into ``qdd`` if all went well; return (done, status)."""
     if status == OK:
         n = y.shape[0] // 2 - PHI
         accel(t0 + (step0 + done) * dt, y, n, P, S, qdd, solver_scratch(n))
