@@ -55,8 +55,10 @@ def serve(node):
         import simulation_interfaces.srv  # noqa: F401
     except ImportError:
         node.get_logger().info(
-            'simulation_interfaces is not installed (scripts/ensure-venv builds it where cmake '
-            'and a C/C++ compiler exist): running without its services')
+            'simulation_interfaces is not installed: running without its services '
+            '(scripts/ensure-venv builds it where cmake and a C/C++ compiler exist; after a '
+            'first scripts/run, a background set-up builds it, see .venv/setup-background.log, '
+            'and the next start has them)')
         return None
     return SimulationInterfacesServer(node)
 
