@@ -92,7 +92,7 @@ def test_the_recording_is_the_simulators_own_and_covers_every_topic_of_the_bench
 def test_every_node_in_the_launch_file_is_a_console_script_of_this_package():
     from abb_ros.nodes.ros.script import NODE_MODULES
     setup = (ROOT / 'setup.py').read_text()
-    entry = dict(re.findall(r"'(\w+) = abb_ros\.nodes\.script:(\w+)'", setup))
+    entry = dict(re.findall(r"'(\w+) = abb_ros\.nodes\.ros\.script:(\w+)'", setup))
     assert all(entry[name] == name for name in NODE_MODULES), entry
     scripts = {name: NODE_MODULES[name] for name in entry}
     calls = node_calls()

@@ -297,8 +297,14 @@ def compile_in_processes(sets, jobs: int, report=print) -> dict[str, float]:
     process failed (its output included).
     """
     def lane(names):
-        done = subprocess.run([sys.executable, '-m', 'abb_ros.model.warmup', '--in-process',
-                               '--sets', ','.join(names)], capture_output=True, text=True)
+        # -P and PYTHONPATH: the lane imports this very package (an install tree's), never
+        # one that happens to sit in the working directory.
+        path = os.pathsep.join(filter(None, [str(PACKAGE_ROOT.parent),
+                                             os.environ.get('PYTHONPATH')]))
+        done = subprocess.run([sys.executable, '-P', '-m', 'abb_ros.model.warmup',
+                               '--in-process', '--sets', ','.join(names)],
+                              capture_output=True, text=True,
+                              env=dict(os.environ, PYTHONPATH=path))
         if done.returncode != 0:
             raise RuntimeError(f'compiling the {",".join(names)} kernels failed:\n'
                                f'{done.stdout}{done.stderr}')
