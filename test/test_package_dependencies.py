@@ -12,7 +12,7 @@ ROSDEP_KEYS = {
     'numpy': 'python3-numpy', 'scipy': 'python3-scipy', 'yaml': 'python3-yaml',
     'matplotlib': 'python3-matplotlib', 'tqdm': 'python3-tqdm', 'numba': 'python3-numba',
     'mcap': 'python3-mcap-pip', 'mcap_ros2': 'python3-mcap-ros2-support-pip',
-    'tornado': 'python3-tornado',
+    'tornado': 'python3-tornado', 're2': 'python3-google-re2-pip',
     'dask': 'python3-dask-pip', 'distributed': 'python3-distributed-pip',
     'pyarrow': 'python3-pyarrow-pip', 'zstandard': 'python3-zstandard', 'lz4': 'python3-lz4',
     'launch': 'launch', 'launch_ros': 'launch_ros',

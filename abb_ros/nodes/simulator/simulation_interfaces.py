@@ -11,12 +11,12 @@ cmake and a compiler exist) :func:`serve` logs that once and the node runs witho
 from __future__ import annotations
 
 import math
-import re
 import time
 
 from abb_ros.model.sensors import entity_kinematics as ek
 
-__all__ = ['serve', 'SERVICES', 'ACTION', 'FEATURES', 'FEEDBACK_PERIOD_S']
+__all__ = ['serve', 'SERVICES', 'ACTION', 'FEATURES', 'FEEDBACK_PERIOD_S', 'MAX_FILTER_CHARS',
+           'compile_filter']
 
 SERVICES = ('get_simulator_features', 'get_simulation_state', 'set_simulation_state',
             'step_simulation', 'reset_simulation', 'get_entities', 'get_entity_state',
@@ -27,6 +27,15 @@ FEEDBACK_PERIOD_S = 0.1
 """Shortest wall time between two SimulateSteps feedback messages (the last one always goes)."""
 BATCH_WALL_S = 0.005
 """Wall time spent stepping a SimulateSteps goal before serving anything else (a cancel too)."""
+MAX_FILTER_CHARS = 256
+"""Longest ``filters.filter`` taken (entity names are a few characters; a bound keeps the
+compile of a filter cheap)."""
+FILTER_MAX_MEM = 1 << 20
+"""Memory budget of one compiled filter [bytes] (RE2's ``max_mem``): beyond it RE2 refuses."""
+FILTER_VALID = (f'a POSIX extended regular expression of at most {MAX_FILTER_CHARS} characters '
+                '(RE2 syntax: classes such as [[:alpha:]] and \\d, repetition counts up to '
+                '1000; no backreferences or lookaround); empty matches every entity')
+"""What ``filters.filter`` may be, as a refusal says it."""
 FRAME = 'base'
 FRAMES_ACCEPTED = ('', 'base', 'world')
 """Frames a SetEntityState may name: the standard's default (empty: the world) and ours."""
@@ -237,12 +246,12 @@ class SimulationInterfacesServer:
         if filters.tags.tags:
             return None, self._result(self.Result.RESULT_FEATURE_UNSUPPORTED,
                                       'entity tags are not supported')
-        try:
-            pattern = re.compile(filters.filter)
-        except re.error as err:
-            return None, self._result(self.Result.RESULT_OPERATION_FAILED,
-                                      f'filter {filters.filter!r}: {err}')
-        names = [n for n in ek.entity_names(self.node.drive.n) if pattern.search(n)]
+        pattern, why = compile_filter(filters.filter)
+        if why:
+            return None, self._result(self.Result.RESULT_OPERATION_FAILED, why)
+        names = ek.entity_names(self.node.drive.n)
+        if pattern is not None:
+            names = [n for n in names if pattern.search(n)]
         bounds = filters.bounds
         if bounds.type == Bounds.TYPE_EMPTY:
             return names, None
@@ -327,6 +336,37 @@ class SimulationInterfacesServer:
             return response
         response.result = self._ok()
         return response
+
+
+def compile_filter(pattern: str):
+    """Compile a ``filters.filter``: (the expression or None for empty, '') or (None, why).
+
+    RE2 (the ``google-re2`` wheel), a linear-time engine: no pattern can make a match
+    backtrack, and its parser refuses, with a message, what kills or freezes Python's ``re``
+    (huge repetition counts, deep nesting). The pattern is bounded to MAX_FILTER_CHARS and its
+    program to FILTER_MAX_MEM. ``why`` names the field and says what is valid.
+    """
+    if not pattern:
+        return None, ''
+    shown = repr(pattern if len(pattern) <= 60 else pattern[:60] + '...')
+    if len(pattern) > MAX_FILTER_CHARS:
+        return None, (f'filters.filter {shown}: {len(pattern)} characters; valid: '
+                      + FILTER_VALID)
+    try:
+        import re2
+    except ImportError:
+        return None, ('filters.filter: the google-re2 package is not installed (requirements.'
+                      'txt): only an empty filter is served')
+    options = re2.Options()
+    options.log_errors = False   # the reason goes into the reply, not onto stderr
+    options.max_mem = FILTER_MAX_MEM
+    try:
+        return re2.compile(pattern, options), ''
+    except (re2.error, ValueError, TypeError) as err:   # UnicodeError is a ValueError
+        reason = err.args[0] if err.args else type(err).__name__
+        if isinstance(reason, bytes):
+            reason = reason.decode('utf-8', 'replace')
+        return None, f'filters.filter {shown}: {reason}; valid: {FILTER_VALID}'
 
 
 class _StepJob:
