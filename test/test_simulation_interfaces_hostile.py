@@ -6,17 +6,28 @@ whose message names the field and what is valid; nothing is logged as a tracebac
 answers the next request and keeps publishing joint_states.
 """
 
+import signal
+import subprocess
+import sys
 import time
 
 import pytest
+import rclpy
+from rclpy.action import ActionClient
+from rclpy.executors import SingleThreadedExecutor
 from sensor_msgs.msg import JointState
-from test_simulator_node import Plant
+from test_simulator_node import DEADLINE_S, ROOT, Plant
 
 srv = pytest.importorskip('simulation_interfaces.srv', reason='simulation_interfaces is not '
                           'built (needs cmake and a C/C++ compiler)')
+from simulation_interfaces.action import SimulateSteps  # noqa: E402
 from simulation_interfaces.msg import EntityFilters, Result  # noqa: E402
 
-from abb_ros.nodes.simulator.simulation_interfaces import MAX_FILTER_CHARS  # noqa: E402
+from abb_ros.nodes.simulator.simulation_interfaces import (  # noqa: E402
+    MAX_CALL_STEPS,
+    MAX_FILTER_CHARS,
+    MAX_GOAL_STEPS,
+)
 
 pytestmark = pytest.mark.ros
 
@@ -30,6 +41,14 @@ ANSWER_S = 2.0
 def playing():
     """A simulator playing at real time, 100 Hz: joint_states flows while requests come."""
     p = Plant(real_time_factor=1.0, publish_rate_hz=100)
+    yield p
+    p.close()
+
+
+@pytest.fixture
+def paused():
+    """A paused simulator, as fast as possible between steps, 1 kHz."""
+    p = Plant(start_paused=True, real_time_factor=0.0, publish_rate_hz=1000)
     yield p
     p.close()
 
@@ -95,3 +114,77 @@ def test_posix_classes_match_as_posix_extended_regular_expressions_define_them(p
     assert entities(playing, '').entities == ['deck', 'rotor', 'ball_1', 'ball_2']
     assert entities(playing, 'deck|rotor').entities == ['deck', 'rotor']
 
+
+# ---- stepping ---------------------------------------------------------------------------------
+
+def step(plant, steps):
+    return call(plant, srv.StepSimulation, 'step_simulation', steps=steps).result
+
+
+def test_step_simulation_beyond_its_stated_maximum_is_refused_at_once(paused, capfd):
+    states = paused.collect(JointState, 'joint_states')
+    for steps in (2 ** 63 - 1, 2 ** 64 - 1, MAX_CALL_STEPS + 1):
+        t0 = time.monotonic()
+        refused = step(paused, steps)
+        assert time.monotonic() - t0 < ANSWER_S
+        assert refused.result == Result.RESULT_OPERATION_FAILED
+        assert refused.error_message.startswith(f'steps {steps}: at most {MAX_CALL_STEPS}')
+        assert 'SimulateSteps' in refused.error_message
+    assert states == []                      # nothing was stepped
+    assert step(paused, MAX_CALL_STEPS).result == OK
+    paused.wait(lambda: len(states) == MAX_CALL_STEPS, 'the steps of the largest call')
+    assert 'Traceback' not in capfd.readouterr().err
+
+
+def _goal(plant, steps):
+    client = ActionClient(plant.node, SimulateSteps, f'{SIM}/simulate_steps')
+    plant.wait(client.server_is_ready, 'the SimulateSteps server')
+    future = client.send_goal_async(SimulateSteps.Goal(steps=steps))
+    plant.wait(future.done, 'goal acceptance')
+    return future.result()
+
+
+def test_a_goal_beyond_its_stated_maximum_is_aborted_with_the_maximum(paused):
+    for steps in (2 ** 63 - 1, MAX_GOAL_STEPS + 1):
+        handle = _goal(paused, steps)
+        result = handle.get_result_async()
+        paused.wait(result.done, 'the aborted result')
+        outcome = result.result().result.result
+        assert outcome.result == Result.RESULT_OPERATION_FAILED
+        assert outcome.error_message.startswith(f'steps {steps}: at most {MAX_GOAL_STEPS}')
+    assert step(paused, 1).result == OK
+
+
+@pytest.mark.slow
+def test_sigint_during_a_long_goal_ends_the_node_at_once_with_exit_0():
+    proc = subprocess.Popen(
+        [sys.executable, '-m', 'abb_ros.nodes.simulator', '--ros-args', '-r', '__ns:=/longgoal',
+         '-p', 'real_time_factor:=0.0', '-p', 'start_paused:=true'],
+        cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True)
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx)
+    node = rclpy.create_node('goal_sender', context=ctx)
+    executor = SingleThreadedExecutor(context=ctx)
+    executor.add_node(node)
+    feedback = []
+    try:
+        client = ActionClient(node, SimulateSteps, '/longgoal/abb_simulator/simulate_steps')
+        deadline = time.monotonic() + DEADLINE_S
+        while not client.server_is_ready():
+            assert time.monotonic() < deadline, 'timed out after waiting for the node'
+            executor.spin_once(timeout_sec=0.1)
+        future = client.send_goal_async(SimulateSteps.Goal(steps=MAX_GOAL_STEPS),
+                                        feedback_callback=feedback.append)
+        while not feedback:
+            assert time.monotonic() < deadline, 'timed out after waiting for feedback'
+            executor.spin_once(timeout_sec=0.1)
+        assert future.result().accepted
+        proc.send_signal(signal.SIGINT)
+        assert proc.wait(timeout=5) == 0
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        executor.shutdown()
+        node.destroy_node()
+        rclpy.shutdown(context=ctx)
+    assert 'Traceback' not in proc.communicate()[0]

@@ -49,6 +49,7 @@ from abb_ros.model.sensors.imu import ImuModel
 from abb_ros.model.sensors.sampling import PlantSampler
 from abb_ros.nodes.recorder.recording import default_output, refuse_bad_topics, resolve_topics
 from abb_ros.nodes.ros import ros_params
+from abb_ros.nodes.ros import stop as stop_request
 from abb_ros.nodes.ros.entry_point import make_executor, run_node, spin
 from abb_ros.nodes.simulator import live_view, simulation_interfaces
 from abb_ros.nodes.simulator.diagnostics import simulation_status
@@ -279,11 +280,16 @@ class SimulatorNode(PlantLoop, Node):
         return transition
 
     def step_periods(self, count: int) -> int:
-        """Integrate and publish ``count`` publish periods; return how many (a fault stops)."""
+        """Integrate and publish ``count`` publish periods; return how many.
+
+        A fault stops it, and so does a stop signal (SIGINT, SIGTERM): the node then answers
+        and ends at once.
+        """
         self._apply_parameters()
         self.run_state.stepped()
         done = 0
-        while done < count and not self.fault and self._integrate_period():
+        while (done < count and not self.fault and not stop_request.REQUEST
+               and self._integrate_period()):
             done += 1
         return done
 

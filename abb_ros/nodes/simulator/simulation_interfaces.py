@@ -16,7 +16,7 @@ import time
 from abb_ros.model.sensors import entity_kinematics as ek
 
 __all__ = ['serve', 'SERVICES', 'ACTION', 'FEATURES', 'FEEDBACK_PERIOD_S', 'MAX_FILTER_CHARS',
-           'compile_filter']
+           'MAX_CALL_STEPS', 'MAX_GOAL_STEPS', 'compile_filter']
 
 SERVICES = ('get_simulator_features', 'get_simulation_state', 'set_simulation_state',
             'step_simulation', 'reset_simulation', 'get_entities', 'get_entity_state',
@@ -27,6 +27,15 @@ FEEDBACK_PERIOD_S = 0.1
 """Shortest wall time between two SimulateSteps feedback messages (the last one always goes)."""
 BATCH_WALL_S = 0.005
 """Wall time spent stepping a SimulateSteps goal before serving anything else (a cancel too)."""
+MAX_CALL_STEPS = 10_000
+"""Most steps one StepSimulation call takes: it answers after them, and until then the node
+serves nothing else (about a second of wall time at the default rates)."""
+MAX_CALL_INTEGRATION_STEPS = 1_000_000
+"""... and most integration steps one StepSimulation call takes (fewer steps when a publish
+period holds many integration steps)."""
+MAX_GOAL_STEPS = 1_000_000_000
+"""Most steps one SimulateSteps goal takes (11.6 days of simulated time at 1 kHz); it runs in
+batches, and is cancellable, so the node serves everything else meanwhile."""
 MAX_FILTER_CHARS = 256
 """Longest ``filters.filter`` taken (entity names are a few characters; a bound keeps the
 compile of a filter cheap)."""
@@ -144,7 +153,22 @@ class SimulationInterfacesServer:
                                 f'{self.node.fault}; reset the simulation')
         return None
 
+    def call_step_limit(self) -> int:
+        """Most steps a StepSimulation call takes at the present rates (at least 1)."""
+        every = max(1, int(self.node.sampler.publish_every))
+        return max(1, min(MAX_CALL_STEPS, MAX_CALL_INTEGRATION_STEPS // every))
+
     def _step(self, request, response):
+        limit = self.call_step_limit()
+        if request.steps > limit:
+            response.result = self._result(
+                self.Result.RESULT_OPERATION_FAILED,
+                f'steps {request.steps}: at most {limit} per StepSimulation call at these rates '
+                f'({MAX_CALL_STEPS} publish periods and {MAX_CALL_INTEGRATION_STEPS} '
+                'integration steps; the call holds the node until it answers); more steps: '
+                f'the SimulateSteps action ~/{ACTION} (in batches, cancellable, at most '
+                f'{MAX_GOAL_STEPS} per goal)')
+            return response
         refusal = self._refuse_step()
         if refusal is not None:
             response.result = refusal
@@ -152,7 +176,8 @@ class SimulationInterfacesServer:
         done = self.node.step_periods(request.steps)
         response.result = (self._ok() if done == request.steps else self._result(
             self.Result.RESULT_OPERATION_FAILED,
-            f'{self.node.fault} after {done} of {request.steps} steps'))
+            f'{self.node.fault or "the node is stopping"} after {done} of {request.steps} '
+            'steps'))
         return response
 
     async def _execute(self, goal_handle):
@@ -163,6 +188,11 @@ class SimulationInterfacesServer:
         result = SimulateSteps.Result()
         with self.node.plant_lock:   # rclpy runs actions outside the node's wrapped callbacks
             refusal = self._refuse_step()
+        if goal_handle.request.steps > MAX_GOAL_STEPS:
+            refusal = self._result(
+                self.Result.RESULT_OPERATION_FAILED,
+                f'steps {goal_handle.request.steps}: at most {MAX_GOAL_STEPS} per SimulateSteps '
+                'goal; send another goal after this one for more')
         if refusal is not None:
             result.result = refusal
             goal_handle.abort()
@@ -182,8 +212,9 @@ class SimulationInterfacesServer:
                                          f'cancelled after {job.done} of {job.steps} steps')
             goal_handle.canceled()
         elif job.done < job.steps:
-            result.result = self._result(self.Result.RESULT_OPERATION_FAILED,
-                                         f'{self.node.fault} after {job.done} steps')
+            result.result = self._result(
+                self.Result.RESULT_OPERATION_FAILED,
+                f'{self.node.fault or "the node is stopping"} after {job.done} steps')
             goal_handle.abort()
         else:
             result.result = self._ok()
