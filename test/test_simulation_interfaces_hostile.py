@@ -16,12 +16,13 @@ import rclpy
 from rclpy.action import ActionClient
 from rclpy.executors import SingleThreadedExecutor
 from sensor_msgs.msg import JointState
+from std_srvs.srv import SetBool, Trigger
 from test_simulator_node import DEADLINE_S, ROOT, Plant
 
 srv = pytest.importorskip('simulation_interfaces.srv', reason='simulation_interfaces is not '
                           'built (needs cmake and a C/C++ compiler)')
 from simulation_interfaces.action import SimulateSteps  # noqa: E402
-from simulation_interfaces.msg import EntityFilters, Result  # noqa: E402
+from simulation_interfaces.msg import EntityFilters, Result, SimulationState  # noqa: E402
 
 from abb_ros.nodes.simulator.simulation_interfaces import (  # noqa: E402
     MAX_CALL_STEPS,
@@ -121,6 +122,10 @@ def step(plant, steps):
     return call(plant, srv.StepSimulation, 'step_simulation', steps=steps).result
 
 
+def state_of(plant):
+    return call(plant, srv.GetSimulationState, 'get_simulation_state').state.state
+
+
 def test_step_simulation_beyond_its_stated_maximum_is_refused_at_once(paused, capfd):
     states = paused.collect(JointState, 'joint_states')
     for steps in (2 ** 63 - 1, 2 ** 64 - 1, MAX_CALL_STEPS + 1):
@@ -153,6 +158,39 @@ def test_a_goal_beyond_its_stated_maximum_is_aborted_with_the_maximum(paused):
         assert outcome.result == Result.RESULT_OPERATION_FAILED
         assert outcome.error_message.startswith(f'steps {steps}: at most {MAX_GOAL_STEPS}')
     assert step(paused, 1).result == OK
+
+
+def test_a_long_goal_leaves_the_node_serving_and_owning_the_stepping(paused):
+    states = paused.collect(JointState, 'joint_states')
+    handle = _goal(paused, MAX_GOAL_STEPS)
+    paused.wait(lambda: len(states) > 100, 'the goal stepping')
+    t0 = time.monotonic()
+    assert state_of(paused) == SimulationState.STATE_PAUSED
+    assert time.monotonic() - t0 < ANSWER_S
+    # Nothing else may step, play, stop or reset while the goal owns the stepping.
+    owner = 'a SimulateSteps goal owns the stepping'
+    R = Result
+    for state in (SimulationState.STATE_PLAYING, SimulationState.STATE_STOPPED):
+        refused = call(paused, srv.SetSimulationState, 'set_simulation_state',
+                       state=SimulationState(state=state)).result
+        assert refused.result == R.RESULT_INCORRECT_STATE and owner in refused.error_message
+    assert step(paused, 1).result == R.RESULT_INCORRECT_STATE
+    reset = call(paused, srv.ResetSimulation, 'reset_simulation').result
+    assert reset.result == R.RESULT_INCORRECT_STATE and owner in reset.error_message
+    for reply in (paused.step(),
+                  paused.call(Trigger, f'{SIM}/reset', Trigger.Request()),
+                  paused.call(SetBool, f'{SIM}/pause', SetBool.Request(data=False))):
+        assert not reply.success and owner in reply.message
+    assert state_of(paused) == SimulationState.STATE_PAUSED
+    cancel = handle.cancel_goal_async()
+    paused.wait(cancel.done, 'the cancel reply')
+    result = handle.get_result_async()
+    paused.wait(result.done, 'the cancelled result')
+    assert result.result().status == 5   # GoalStatus.STATUS_CANCELED
+    # The goal gone, the stepping is free again.
+    assert paused.step().success
+    assert call(paused, srv.SetSimulationState, 'set_simulation_state',
+                state=SimulationState(state=SimulationState.STATE_PLAYING)).result.result == OK
 
 
 @pytest.mark.slow

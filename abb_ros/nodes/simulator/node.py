@@ -60,7 +60,14 @@ from abb_ros.runtime.pacing import Pacer
 from abb_ros.runtime.plant_thread import PlantThread
 from abb_ros.runtime.rate_slots import RateSlots
 from abb_ros.runtime.realtime import FifoScheduling
-from abb_ros.runtime.run_state import RunState, Transition
+from abb_ros.runtime.run_state import (
+    PLAYING,
+    RESULT_INCORRECT_STATE,
+    STATE_NAMES,
+    STOPPED,
+    RunState,
+    Transition,
+)
 from abb_ros.runtime.spindle_commands import SpindleCommands
 
 NODE_NAME = 'abb_simulator'
@@ -266,8 +273,20 @@ class SimulatorNode(PlantLoop, Node):
             self._restart_pacing()
 
     # ---- run state, stepping, reset (std_srvs services and simulation_interfaces) -------
+    def goal_owns_stepping(self) -> str:
+        """Why a SimulateSteps goal refuses play, stop, step and reset now ('' when none runs)."""
+        server = getattr(self, 'sim_interfaces', None)
+        return server.goal_owns_stepping() if server is not None else ''
+
     def set_run_state(self, target: int) -> Transition:
-        """SetSimulationState: move to ``target`` as :class:`RunState` allows."""
+        """SetSimulationState: move to ``target`` as :class:`RunState` allows.
+
+        PLAYING and STOPPED are refused (RESULT_INCORRECT_STATE) while a SimulateSteps goal
+        owns the stepping.
+        """
+        owner = self.goal_owns_stepping()
+        if owner and target in (PLAYING, STOPPED):
+            return Transition(RESULT_INCORRECT_STATE, f'{STATE_NAMES[target]} refused: {owner}')
         transition = self.run_state.request(target)
         if transition.ok:
             if transition.reset:
@@ -344,6 +363,10 @@ class SimulatorNode(PlantLoop, Node):
         self.sim.y[:] = y
 
     def _on_reset(self, _request, response):
+        owner = self.goal_owns_stepping()
+        if owner:
+            response.success, response.message = False, f'reset refused: {owner}'
+            return response
         cleared = self.fault
         self.reset_simulation(time=False, state=True)
         response.success = True
@@ -352,6 +375,10 @@ class SimulatorNode(PlantLoop, Node):
         return response
 
     def _on_pause(self, request, response):
+        owner = self.goal_owns_stepping()
+        if owner and not request.data:
+            response.success, response.message = False, f'resume refused: {owner}'
+            return response
         if request.data != self.paused:
             self.run_state.pause(request.data)
             self._restart_pacing()
@@ -361,6 +388,10 @@ class SimulatorNode(PlantLoop, Node):
         return response
 
     def _on_step(self, _request, response):
+        owner = self.goal_owns_stepping()
+        if owner:
+            response.success, response.message = False, f'step refused: {owner}'
+            return response
         if not self.paused:
             response.success, response.message = False, 'not paused: call ~/pause first'
             return response

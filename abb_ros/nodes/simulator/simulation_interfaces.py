@@ -142,8 +142,7 @@ class SimulationInterfacesServer:
     def _refuse_step(self):
         """Return a Result refusing to step now, or None when stepping is possible."""
         if self._job is not None:
-            return self._result(self.Result.RESULT_INCORRECT_STATE,
-                                'a SimulateSteps goal is stepping the simulation')
+            return self._result(self.Result.RESULT_INCORRECT_STATE, self.goal_owns_stepping())
         if not self.node.run_state.paused:
             return self._result(self.Result.RESULT_INCORRECT_STATE,
                                 'the simulation is playing: pause it first '
@@ -152,6 +151,14 @@ class SimulationInterfacesServer:
             return self._result(self.Result.RESULT_OPERATION_FAILED,
                                 f'{self.node.fault}; reset the simulation')
         return None
+
+    def goal_owns_stepping(self) -> str:
+        """Why nothing else may step, play, stop or reset now ('' when no goal is stepping)."""
+        job = self._job
+        if job is None:
+            return ''
+        return (f'a SimulateSteps goal owns the stepping ({job.done} of {job.steps} steps '
+                'done): cancel it or wait for its result')
 
     def call_step_limit(self) -> int:
         """Most steps a StepSimulation call takes at the present rates (at least 1)."""
@@ -261,7 +268,7 @@ class SimulationInterfacesServer:
             time_, state = bool(scope & R.Request.SCOPE_TIME), bool(scope & R.Request.SCOPE_STATE)
         if self._job is not None:
             response.result = self._result(self.Result.RESULT_INCORRECT_STATE,
-                                           'a SimulateSteps goal is stepping the simulation')
+                                           self.goal_owns_stepping())
             return response
         self.node.reset_simulation(time=time_, state=state)
         response.result = self._ok()
