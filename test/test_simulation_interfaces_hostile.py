@@ -6,6 +6,7 @@ whose message names the field and what is valid; nothing is logged as a tracebac
 answers the next request and keeps publishing joint_states.
 """
 
+import copy
 import signal
 import subprocess
 import sys
@@ -191,6 +192,61 @@ def test_a_long_goal_leaves_the_node_serving_and_owning_the_stepping(paused):
     assert paused.step().success
     assert call(paused, srv.SetSimulationState, 'set_simulation_state',
                 state=SimulationState(state=SimulationState.STATE_PLAYING)).result.result == OK
+
+
+
+# ---- SetEntityState -----------------------------------------------------------------------
+
+def _states(plant):
+    reply = call(plant, srv.GetEntitiesStates, 'get_entities_states')
+    return dict(zip(reply.entities, reply.states))
+
+
+def _set(plant, entity, state):
+    return call(plant, srv.SetEntityState, 'set_entity_state', entity=entity,
+                state=state).result
+
+
+def _refused(plant, entity, state, *needles):
+    result = _set(plant, entity, state)
+    assert result.result == srv.SetEntityState.Response.INVALID_POSE, result.error_message
+    message = result.error_message
+    assert message.startswith(entity) and 'valid' in message and '\n' not in message, message
+    for needle in needles:
+        assert needle in message, message
+
+
+def test_set_entity_state_refuses_what_the_next_step_would_reject(paused, recwarn, capfd):
+    states = paused.collect(JointState, 'joint_states')
+    now = _states(paused)
+    ball = copy.deepcopy(now['ball_1'])
+    ball.pose.orientation.x = ball.pose.orientation.y = 0.0
+    ball.pose.orientation.z = ball.pose.orientation.w = 0.0
+    _refused(paused, 'ball_1', ball, 'state.pose.orientation', 'unit quaternion')
+    fast = copy.deepcopy(now['ball_1'])       # along the race, 300 times the rotor's speed
+    v = fast.twist.linear
+    v.x, v.y, v.z = v.x * 300, v.y * 300, v.z * 300
+    _refused(paused, 'ball_1', fast, "phi'", '100000')
+    huge = copy.deepcopy(now['ball_1'])
+    huge.twist.linear.x = 1e308
+    _refused(paused, 'ball_1', huge, 'state.twist.linear.x')
+    deck = copy.deepcopy(now['deck'])
+    deck.pose.position.x = 0.5
+    _refused(paused, 'deck', deck, 'state.pose.position.x', '0.02')
+    deck = copy.deepcopy(now['deck'])
+    deck.pose.orientation.w = 0.0
+    _refused(paused, 'deck', deck, 'state.pose.orientation')
+    deck = copy.deepcopy(now['deck'])
+    deck.twist.angular.x = 1e200
+    _refused(paused, 'deck', deck, 'state.twist.angular.x', '1000')
+    deck = copy.deepcopy(now['deck'])
+    deck.twist.linear.x = 900.0               # within the shock's range; gone in one step
+    _refused(paused, 'deck', deck, 'next step', 'envelope')
+    assert _states(paused) == now             # nothing was set
+    assert not [w for w in recwarn if issubclass(w.category, RuntimeWarning)]
+    assert step(paused, 5).result == OK
+    paused.wait(lambda: len(states) >= 5, 'joint_states after the refusals')
+    assert 'Traceback' not in capfd.readouterr().err
 
 
 @pytest.mark.slow

@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from abb_ros.model.dynamics.kernels.layout import MAX_ANGLE, MAX_BALL_RATE, MAX_TRANSLATION
 from abb_ros.model.dynamics.state import StateLayout, wrap_angle
 from abb_ros.model.parameters.params import DriveParams
 from abb_ros.model.sensors.imu import (
@@ -41,13 +42,21 @@ from abb_ros.model.sensors.imu import (
 )
 
 __all__ = ['DECK', 'ROTOR', 'ball_name', 'entity_names', 'Kinematics', 'kinematics',
-           'EntityError', 'with_ball', 'with_deck', 'ON_RACE_TOL']
+           'EntityError', 'with_ball', 'with_deck', 'ON_RACE_TOL', 'UNIT_TOL', 'MAX_DECK_TWIST']
 
 DECK = 'deck'
 ROTOR = 'rotor'
 ON_RACE_TOL = 1e-6
 """How far a ball set by position may be off its race [m] (radially and out of plane), and
 how fast across it [m/s]: a micrometre, far below the race radius and above float noise."""
+UNIT_TOL = 1e-6
+"""How far from 1 the norm of a quaternion set may be."""
+MAX_DECK_TWIST = 1000.0
+"""Largest deck velocity [m/s] and angular velocity [rad/s] component set, as
+``disturbance.shock_velocity``'s: the deck leaves its envelope within microseconds beyond."""
+MAX_SPEED = 1.0e7
+"""Largest component of any velocity set [m/s, rad/s] before the finer checks (no arithmetic on
+a value near 1e308 overflows)."""
 
 
 def ball_name(i: int) -> str:
@@ -144,12 +153,41 @@ def kinematics(y: np.ndarray, qdd: np.ndarray, params: DriveParams) -> dict[str,
     return out
 
 
-def with_ball(y: np.ndarray, params: DriveParams, i: int, position, velocity) -> np.ndarray:
+def _within(field: str, values, limit: float, unit: str, why: str) -> None:
+    """Refuse any of ``values`` (x, y, z of ``field``) beyond +-``limit``."""
+    for axis, value in zip('xyz', values):
+        if not abs(value) <= limit:
+            raise EntityError(f'state.{field}.{axis} = {value:.6g} {unit}; valid: within '
+                              f'+-{limit:g} {unit} ({why})')
+
+
+def unit_quaternion(orientation) -> np.ndarray:
+    """Return ``orientation`` (x, y, z, w) normalised; EntityError unless its norm is ~1."""
+    quat = np.asarray(orientation, dtype=float)
+    if not np.all(np.isfinite(quat)) or not np.all(np.abs(quat) <= 2.0):
+        norm = math.inf
+    else:
+        norm = float(np.linalg.norm(quat))
+    if abs(norm - 1.0) > UNIT_TOL:
+        raise EntityError(f'state.pose.orientation: |q| = {norm:.9g}; valid: a unit '
+                          f'quaternion (x, y, z, w) with |q| within {UNIT_TOL:g} of 1')
+    return quat / norm
+
+
+def with_ball(y: np.ndarray, params: DriveParams, i: int, position, velocity,
+              orientation=(0.0, 0.0, 0.0, 1.0)) -> np.ndarray:
     """Return ``y`` with ball ``i`` at base-frame ``position`` moving at ``velocity``.
 
     The point must be on the ball's race (within :data:`ON_RACE_TOL`) and the velocity along
-    it relative to the deck; otherwise :class:`EntityError` says which.
+    it relative to the deck, with a ball rate phi_i' within the model's envelope
+    (``MAX_BALL_RATE``); ``orientation`` must be a unit quaternion (the ball's own is its
+    radial frame: the value is checked, not used). Otherwise :class:`EntityError` names the
+    field and what is valid.
     """
+    unit_quaternion(orientation)
+    reach = MAX_TRANSLATION + params.R + ON_RACE_TOL
+    _within('pose.position', position, reach, 'm', 'the deck envelope plus the race radius')
+    _within('twist.linear', velocity, MAX_SPEED, 'm/s', 'far beyond any ball speed')
     s = StateLayout.of(params.n)
     q, qd = y[s.q], y[s.qd]
     rotation = euler_rotation(*s.deck(y)[3:])
@@ -171,9 +209,15 @@ def with_ball(y: np.ndarray, params: DriveParams, i: int, position, velocity) ->
                           f'{float(np.linalg.norm(across)):.3g} m/s across it')
     out = y.copy()
     theta, omega = float(q[0]), float(qd[0])
+    rate = float(tangent @ v_rel) / params.R - omega
+    if abs(rate) > MAX_BALL_RATE:
+        raise EntityError(
+            f'state.twist.linear: {ball_name(i)} would turn at phi\' = {rate:.6g} rad/s in the '
+            f'rotor; valid: |phi\'| <= {MAX_BALL_RATE:g} rad/s (the model\'s envelope), a speed '
+            f'along the race within {MAX_BALL_RATE * params.R:.6g} m/s of the rotor\'s')
     old = float(s.phi(out)[i])   # the nearest angle to the old one: no turns added
     s.phi(out)[i] = old + float(wrap_angle(psi - theta - old))
-    s.phi_rates(out)[i] = float(tangent @ v_rel) / params.R - omega
+    s.phi_rates(out)[i] = rate
     return out
 
 
@@ -185,14 +229,16 @@ def with_deck(y: np.ndarray, params: DriveParams, position, orientation, velocit
     ``velocity`` and turning at ``angular_velocity``.
 
     The angles (alpha, beta, gamma) of R = Rz(gamma) Rx(alpha) Ry(beta) and their rates
-    follow from the quaternion and Eq. (10); a quaternion far from unit length, or an
-    orientation at the Euler sequence's singularity (alpha = +-90 deg), is refused.
+    follow from the quaternion and Eq. (10). Refused with :class:`EntityError` naming the
+    field and what is valid: a quaternion far from unit length, a position or angles outside
+    the model's envelope (``MAX_TRANSLATION``, ``MAX_ANGLE``: the next step would stop), a
+    twist component beyond :data:`MAX_DECK_TWIST`.
     """
-    quat = np.asarray(orientation, dtype=float)
-    norm = float(np.linalg.norm(quat))
-    if not math.isfinite(norm) or abs(norm - 1.0) > 1e-6:
-        raise EntityError(f'deck orientation must be a unit quaternion (|q| = {norm:.9g})')
-    x, yq, z, w = quat / norm
+    x, yq, z, w = unit_quaternion(orientation)
+    _within('pose.position', position, MAX_TRANSLATION, 'm', "the model's envelope")
+    _within('twist.linear', velocity, MAX_DECK_TWIST, 'm/s', 'as disturbance.shock_velocity')
+    _within('twist.angular', angular_velocity, MAX_DECK_TWIST, 'rad/s',
+            'as disturbance.shock_velocity')
     m = np.array([[1 - 2 * (yq * yq + z * z), 2 * (x * yq - z * w), 2 * (x * z + yq * w)],
                   [2 * (x * yq + z * w), 1 - 2 * (x * x + z * z), 2 * (yq * z - x * w)],
                   [2 * (x * z - yq * w), 2 * (yq * z + x * w), 1 - 2 * (x * x + yq * yq)]])
@@ -204,6 +250,12 @@ def with_deck(y: np.ndarray, params: DriveParams, position, orientation, velocit
                           '(1)-(2) are undefined')
     beta = math.atan2(-m[2, 0], m[2, 2])
     gamma = math.atan2(-m[0, 1], m[1, 1])
+    for angle, value in (('alpha', alpha), ('beta', beta), ('gamma', gamma)):
+        if abs(value) > MAX_ANGLE:
+            raise EntityError(
+                f'state.pose.orientation: {angle} = {value:.6g} rad (R = Rz(gamma) Rx(alpha) '
+                f"Ry(beta)); valid: alpha, beta, gamma within +-{MAX_ANGLE:g} rad (the model's "
+                'envelope)')
     w_deck = m.T @ np.asarray(angular_velocity, dtype=float)
     # Eq. (10) inverted: w = (a' cb - g' ca sb, b' + g' sa, a' sb + g' ca cb).
     ca, sa, cb, sb = math.cos(alpha), math.sin(alpha), math.cos(beta), math.sin(beta)

@@ -362,15 +362,18 @@ class SimulationInterfacesServer:
                 'the rotor turns with the spindle: command its speed on spindle/speed_cmd '
                 '(its angle and speed are not free coordinates)')
             return response
-        values = _values(state)
-        if not all(math.isfinite(v) for v in values):
+        bad = [field for field, v in _fields(state) if not math.isfinite(v)]
+        if bad:
             response.result = self._result(SetEntityState.Response.INVALID_POSE,
-                                           f'{name}: non-finite pose or twist')
+                                           f'{name}: {", ".join(bad)} not finite; valid: '
+                                           'finite numbers')
             return response
         try:
             self.node.set_entity(name, state)
         except ek.EntityError as err:
-            response.result = self._result(SetEntityState.Response.INVALID_POSE, str(err))
+            why = str(err)
+            response.result = self._result(SetEntityState.Response.INVALID_POSE,
+                                           why if why.startswith(name) else f'{name}: {why}')
             return response
         response.result = self._ok()
         return response
@@ -423,10 +426,15 @@ def _put(vector, values) -> None:
     vector.x, vector.y, vector.z = values
 
 
-def _values(state) -> list[float]:
-    p, o, t = state.pose.position, state.pose.orientation, state.twist
-    return [p.x, p.y, p.z, o.x, o.y, o.z, o.w, t.linear.x, t.linear.y, t.linear.z,
-            t.angular.x, t.angular.y, t.angular.z]
+def _fields(state) -> list[tuple[str, float]]:
+    """(field name, value) of each number of an EntityState's pose and twist."""
+    out = []
+    for field, vector, axes in (('pose.position', state.pose.position, 'xyz'),
+                                ('pose.orientation', state.pose.orientation, 'xyzw'),
+                                ('twist.linear', state.twist.linear, 'xyz'),
+                                ('twist.angular', state.twist.angular, 'xyz')):
+        out += [(f'state.{field}.{axis}', getattr(vector, axis)) for axis in axes]
+    return out
 
 
 def state_vectors(state):
