@@ -31,6 +31,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from abb_ros.model.dynamics.integrate import Simulation, StateError
 from abb_ros.model.dynamics.kernels.layout import MAX_ANGLE, MAX_BALL_RATE, MAX_TRANSLATION
 from abb_ros.model.dynamics.state import StateLayout, wrap_angle
 from abb_ros.model.parameters.params import DriveParams
@@ -42,7 +43,8 @@ from abb_ros.model.sensors.imu import (
 )
 
 __all__ = ['DECK', 'ROTOR', 'ball_name', 'entity_names', 'Kinematics', 'kinematics',
-           'EntityError', 'with_ball', 'with_deck', 'ON_RACE_TOL', 'UNIT_TOL', 'MAX_DECK_TWIST']
+           'EntityError', 'with_ball', 'with_deck', 'with_entity', 'ON_RACE_TOL', 'UNIT_TOL',
+           'MAX_DECK_TWIST']
 
 DECK = 'deck'
 ROTOR = 'rotor'
@@ -267,3 +269,37 @@ def with_deck(y: np.ndarray, params: DriveParams, position, orientation, velocit
     s.deck(out)[:] = [*np.asarray(position, dtype=float), alpha, beta, gamma]
     s.deck_rates(out)[:] = [*np.asarray(velocity, dtype=float), dalpha, dbeta, dgamma]
     return out
+
+
+def with_entity(sim: Simulation, name: str, position, orientation, velocity, angular_velocity,
+                trial_steps: int) -> np.ndarray:
+    """Return ``sim.y`` with the deck or ball ``name`` set (:func:`with_deck`, :func:`with_ball`).
+
+    Computed with numpy's floating-point errors raised (no RuntimeWarning), then tried on a
+    copy of ``sim`` for ``trial_steps`` steps: a state from which they would stop the plant
+    (non-finite, out of the envelope) is refused too. :class:`EntityError` says why.
+    """
+    with np.errstate(all='raise'):
+        try:
+            if name == DECK:
+                y = with_deck(sim.y, sim.params, position, orientation, velocity,
+                              angular_velocity)
+            else:
+                i = entity_names(sim.params.n).index(name) - 2
+                y = with_ball(sim.y, sim.params, i, position, velocity, orientation)
+        except FloatingPointError as err:
+            raise EntityError(f'{name}: the state overflows ({err}); valid: finite values of '
+                              "the model's scale") from None
+    twin = Simulation(sim.params, sim.omega, sim.dt, spindle=sim.spindle, y0=y, t0=sim.t0,
+                      integrator=sim.integrator)
+    twin.steps = sim.steps
+    twin.set_command(sim.omega_cmd)
+    try:
+        twin.advance(trial_steps)
+        why = '' if np.all(np.isfinite(twin.y)) else 'the state became non-finite'
+    except StateError as err:
+        why = str(err).split('; ')[0]
+    if why:
+        raise EntityError(f'{name}: the next step from this state would stop the plant ({why}); '
+                          "valid: a state the model's envelope holds for the next publish period")
+    return y

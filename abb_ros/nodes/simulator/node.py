@@ -34,7 +34,6 @@ import os
 import threading
 import time
 
-import numpy as np
 from rclpy.clock import Clock, ClockType
 from rclpy.node import Node
 from std_msgs.msg import Float64
@@ -43,7 +42,7 @@ from std_srvs.srv import SetBool, Trigger
 from abb_ros.io.wire import cdr, ros_messages
 from abb_ros.io.wire.topics import CURRENT_CMD, DIAGNOSTICS, SPEED_CMD
 from abb_ros.model.dynamics.initial import initial_state
-from abb_ros.model.dynamics.integrate import Simulation, StateError
+from abb_ros.model.dynamics.integrate import Simulation
 from abb_ros.model.parameters.params import ParamError
 from abb_ros.model.sensors import entity_kinematics
 from abb_ros.model.sensors.imu import ImuModel
@@ -355,42 +354,11 @@ class SimulatorNode(PlantLoop, Node):
         """SetEntityState of the deck or a ball (raises EntityError with the reason).
 
         Refused as well when the next publish period from the new state would stop the plant
-        (non-finite, or out of the model's envelope): tried on a copy of the simulation.
+        (:func:`abb_ros.model.sensors.entity_kinematics.with_entity`).
         """
-        position, orientation, velocity, angular = simulation_interfaces.state_vectors(
-            state)
-        with np.errstate(all='raise'):
-            try:
-                if name == entity_kinematics.DECK:
-                    y = entity_kinematics.with_deck(self.sim.y, self.sim.params, position,
-                                                    orientation, velocity, angular)
-                else:
-                    i = entity_kinematics.entity_names(self.drive.n).index(name) - 2
-                    y = entity_kinematics.with_ball(self.sim.y, self.sim.params, i, position,
-                                                    velocity, orientation)
-            except FloatingPointError as err:
-                raise entity_kinematics.EntityError(
-                    f'{name}: the state overflows ({err}); valid: finite values of the '
-                    "model's scale") from None
-        why = self._next_period_fails(y)
-        if why:
-            raise entity_kinematics.EntityError(
-                f'{name}: the next step from this state would stop the plant ({why}); valid: '
-                "a state the model's envelope holds for the next publish period")
-        self.sim.y[:] = y
-
-    def _next_period_fails(self, y) -> str:
-        """Why one publish period from state ``y`` would fail ('' when it does not)."""
-        sim = self.sim
-        twin = Simulation(sim.params, sim.omega, sim.dt, spindle=sim.spindle, y0=y,
-                          t0=sim.t0, integrator=sim.integrator)
-        twin.steps = sim.steps
-        twin.set_command(sim.omega_cmd)
-        try:
-            twin.advance(self.sampler.publish_every)
-        except StateError as err:
-            return str(err).split('; ')[0]
-        return '' if np.all(np.isfinite(twin.y)) else 'the state became non-finite'
+        self.sim.y[:] = entity_kinematics.with_entity(
+            self.sim, name, *simulation_interfaces.state_vectors(state),
+            trial_steps=self.sampler.publish_every)
 
     def _on_reset(self, _request, response):
         owner = self.goal_owns_stepping()
