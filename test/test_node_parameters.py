@@ -55,6 +55,9 @@ def _start_fails(node, *params):
     ('simulator', 'fault.imu_accel_bias_step:=[1e308, 1e308, 1e308]',
      "'fault.imu_accel_bias_step'"),
     ('simulator', 'fault.speed_noise:=1e308', "'fault.speed_noise' = 1e+308"),
+    ('simulator', 'real_time_factor:=1e-14',
+     "'real_time_factor' = 1e-14 is invalid: valid range is 0 (as fast as possible) or "
+     '[1e-06, 1000]'),
 ])
 @pytest.mark.slow
 def test_wrong_start_up_type_or_value_exits_2_with_one_line_naming_it(node, param, needle):

@@ -301,3 +301,35 @@ def test_the_live_view_advertises_clock_only_once_it_carries_it(plant_factory):
     subscription, log_time = struct.unpack_from('<IQ', frame, 1)
     clock = deserialize_message(frame[13:], Clock)
     assert subscription == 3 and stamp_ns(clock) == log_time
+
+
+# ---- factors the clock cannot represent, and waking the plant for a new one ---------------
+
+def test_factors_the_pacing_clock_cannot_wait_for_are_refused_naming_the_range(plant_factory):
+    p = plant_factory()
+    states = p.collect(JointState, 'joint_states')
+    p.wait(lambda: len(states) > 100, 'joint_states')
+    for value in (1e-14, 5e-324, 9.9e-7):
+        (result,) = p.set_params(real_time_factor=value)
+        assert not result.successful
+        assert result.reason.startswith("parameter 'real_time_factor'"), result.reason
+        assert '0 (as fast as possible) or [1e-06, 1000]' in result.reason
+    assert p.sim.get_parameter('real_time_factor').value == 1.0
+    n = len(states)
+    p.wait(lambda: len(states) > n + 300, 'joint_states after the refused factors')
+    assert p.sim.plant.alive and p.sim.exit_code is None
+
+
+def test_a_new_factor_wakes_a_plant_asleep_for_a_tiny_one(plant_factory):
+    p = plant_factory()
+    states = p.collect(JointState, 'joint_states')
+    p.wait(lambda: len(states) > 100, 'joint_states')
+    factor(p, 1e-6)          # the next period is 1000 s of wall time away
+    p.spin_for(0.5)
+    n = len(states)
+    t0 = time.monotonic()
+    factor(p, 1.0)
+    p.wait(lambda: len(states) > n + 200, 'joint_states at factor 1 again', timeout=5.0)
+    assert time.monotonic() - t0 < 5.0
+    p.wait(lambda: float(p.values().get('target_real_time_factor', 'nan')) == 1.0,
+           'the new target on /diagnostics')

@@ -129,5 +129,5 @@ class PlantThread:
                 time.sleep(YIELD_S)
             else:
                 timeout_s = (deadline - time.monotonic_ns()) * 1e-9
-                if timeout_s > 0:
-                    self._wake.acquire(timeout=timeout_s)
+                if timeout_s > 0:   # bounded: a larger timeout raises OverflowError
+                    self._wake.acquire(timeout=min(timeout_s, threading.TIMEOUT_MAX))

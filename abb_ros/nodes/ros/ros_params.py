@@ -43,6 +43,7 @@ from abb_ros.model.parameters.plant_spec import check_rates, imu_config, step_of
 from abb_ros.model.sensors.imu import ImuConfig
 from abb_ros.nodes.ros.parameter_table import specs_for
 from abb_ros.nodes.simulator.hil_settings import HilSettings, hil_settings
+from abb_ros.nodes.simulator.params import MIN_REAL_TIME_FACTOR, REAL_TIME_FACTOR_VALID
 
 __all__ = ['DRIVE_PREFIX', 'SIMULATOR_PARAMS', 'SimSettings', 'declare', 'declare_all',
            'coerce_on_set', 'descriptor', 'settings_from', 'current_values', 'validate_change',
@@ -232,6 +233,10 @@ def settings_from(values: Mapping[str, Any]) -> tuple[DriveParams, SimSettings]:
         if not name.startswith(DRIVE_PREFIX):
             spec.check(values[name], name)
     check_rates(values)
+    factor = values['real_time_factor']
+    if 0.0 < factor < MIN_REAL_TIME_FACTOR:
+        raise ParamError('real_time_factor', factor, REAL_TIME_FACTOR_VALID,
+                         'a publish period would last longer than the pacing clock can wait')
     if values['spindle.initial_speed'] > values['max_spindle_speed']:
         raise ParamError('spindle.initial_speed', values['spindle.initial_speed'],
                          f'[0, max_spindle_speed = {values["max_spindle_speed"]:g}] rad/s')

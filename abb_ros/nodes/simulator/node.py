@@ -242,8 +242,14 @@ class SimulatorNode(PlantLoop, Node):
         self.sim.set_command(self.commands.of_mode(s.spindle_mode))
 
     def _on_parameters_set(self, _parameters) -> None:
-        # Validated already; applied at the next step boundary by _apply_parameters.
+        # Validated already; applied at the next step boundary by _apply_parameters, which
+        # comes now: a plant thread asleep until a deadline far away (a tiny real_time_factor)
+        # is woken, and the executor's callbacks (where a timer paces the plant) are at one.
         self._params_changed = True
+        if self.plant is not None:
+            self.plant.wake()
+        elif getattr(self, '_timer', None) is not None:
+            self._apply_parameters()
 
     def _apply_parameters(self) -> None:
         """Apply the parameters set since the last step boundary."""

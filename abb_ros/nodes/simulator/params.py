@@ -32,14 +32,23 @@ from abb_ros.model.parameters.plant_spec import (
     STEP_SPECS,
 )
 
-__all__ = ['LIVE_VIEW_TOPICS', 'SIMULATOR_SPECS', 'SPINDLE_MODE']
+__all__ = ['LIVE_VIEW_TOPICS', 'MIN_REAL_TIME_FACTOR', 'REAL_TIME_FACTOR_VALID',
+           'SIMULATOR_SPECS', 'SPINDLE_MODE']
 
 _AT_STEP = 'at the next step'
 _A_MAX, _G_MAX = IMU_FULL_SCALE
 
+MIN_REAL_TIME_FACTOR = 1e-6
+"""Smallest real_time_factor above 0: a publish period of 1 s (publish_rate_hz 1) then lasts
+1e6 s of wall time, within what the plant thread's clock waits for (threading.TIMEOUT_MAX);
+smaller factors overflowed it (time_t) or, below 1e-308, made the deadline NaN."""
+REAL_TIME_FACTOR_VALID = f'0 (as fast as possible) or [{MIN_REAL_TIME_FACTOR:g}, 1000]'
+"""What real_time_factor may be, as a refusal says it."""
+
 _PACING = (
     ParamSpec('real_time_factor', 1.0, '', 'simulated seconds per wall second (1 = wall '
-              'clock, HIL); 0 = as fast as possible', low=0.0, high=1000.0, applies=_AT_STEP),
+              f'clock, HIL); 0 = as fast as possible; else at least {MIN_REAL_TIME_FACTOR:g} '
+              '(what the pacing clock can wait for)', low=0.0, high=1000.0, applies=_AT_STEP),
     ParamSpec('start_paused', False, '', 'start with integration paused (use ~/pause, ~/step)',
               BOOL, read_only=True, applies='at start-up'),
 )
