@@ -139,3 +139,77 @@ def test_joint_states_throttle_is_the_joint_states_opening_each_slot(plant_facto
     assert [b - a for a, b in zip(stamps, stamps[1:])] == [every * 1_000_000] * (len(stamps) - 1)
     assert all(s % (every * 1_000_000) == 0 for s in stamps)
     assert all(by_stamp[stamp_ns(m)] == m for m in throttled)
+
+
+# ---- replies the middleware drops while it matches a new client --------------------------
+
+class FakeSend:
+    """A Service.send_response whose first ``drops`` calls rmw drops (rclpy's warning)."""
+
+    def __init__(self, drops):
+        self.drops = drops
+        self.calls = 0
+
+    def __call__(self, _response, _header):
+        import warnings
+        self.calls += 1
+        if self.calls <= self.drops:
+            warnings.warn('failed to send response (timeout): client will not receive '
+                          'response', RuntimeWarning, stacklevel=1)
+
+
+class Log:
+    def __init__(self):
+        self.lines = []
+
+    def warning(self, line):
+        self.lines.append(line)
+
+
+def test_a_reply_the_middleware_drops_is_sent_again_until_it_goes(recwarn):
+    from abb_ros.nodes.simulator.plant import resend_on_timeout
+    send, log = FakeSend(drops=3), Log()
+    resend_on_timeout(send, log, '/abb_simulator/set_parameters')(None, None)
+    assert send.calls == 4 and log.lines == []
+    assert not [w for w in recwarn if 'failed to send response' in str(w.message)]
+
+
+def test_a_reply_dropped_every_time_is_given_up_with_one_line():
+    from abb_ros.nodes.simulator.plant import RESPONSE_TRIES, resend_on_timeout
+    send, log = FakeSend(drops=10 ** 6), Log()
+    resend_on_timeout(send, log, '/abb_simulator/set_parameters')(None, None)
+    assert send.calls == RESPONSE_TRIES
+    assert len(log.lines) == 1 and log.lines[0].startswith('/abb_simulator/set_parameters')
+
+
+def test_fresh_clients_at_factor_0_each_get_their_parameter_reply(plant_factory):
+    """A client calling set_parameters as soon as it discovers the node, while the plant runs
+    as fast as possible: every one is answered (a reply rmw dropped before the client was
+    matched is sent again), and the plant runs on."""
+    from rcl_interfaces.srv import SetParameters
+    from rclpy.executors import SingleThreadedExecutor
+    from rclpy.node import Node
+
+    p = plant_factory(real_time_factor=0.0)
+    states = p.collect(JointState, 'joint_states')
+    p.wait(lambda: len(states) > 100, 'joint_states')
+    for i in range(10):
+        node = Node(f'fresh_{i}', context=p.ctx)
+        executor = SingleThreadedExecutor(context=p.ctx)
+        executor.add_node(node)
+        try:
+            client = node.create_client(SetParameters, '/abb_simulator/set_parameters')
+            deadline = time.monotonic() + test_simulator_node.DEADLINE_S
+            while not client.service_is_ready():
+                assert time.monotonic() < deadline, 'timed out after waiting for the service'
+                executor.spin_once(timeout_sec=0.01)
+            future = client.call_async(SetParameters.Request(parameters=[
+                Parameter('max_stamp_lag', value=0.1 + i / 100).to_parameter_msg()]))
+            executor.spin_until_future_complete(future, timeout_sec=test_simulator_node.DEADLINE_S)
+            assert future.done(), f'timed out after {test_simulator_node.DEADLINE_S} s: no reply'
+            assert future.result().results[0].successful
+        finally:
+            executor.shutdown()
+            node.destroy_node()
+    n = len(states)
+    p.wait(lambda: len(states) > n + 100, 'joint_states after the calls')

@@ -18,16 +18,43 @@ constructor.
 from __future__ import annotations
 
 import time
+import warnings
 
 from abb_ros.io.wire import cdr
 from abb_ros.io.wire.topics import CLOCK_TOPIC, JOINT_STATES, JOINT_STATES_THROTTLE
 from abb_ros.model.dynamics.integrate import StateError
 from abb_ros.runtime.plant_thread import AGAIN, IDLE, locked
 
-__all__ = ['BATCH_WALL_S', 'PlantLoop']
+__all__ = ['BATCH_WALL_S', 'PlantLoop', 'RESPONSE_TRIES', 'resend_on_timeout']
 
 BATCH_WALL_S = 0.005
 """As fast as possible: wall time spent integrating per tick before yielding."""
+RESPONSE_TRIES = 20
+"""How often a service reply is sent while the middleware has not matched the client's reply
+reader yet (rmw_fastrtps waits 100 ms each time): 2 s in all, then it is given up, logged."""
+RESPONSE_TIMEOUT = 'failed to send response (timeout)'
+"""The start of rclpy's RuntimeWarning when rmw dropped a reply for want of that match."""
+
+
+def resend_on_timeout(send, log, name: str, tries: int = RESPONSE_TRIES):
+    """Return ``send`` (a Service's ``send_response``) sending again while rmw times out.
+
+    A client that calls a service as soon as it discovers it may not be matched yet as a
+    reader of the replies; rmw_fastrtps then waits 100 ms and drops the reply with only a
+    RuntimeWarning (shown once per process), and the client never gets an answer. On a busy
+    machine (the plant running as fast as possible, a CPU hog) discovery takes longer than
+    that: a ``set_parameters`` call at real_time_factor 0 went unanswered.
+    """
+    def send_response(response, header) -> None:
+        for _ in range(tries):
+            with warnings.catch_warnings(record=True) as caught:
+                warnings.simplefilter('always')
+                send(response, header)
+            if not any(str(w.message).startswith(RESPONSE_TIMEOUT) for w in caught):
+                return
+        log.warning(f'{name}: reply lost, the client was not matched within '
+                    f'{tries * 0.1:g} s (the middleware dropped it {tries} times)')
+    return send_response
 
 
 class PlantLoop:
@@ -180,9 +207,15 @@ class PlantLoop:
                                            *args, **kwargs)
 
     def create_service(self, srv_type, srv_name, callback, *args, **kwargs):
-        """Create the service as rclpy does, its callback run under the plant's lock."""
-        return super().create_service(srv_type, srv_name, locked(self.plant_lock, callback),
-                                      *args, **kwargs)
+        """Create the service as rclpy does, its callback run under the plant's lock.
+
+        Its replies are sent again while the middleware drops them (:func:`resend_on_timeout`).
+        """
+        service = super().create_service(srv_type, srv_name, locked(self.plant_lock, callback),
+                                          *args, **kwargs)
+        service.send_response = resend_on_timeout(service.send_response, self.get_logger(),
+                                                  service.service_name)
+        return service
 
     def create_timer(self, timer_period_sec, callback, *args, **kwargs):
         """Create the timer as rclpy does, its callback run under the plant's lock."""
