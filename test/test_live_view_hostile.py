@@ -46,19 +46,26 @@ def view():
 
     thread = threading.Thread(target=feed, daemon=True)
     thread.start()
+    live.feeder = thread   # the writer's thread, as the plant's: it must outlive any viewer
     yield live
     stop.set()
     thread.join()
     live.close()
 
 
-def handshake(url: str, subprotocols=('foxglove.websocket.v1',), origin=None) -> int:
-    """The HTTP status of a WebSocket handshake with tornado's client (101: connected)."""
+def handshake(url: str, subprotocols=('foxglove.websocket.v1',), origin=None,
+              host=None) -> int:
+    """The HTTP status of a WebSocket handshake with tornado's client (101: connected).
+
+    ``host``: the Host header sent (default: that of ``url``, as every client sends).
+    """
     from tornado.httpclient import HTTPClientError, HTTPRequest
     from tornado.ioloop import IOLoop
     from tornado.websocket import websocket_connect
 
     headers = {'Origin': origin} if origin else {}
+    if host is not None:
+        headers['Host'] = host
 
     async def attempt():
         try:
@@ -77,7 +84,11 @@ def test_the_default_origins_admit_the_viewers_and_no_foreign_page():
                    'http://127.0.0.1:3000', 'http://[::1]:8080', 'http://localhost'):
         assert origin_allowed(origin, DEFAULT_ALLOWED_ORIGINS), origin
     for origin in (FOREIGN, 'null', 'http://localhost.attacker.example',
-                   'https://app.foxglove.dev.attacker.example', 'http://192.168.1.5:8080'):
+                   'https://app.foxglove.dev.attacker.example', 'http://192.168.1.5:8080',
+                   'http://localhost:8080.evil.com', 'http://127.0.0.1:80.evil.com',
+                   'http://localhost:8080@evil.com', 'http://evil.com#.localhost',
+                   'http://localhost:8080/path', 'https://app.foxglove.dev:8443',
+                   'http://[::1]:8080.evil.com', 'http://localhost:99999'):
         assert not origin_allowed(origin, DEFAULT_ALLOWED_ORIGINS), origin
     assert origin_allowed(FOREIGN, ['*'])
 
@@ -237,3 +248,238 @@ def test_simulator_refuses_viewer_commands_that_are_not_one_float64_and_runs_on(
         assert refused['handshake'] == 403   # live_view.allowed_origins in force
     finally:
         plant.close()
+
+
+# ---- ids, names and clients that go away -----------------------------------------------------
+
+NOT_UINT32 = ['-1', '4294967296', '1e400', '1.5', 'true', '"1"', 'null', '1' + '0' * 30]
+"""JSON texts of ids that are no uint32 of the protocol."""
+
+
+async def _statuses(ws, count: int) -> list[str]:
+    """Read until ``count`` status messages came; return their texts."""
+    texts = []
+    while len(texts) < count:
+        frame = await _read_with_timeout(ws, DEADLINE_S)
+        assert frame is not None, 'the server closed the connection'
+        if isinstance(frame, str) and json.loads(frame)['op'] == 'status':
+            status = json.loads(frame)
+            assert status['level'] == 2, status
+            texts.append(status['message'])
+    return texts
+
+
+def test_ids_that_are_no_uint32_get_a_status_naming_the_field_and_the_writer_lives_on(view):
+    """Subscription, channel and advertised ids of -1, 2^32, 1e400, 1.5 (and unknown
+    channels): one status each naming the field and the valid range; the connection stays,
+    the writer's thread (the plant's, in the node) goes on, a valid subscription gets
+    messages."""
+    from tornado.ioloop import IOLoop
+    from tornado.websocket import websocket_connect
+
+    bad = []
+    for text in NOT_UINT32:
+        bad += [('{"op":"subscribe","subscriptions":[{"id":%s,"channelId":1}]}' % text,
+                 'subscriptions[0].id'),
+                ('{"op":"subscribe","subscriptions":[{"id":7,"channelId":%s}]}' % text,
+                 'subscriptions[0].channelId'),
+                ('{"op":"advertise","channels":[{"id":%s,"topic":"spindle/speed_cmd",'
+                 '"encoding":"cdr","schemaName":"std_msgs/msg/Float64"}]}' % text,
+                 'channels[0].id'),
+                ('{"op":"unsubscribe","subscriptionIds":[%s]}' % text, 'subscriptionIds[0]'),
+                ('{"op":"unadvertise","channelIds":[%s]}' % text, 'channelIds[0]')]
+    for channel in (0, 2, 99, 4294967295):   # unknown channels
+        bad.append(('{"op":"subscribe","subscriptions":[{"id":%d,"channelId":%d}]}'
+                    % (channel, channel), f'no channel {channel}'))
+
+    async def session():
+        ws = await websocket_connect(view.url, subprotocols=['foxglove.websocket.v1'])
+        for text, _ in bad:
+            await ws.write_message(text)
+        texts = await _statuses(ws, len(bad))
+        await ws.write_message(json.dumps({'op': 'subscribe', 'subscriptions': [
+            {'id': 4294967295, 'channelId': 1}]}))   # the largest id is one
+        while True:
+            frame = await _read_with_timeout(ws, DEADLINE_S)
+            assert frame is not None
+            if isinstance(frame, bytes) and frame[0] == 1:
+                ws.close()
+                return texts, struct.unpack_from('<I', frame, 1)[0]
+
+    texts, sub_id = IOLoop().run_sync(session, timeout=DEADLINE_S)
+    for (text, field), got in zip(bad, texts):
+        assert field in got, (text, got)
+        if 'no channel' not in field:
+            assert '[0, 4294967295]' in got, (text, got)
+    assert sub_id == 4294967295
+    time.sleep(0.1)
+    assert view.feeder.is_alive()
+
+
+def _log_lines(caplog) -> list[str]:
+    return [r.getMessage() for r in caplog.records if r.levelno >= 30]
+
+
+def test_clients_that_go_away_slow_readers_and_garbage_log_no_traceback(view, caplog):
+    """20 clients that close (TCP reset) right after the handshake, one that subscribes and
+    never reads, garbage JSON (huge numbers, deep nesting): no traceback, no 'Task exception
+    was never retrieved', at most one line per kind; the server serves the next client."""
+    import asyncio
+    import gc
+    import logging
+    import socket
+
+    from tornado.ioloop import IOLoop
+    from tornado.websocket import websocket_connect
+
+    caplog.set_level(logging.WARNING)
+    port = view.port
+    upgrade = (f'GET / HTTP/1.1\r\nHost: 127.0.0.1:{port}\r\nUpgrade: websocket\r\n'
+               'Connection: Upgrade\r\nSec-WebSocket-Key: dGhlIHNhbXBsZSBub25jZQ==\r\n'
+               'Sec-WebSocket-Version: 13\r\nSec-WebSocket-Protocol: foxglove.websocket.v1'
+               '\r\n\r\n').encode()
+    for _ in range(20):
+        sock = socket.create_connection(('127.0.0.1', port))
+        sock.sendall(upgrade)
+        assert sock.recv(12) == b'HTTP/1.1 101'
+        sock.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack('ii', 1, 0))
+        sock.close()   # a reset, while the server writes its serverInfo and channels
+    slow = socket.create_connection(('127.0.0.1', port))
+    slow.setsockopt(socket.SOL_SOCKET, socket.SO_RCVBUF, 4096)
+    slow.sendall(upgrade)
+    slow.recv(12)
+    subscribe = json.dumps({'op': 'subscribe',
+                            'subscriptions': [{'id': 1, 'channelId': 1}]}).encode()
+    slow.sendall(b'\x81' + bytes([0x80 | 126]) + len(subscribe).to_bytes(2, 'big')
+                 + bytes(4) + subscribe)   # a masked text frame (mask 0)
+    garbage = ['{"op":"subscribe","subscriptions":[{"id":1e400,"channelId":1e400}]}',
+               '{"op":"setParameters","parameters":[{"name":"x","type":"float64",'
+               '"value":1' + '0' * 400 + '}]}', '[' * 100_000, '{"op":' * 50_000,
+               '{"op":"subscribe","subscriptions":[' + '{"id":1,"channelId":1},' * 5
+               + '{"id":-1,"channelId":1}]}']
+
+    async def session():
+        ws = await websocket_connect(view.url, subprotocols=['foxglove.websocket.v1'])
+        for text in garbage:
+            await ws.write_message(text)
+        await _statuses(ws, 4)
+        await asyncio.sleep(1.5)   # the slow reader's socket fills meanwhile
+        ws.close()
+        ws = await websocket_connect(view.url, subprotocols=['foxglove.websocket.v1'])
+        await ws.write_message(subscribe.decode())
+        while not isinstance(frame := await _read_with_timeout(ws, DEADLINE_S), bytes):
+            assert frame is not None
+        ws.close()
+
+    IOLoop().run_sync(session, timeout=DEADLINE_S)
+    slow.setsockopt(socket.SOL_SOCKET, socket.SO_LINGER, struct.pack('ii', 1, 0))
+    slow.close()
+    time.sleep(0.5)
+    gc.collect()   # a task whose exception nobody took says so when it is collected
+    time.sleep(0.2)
+    assert not any(r.exc_info for r in caplog.records), _log_lines(caplog)
+    lines = _log_lines(caplog)
+    assert not any('never retrieved' in line or 'Traceback' in line for line in lines), lines
+    assert len(lines) == len(set(lines)), lines
+    assert view.feeder.is_alive()
+
+
+def test_a_page_of_another_name_on_loopback_gets_403_dns_rebinding(view):
+    """A server on loopback takes a Host of loopback only (a rebound name is refused even
+    with its own Origin); origins are URLs, not prefixes."""
+    port = view.port
+    assert handshake(view.url, host='rebind.evil.example',
+                     origin='http://rebind.evil.example') == 403
+    assert handshake(view.url, host='rebind.evil.example') == 403   # no Origin: still 403
+    assert handshake(view.url, host=f'rebind.evil.example:{port}') == 403
+    assert handshake(view.url, host=f'localhost:{port}.evil.com') == 403
+    assert handshake(view.url, origin='http://localhost:8080.evil.com') == 403
+    assert handshake(view.url, origin='http://localhost:8080@evil.com') == 403
+    for host in (f'127.0.0.1:{port}', f'localhost:{port}', 'localhost', f'[::1]:{port}',
+                 '127.0.0.2'):
+        assert handshake(view.url, host=host, origin='http://localhost:8080') == 101, host
+    seen = foxglove_client(f'ws://localhost:{port}', messages=1)   # Foxglove's own client
+    assert 'handshake' not in seen and seen['messages']['/spindle/speed']
+
+
+def test_a_server_on_every_interface_takes_any_host_and_a_rebind_refusal_is_logged_once():
+    lines = []
+    every = LiveView(host='0.0.0.0', port=0, log=lines.append)
+    local = LiveView(port=0, log=lines.append)
+    try:
+        assert not every.loopback and local.loopback
+        assert handshake(f'ws://127.0.0.1:{every.port}', host='bench.lab.example') == 101
+        for _ in range(2):
+            assert handshake(local.url, host='rebind.evil.example') == 403
+    finally:
+        every.close()
+        local.close()
+    assert len(lines) == 1 and 'rebind.evil.example' in lines[0], lines
+    assert 'loopback' in lines[0] and 'logged once' in lines[0]
+
+
+@pytest.mark.parametrize('host, part, needle', [
+    ('', 'host', 'every interface'), ('   ', 'host', 'every interface'),
+    ('no-such-host.invalid', 'host', 'does not resolve'),
+    ('192.0.2.1', 'host', 'cannot serve')])
+def test_a_host_that_cannot_be_served_is_refused_as_the_host(host, part, needle):
+    from abb_ros.io.live_view.server import LiveViewError
+    with pytest.raises(LiveViewError) as err:
+        LiveView(host=host, port=0)
+    assert err.value.part == part and needle in str(err.value)
+    assert '127.0.0.1' in str(err.value) and '\n' not in str(err.value)
+
+
+@pytest.mark.ros
+def test_the_plant_thread_outlives_a_viewer_subscribing_with_bad_ids_and_unknown_channels():
+    from test_simulator_node import Plant
+    from tornado.ioloop import IOLoop
+    from tornado.websocket import websocket_connect
+
+    plant = Plant(**{'live_view.enabled': True, 'live_view.port': 0})
+    try:
+        sim = plant.sim
+
+        async def session():
+            ws = await websocket_connect(sim.live.view.url,
+                                         subprotocols=['foxglove.websocket.v1'])
+            subs = [{'id': i, 'channelId': c} for i in (-1, 2**32, 1.5) for c in (1, 2)]
+            subs += [{'id': 9, 'channelId': c} for c in (0, 999, -1, 2**32)]
+            await ws.write_message(json.dumps({'op': 'subscribe', 'subscriptions': subs}))
+            texts = await _statuses(ws, len(subs))
+            ws.close()
+            return texts
+
+        texts = IOLoop().run_sync(session, timeout=DEADLINE_S)
+        assert all('subscriptions[' in t for t in texts), texts
+        stamp = sim.stamp_ns()
+        time.sleep(0.5)
+        assert sim.stamp_ns() > stamp and not sim.fault   # still integrating
+    finally:
+        plant.close()
+
+
+@pytest.mark.ros
+@pytest.mark.parametrize('host, needle', [('', 'every interface'),
+                                          ('no-such-host.invalid', 'does not resolve')])
+def test_a_live_view_host_that_cannot_be_served_fails_the_start_up_naming_the_host(host,
+                                                                                   needle):
+    import rclpy
+    from rclpy.parameter import Parameter
+
+    from abb_ros.model.parameters.param_spec import ParamError
+    from abb_ros.nodes.simulator.node import SimulatorNode
+
+    ctx = rclpy.Context()
+    rclpy.init(context=ctx)
+    try:
+        overrides = [Parameter('live_view.enabled', value=True),
+                     Parameter('live_view.host', value=host),
+                     Parameter('live_view.port', value=0)]
+        with pytest.raises(ParamError) as err:
+            SimulatorNode(context=ctx, parameter_overrides=overrides)
+        line = str(err.value)
+        assert "'live_view.host'" in line and 'live_view.port' not in line
+        assert needle in line and '127.0.0.1' in line and '\n' not in line
+    finally:
+        rclpy.shutdown(context=ctx)

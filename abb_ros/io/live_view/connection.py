@@ -10,12 +10,12 @@ the protocol does not have is answered by a ``status`` (error) to it alone.
 
 from __future__ import annotations
 
-__all__ = ['Connection']
+__all__ = ['Connection', 'quiet']
 
 from tornado.websocket import WebSocketClosedError, WebSocketHandler
 
 from abb_ros.io.live_view import protocol as wire
-from abb_ros.io.live_view.admission import origin_allowed
+from abb_ros.io.live_view.admission import host_problem, origin_allowed
 from abb_ros.io.live_view.protocol import ENCODING, json_of, queue_of
 
 
@@ -29,6 +29,7 @@ class Connection(WebSocketHandler):
         self.client_channels: dict[int, dict] = {}
         self.subscriptions: dict[int, int] = {}   # subscription id -> channel id
         self._flushing = None   # the write future of the last frame sent, while pending
+        self.refused_host = ''   # why the handshake's Host was refused ('' if it was not)
 
     # ---- handshake ------------------------------------------------------------------------
     def _offered(self) -> list[str]:
@@ -36,7 +37,18 @@ class Connection(WebSocketHandler):
         return [p.strip() for p in header.split(',') if p.strip()]
 
     async def get(self, *args, **kwargs) -> None:
-        """Refuse a handshake offering neither subprotocol (HTTP 400), else accept it."""
+        """Refuse a handshake of the wrong name or subprotocol, else accept it.
+
+        On a server that listens on loopback, a ``Host`` that does not name loopback gets
+        HTTP 403 (DNS rebinding: :mod:`abb_ros.io.live_view.admission`); a handshake offering
+        neither subprotocol gets HTTP 400.
+        """
+        why = host_problem(self.request.headers.get('Host')) if self.view.loopback else ''
+        if why:
+            self.refused_host = why
+            self.set_status(403)
+            self.finish(f'{why}: this server listens on loopback and takes no other name\n')
+            return
         if not any(p in wire.SUBPROTOCOLS for p in self._offered()):
             self.set_status(400)
             self.finish('a Foxglove WebSocket client offers the subprotocol '
@@ -71,7 +83,7 @@ class Connection(WebSocketHandler):
     def send_text(self, text: str) -> None:
         """Send a JSON text now (control messages are not queued behind data)."""
         try:
-            self.write_message(text)
+            quiet(self.write_message(text))
         except WebSocketClosedError:
             pass
 
@@ -92,7 +104,7 @@ class Connection(WebSocketHandler):
         future = None
         try:
             while self.outbox:
-                future = self.write_message(self.outbox.popleft(), binary=True)
+                future = quiet(self.write_message(self.outbox.popleft(), binary=True))
         except (WebSocketClosedError, IndexError):
             return
         if future is not None and not future.done():
@@ -105,7 +117,12 @@ class Connection(WebSocketHandler):
 
     # ---- from the viewer ------------------------------------------------------------------
     def on_message(self, message) -> None:
-        """Carry out one operation of the viewer; refuse with a status what is not one."""
+        """Carry out one operation of the viewer; refuse with a status what is not one.
+
+        Whatever the viewer sent, the server goes on: an error this code did not foresee is
+        refused like the others (and logged in one line, once per kind), never raised into
+        tornado (which would log a traceback and drop the connection).
+        """
         try:
             if isinstance(message, bytes):
                 self._binary(wire.parse_client_binary(message))
@@ -113,6 +130,10 @@ class Connection(WebSocketHandler):
                 self._operation(json_of(message))
         except wire.WireError as exc:
             self.refuse(f'not taken: {exc}')
+        except Exception as exc:   # noqa: BLE001 - a viewer's input never stops the server
+            why = f'{type(exc).__name__}: {exc}'.splitlines()[0][:200]
+            self.view.log_once(f'live view: a viewer\'s message was not carried out ({why})')
+            self.refuse(f'not taken: this server could not carry it out ({why})')
 
     def _operation(self, op: dict) -> None:
         name = op['op']
@@ -121,49 +142,85 @@ class Connection(WebSocketHandler):
             raise wire.WireError(f'operation "{name}" is not served here')
         try:
             handler(op)
-        except (KeyError, TypeError, ValueError, AttributeError) as exc:
+        except (KeyError, TypeError, ValueError, AttributeError, ArithmeticError,
+                RecursionError) as exc:
             if isinstance(exc, wire.WireError):
                 raise
             raise wire.WireError(f'a malformed "{name}" ({type(exc).__name__}: {exc})') from None
 
+    def _entries(self, op: dict, key: str) -> list:
+        """Return the list ``op[key]`` (WireError naming ``key`` when it is not one)."""
+        entries = op.get(key)
+        if not isinstance(entries, list):
+            raise wire.WireError(f'"{op["op"]}": "{key}" is not a list')
+        return entries
+
+    def _each(self, op: dict, key: str, take) -> None:
+        """Call ``take(entry, field)`` for each entry of ``op[key]``; refuse the bad ones.
+
+        An entry that is not valid gets its own status (naming ``key[i]`` and what is
+        valid); the others are carried out.
+        """
+        for k, entry in enumerate(self._entries(op, key)):
+            try:
+                take(entry, f'{key}[{k}]')
+            except wire.WireError as exc:
+                self.refuse(f'{op["op"]}: {exc}')
+
     def _op_subscribe(self, op: dict) -> None:
-        for entry in op['subscriptions']:
-            sub_id, channel_id = int(entry['id']), int(entry['channelId'])
+        def take(entry, field):
+            if not isinstance(entry, dict):
+                raise wire.WireError(f'{field} is not an object with "id" and "channelId"')
+            sub_id = wire.uint32(entry.get('id'), f'{field}.id')
+            channel_id = wire.uint32(entry.get('channelId'), f'{field}.channelId')
             channel = self.view.channel(channel_id)
             if channel is None or not self.view.has_topic(channel.topic):
-                self.refuse(f'subscribe: no channel {channel_id}')
-                continue
+                raise wire.WireError(f'no channel {channel_id} ({field}.channelId: a channel '
+                                     'advertised to this client)')
             self.view.unsubscribe(self, sub_id)
             self.subscriptions[sub_id] = channel_id
             self.view.subscribe(self, sub_id, channel)
+        self._each(op, 'subscriptions', take)
 
     def _op_unsubscribe(self, op: dict) -> None:
-        for sub_id in op['subscriptionIds']:
-            self.subscriptions.pop(int(sub_id), None)
-            self.view.unsubscribe(self, int(sub_id))
+        def take(entry, field):
+            sub_id = wire.uint32(entry, field)
+            self.subscriptions.pop(sub_id, None)
+            self.view.unsubscribe(self, sub_id)
+        self._each(op, 'subscriptionIds', take)
 
     def _op_advertise(self, op: dict) -> None:
         if self.view.on_client_message is None:
             raise wire.WireError('this server takes no published messages (no clientPublish)')
-        for channel in op['channels']:
-            info = dict(id=int(channel['id']), topic=str(channel['topic']),
-                        encoding=str(channel['encoding']),
-                        schemaName=str(channel.get('schemaName', '')))
-            self.client_channels[info['id']] = info
+
+        def take(channel, field):
+            if not isinstance(channel, dict):
+                raise wire.WireError(f'{field} is not an object with "id", "topic" and '
+                                     '"encoding"')
+            channel_id = wire.uint32(channel.get('id'), f'{field}.id')
+            texts = {}
+            for name, default in (('topic', None), ('encoding', None), ('schemaName', '')):
+                value = channel.get(name, default)
+                if not isinstance(value, str):
+                    raise wire.WireError(f'{field}.{name} is not a string')
+                texts[name] = value
+            self.client_channels[channel_id] = dict(id=channel_id, **texts)
+        self._each(op, 'channels', take)
 
     def _op_unadvertise(self, op: dict) -> None:
-        for channel_id in op['channelIds']:
-            self.client_channels.pop(int(channel_id), None)
+        def take(entry, field):
+            self.client_channels.pop(wire.uint32(entry, field), None)
+        self._each(op, 'channelIds', take)
 
     def _op_getParameters(self, op: dict) -> None:   # noqa: N802 - the protocol's name
         names = op['parameterNames']
         if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
             raise wire.WireError('"parameterNames" is not a list of names')
-        self._parameters(self._parameter_source().get, list(names), op.get('id'))
+        self._parameters(self._parameter_source().get, list(names), _request_id(op))
 
     def _op_setParameters(self, op: dict) -> None:   # noqa: N802 - the protocol's name
         wanted = wire.parameters_from_json(op['parameters'])
-        self._parameters(self._parameter_source().set, wanted, op.get('id'), reply=False)
+        self._parameters(self._parameter_source().set, wanted, _request_id(op), reply=False)
 
     def _parameter_source(self):
         if self.view.parameters is None:
@@ -230,8 +287,31 @@ class Connection(WebSocketHandler):
                 fail(str(exc) or type(exc).__name__)
                 return
             try:
-                self.write_message(wire.service_response(
-                    frame.service_id, frame.call_id, ENCODING, response), binary=True)
+                quiet(self.write_message(wire.service_response(
+                    frame.service_id, frame.call_id, ENCODING, response), binary=True))
             except WebSocketClosedError:
                 pass
         self.view._loop.create_task(run())
+
+
+def _retrieve(future) -> None:
+    if not future.cancelled():
+        future.exception()   # a viewer gone meanwhile: nothing to tell (and no log)
+
+
+def quiet(future):
+    """Return the write ``future``, whose failure (the viewer has gone) is taken as said.
+
+    Left alone, each frame written to a connection that closes would log "Task exception
+    was never retrieved" with a WebSocketClosedError traceback.
+    """
+    future.add_done_callback(_retrieve)
+    return future
+
+
+def _request_id(op: dict):
+    """Return a parameter request's ``id``: a string, or None without one."""
+    request_id = op.get('id')
+    if request_id is not None and not isinstance(request_id, str):
+        raise wire.WireError(f'"id" {request_id!r:.40} is not a string (a request id)')
+    return request_id

@@ -24,9 +24,9 @@ BACKLOG = 5000
 """Messages queued per client before the oldest are dropped: 1 s of the node's 1 kHz topics
 (foxglove-sdk keeps 1024, which a viewer starved of the CPU for 0.2 s overruns)."""
 
-__all__ = ['SUBPROTOCOLS', 'ClientFrame', 'WireError', 'message_data_prefix',
+__all__ = ['SUBPROTOCOLS', 'U32_MAX', 'ClientFrame', 'WireError', 'message_data_prefix',
            'parameters_json', 'parameters_from_json', 'parse_client_binary',
-           'service_response', 'status', 'text', 'time_frame']
+           'service_response', 'status', 'text', 'time_frame', 'uint32']
 
 SUBPROTOCOLS = ('foxglove.websocket.v1', 'foxglove.sdk.v1')
 """The subprotocols served: the protocol's classic name and foxglove-sdk's name of it."""
@@ -45,10 +45,26 @@ INFO, WARNING, ERROR = 0, 1, 2
 _MESSAGE = struct.Struct('<BIQ')
 _TIME = struct.Struct('<BQ')
 _U32 = struct.Struct('<I')
+U32_MAX = 2**32 - 1
+"""The largest id of the protocol: subscription, channel, service, call and request ids are
+uint32."""
 
 
 class WireError(ValueError):
     """A client's message that is not one of the protocol (the text says what is wrong)."""
+
+
+def uint32(value, field: str) -> int:
+    """Return ``value`` if it is an id of the protocol (an integer in [0, 2^32 - 1]).
+
+    Raises WireError naming ``field`` otherwise: JSON's 1.5, 1e400 (inf), -1, 2^32, true
+    or "1" are no ids (a float is refused even when whole: clients send integers).
+    """
+    if isinstance(value, bool) or not isinstance(value, int) or not 0 <= value <= U32_MAX:
+        shown = repr(value)
+        shown = shown if len(shown) <= 40 else shown[:37] + '...'
+        raise WireError(f'{field} {shown} is not a uint32 id (an integer in [0, {U32_MAX}])')
+    return value
 
 
 def text(op: str, **fields) -> str:
@@ -154,7 +170,7 @@ def parameters_from_json(entries) -> list:
                 value = [float(v) for v in value]
             elif kind == 'byte_array':
                 value = base64.b64decode(value, validate=True)
-        except (TypeError, ValueError) as exc:
+        except (TypeError, ValueError, OverflowError) as exc:
             raise WireError(f'parameter {entry["name"]}: {exc}') from None
         out.append((entry['name'], value))
     return out
@@ -171,6 +187,8 @@ def json_of(message: str) -> dict:
         value = json.loads(message)
     except ValueError as exc:
         raise WireError(f'not JSON ({exc})') from None
+    except RecursionError:
+        raise WireError('not JSON this server reads (nested too deeply)') from None
     if not isinstance(value, dict) or not isinstance(value.get('op'), str):
         raise WireError('a JSON message without "op"')
     return value

@@ -31,14 +31,20 @@ What a viewer may send back, where the protocol has it:
   time to its stamp (the viewer then plays in simulated time).
 
 Anything else a client sends that the protocol does not have (bad JSON, an unknown channel or
-service, a malformed binary frame) is answered by a ``status`` (error) to that client; the
-server goes on. A frame larger than :data:`MAX_MESSAGE_BYTES` closes that client's
+service, a malformed binary frame, an id that is no uint32: -1, 2^32, 1.5, 1e400) is answered
+by a ``status`` (error) to that client naming the field; the server goes on, and the writer's
+thread never sees it. A client that goes away, even in the middle of a write, is no error;
+anything the server's loop could not do is logged in one line, once (never a traceback).
+A frame larger than :data:`MAX_MESSAGE_BYTES` closes that client's
 connection (code 1009).
 
 Handshakes: a client offering neither subprotocol gets HTTP 400 naming both. A browser sends
 the page's ``Origin``; one not matched by ``allowed_origins`` (shell patterns, ``*`` for any)
 gets HTTP 403, so a web page open in a browser on this machine cannot drive the bench. A
 handshake without ``Origin`` (not a browser: node or Python clients, ros tools) is taken.
+Origins are read as URLs (scheme, host, port: :mod:`abb_ros.io.live_view.admission`). On a
+server that listens on loopback, a handshake whose ``Host`` does not name loopback (DNS
+rebinding) gets HTTP 403 too.
 :data:`DEFAULT_ALLOWED_ORIGINS` admits the Foxglove web app, desktop apps (Electron pages
 loaded from ``file://``: the Foxglove and Lichtblick desktop apps) and pages served from this
 machine (a self-hosted Lichtblick at ``http://localhost:8080``), and no other web origin.
@@ -52,13 +58,14 @@ __all__ = ['DEFAULT_HOST', 'DEFAULT_PORT', 'MAX_MESSAGE_BYTES', 'LiveView', 'Liv
            'parse_address', 'service_texts']
 
 import asyncio
+import logging
 import re
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
 
 from abb_ros.io.live_view import protocol as wire
-from abb_ros.io.live_view.admission import DEFAULT_ALLOWED_ORIGINS
+from abb_ros.io.live_view.admission import DEFAULT_ALLOWED_ORIGINS, is_loopback
 from abb_ros.io.live_view.protocol import ENCODING, SCHEMA_ENCODING
 from abb_ros.io.wire import msgdefs
 from abb_ros.io.wire.topics import CLOCK_TOPIC
@@ -77,7 +84,42 @@ the server's thread, and a viewer gets them in batches (up to 5 ms late)."""
 
 
 class LiveViewError(RuntimeError):
-    """The live view could not be served (the port is taken, the host is not local...)."""
+    """The live view could not be served (the port is taken, the host is not local...).
+
+    ``part`` says which half of the address is at fault: ``'host'`` (empty, does not
+    resolve, not an address of this machine) or ``'port'`` (taken, not allowed).
+    """
+
+    def __init__(self, reason: str, part: str = 'port'):
+        self.reason, self.part = reason, part
+        super().__init__(f'{reason}; give {HOST_VALID}' if part == 'host' else reason)
+
+
+HOST_VALID = ('a loopback address (127.0.0.1, the default; ::1; localhost) or an address '
+              'of this machine (0.0.0.0: every interface, with no authentication)')
+"""What a live view's host may be (for messages)."""
+
+
+def _bind(host: str, port: int):
+    """Return the listening sockets of ``host``:``port``; LiveViewError says which is wrong."""
+    import errno
+    import socket
+
+    from tornado import netutil
+    if not isinstance(host, str) or not host.strip():
+        raise LiveViewError(f'host {host!r} is empty, which would listen on every interface',
+                            part='host')
+    try:
+        socket.getaddrinfo(host, port, type=socket.SOCK_STREAM, flags=socket.AI_PASSIVE)
+    except (socket.gaierror, UnicodeError) as exc:
+        why = getattr(exc, 'strerror', None) or str(exc)
+        raise LiveViewError(f'host {host!r} does not resolve ({why})', part='host') from None
+    try:
+        return netutil.bind_sockets(port, address=host)
+    except (OSError, ValueError) as exc:
+        part = 'host' if getattr(exc, 'errno', None) == errno.EADDRNOTAVAIL else 'port'
+        raise LiveViewError(f'cannot serve the live view on {host}:{port}: {exc}',
+                            part=part) from None
 
 
 def parse_address(text: str) -> tuple[str, int]:
@@ -151,7 +193,6 @@ class LiveView:
                  server_time: bool = False, services=None, on_client_message=None,
                  parameters=None, check_client_message=None,
                  allowed_origins=DEFAULT_ALLOWED_ORIGINS, log=None):
-        from tornado import netutil
         self._channels: dict[str, _Channel] = {}
         self._by_id: dict[int, _Channel] = {}
         self._clock = None
@@ -180,12 +221,12 @@ class LiveView:
         self.dropped = 0
         self.connections: set = set()
         self._flushing = False   # whether _flush is scheduled (server thread only)
-        try:
-            sockets = netutil.bind_sockets(port, address=host)
-        except (OSError, ValueError) as exc:
-            raise LiveViewError(f'cannot serve the live view on {host}:{port}: {exc}') from None
+        sockets = _bind(host, port)
         self.host = host
         self.port = sockets[0].getsockname()[1]
+        self.loopback = all(is_loopback(s.getsockname()[0]) for s in sockets)
+        """Whether the server listens on loopback only (then a handshake's Host is checked)."""
+        self._logged: set[str] = set()
         self._workers = ThreadPoolExecutor(max_workers=2, thread_name_prefix='live_view')
         self._loop = asyncio.new_event_loop()
         self._server = None
@@ -209,6 +250,7 @@ class LiveView:
 
         from abb_ros.io.live_view.connection import Connection
         asyncio.set_event_loop(self._loop)
+        self._loop.set_exception_handler(self._loop_error)
         app = Application([(r'/.*', Connection, dict(view=self))],
                           websocket_max_message_size=MAX_MESSAGE_BYTES,
                           log_function=self._log_request)
@@ -220,17 +262,40 @@ class LiveView:
         finally:
             self._loop.close()
 
+    def log_once(self, line: str) -> None:
+        """Log ``line`` (one line, no traceback) the first time it comes (any thread)."""
+        if line in self._logged or len(self._logged) > 1000:
+            return
+        self._logged.add(line)
+        if self._log is not None:
+            self._log(line)
+        else:
+            logging.getLogger('abb_ros.live_view').warning(line)
+
+    def _loop_error(self, _loop, context: dict) -> None:
+        """Log an error of the server's loop in one line; a viewer gone is no error."""
+        from tornado.iostream import StreamClosedError
+        from tornado.websocket import WebSocketClosedError
+        exc = context.get('exception')
+        if isinstance(exc, (WebSocketClosedError, StreamClosedError, ConnectionError)):
+            return
+        what = context.get('message') or 'an error'
+        why = f' ({type(exc).__name__}: {exc})'.splitlines()[0][:200] if exc else ''
+        self.log_once(f'live view: {what}{why}')
+
     def _log_request(self, handler) -> None:
-        """Log a refused handshake once per status and Origin (else nothing)."""
+        """Log a refused handshake once per status, Origin and Host (else nothing)."""
         status = handler.get_status()
         if status < 400 or self._log is None:
             return
         origin = handler.request.headers.get('Origin', '')
-        if (status, origin) in self._refusals_logged:
+        host = getattr(handler, 'refused_host', '')
+        if (status, origin + host) in self._refusals_logged:
             return
-        self._refusals_logged.add((status, origin))
+        self._refusals_logged.add((status, origin + host))
         why = {400: 'it offered no Foxglove subprotocol',
-               403: f'its Origin {origin!r} is not allowed'}.get(status, f'HTTP {status}')
+               403: host or f'its Origin {origin!r} is not allowed'}.get(status,
+                                                                        f'HTTP {status}')
         self._log(f'live view: refused a handshake from {handler.request.remote_ip}: {why} '
                   '(logged once)')
 
@@ -266,7 +331,12 @@ class LiveView:
         return self._by_id.get(channel_id)
 
     def subscribe(self, connection, subscription_id: int, channel: _Channel) -> None:
-        """Send ``channel``'s messages to ``connection`` under ``subscription_id``."""
+        """Send ``channel``'s messages to ``connection`` under ``subscription_id``.
+
+        The id is checked here too (a uint32: the writer's thread packs it), so that no
+        subscription can make :meth:`write` fail.
+        """
+        wire.uint32(subscription_id, 'subscription id')
         channel.subscribers = tuple(
             (c, s) for c, s in channel.subscribers
             if (c, s) != (connection, subscription_id)) + ((connection, subscription_id),)

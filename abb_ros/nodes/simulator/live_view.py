@@ -44,7 +44,7 @@ from rclpy.serialization import deserialize_message, serialize_message
 from std_msgs.msg import Float64
 
 from abb_ros.io.live_view.admission import DEFAULT_ALLOWED_ORIGINS
-from abb_ros.io.live_view.server import LiveView, LiveViewError
+from abb_ros.io.live_view.server import HOST_VALID, LiveView, LiveViewError
 from abb_ros.io.wire import msgdefs, topics
 from abb_ros.model.parameters.param_spec import ParamError
 from abb_ros.nodes.recorder.recording import DRAIN_PERIOD_S, GraphRecording
@@ -311,7 +311,9 @@ def start(node, services: dict, served: dict) -> SimulatorLiveView | None:
 
     ``services`` and ``served`` as for :class:`SimulatorLiveView`.
 
-    Raises ParamError naming ``live_view.port`` when the server cannot listen there.
+    Raises ParamError naming ``live_view.host`` for a host that is empty (it would listen on
+    every interface), does not resolve or is no address of this machine, and naming
+    ``live_view.port`` when the server cannot listen on that port.
     """
     if not node.get_parameter('live_view.enabled').value:
         return None
@@ -322,6 +324,8 @@ def start(node, services: dict, served: dict) -> SimulatorLiveView | None:
     try:
         live = SimulatorLiveView(node, host, port, services, served, others, origins)
     except LiveViewError as exc:
+        if exc.part == 'host':
+            raise ParamError('live_view.host', host, HOST_VALID, exc.reason) from None
         raise ParamError('live_view.port', port, 'a port free on live_view.host',
                          str(exc)) from None
     node.get_logger().info(f'live view on {live.view.url} (Foxglove app or Lichtblick: Open '

@@ -138,7 +138,8 @@ _LIVE_VIEW = (
               'commands and the parameters from the viewer', BOOL, read_only=True,
               applies='at start-up'),
     ParamSpec('live_view.host', '127.0.0.1', '', 'address the live view listens on (loopback: '
-              'this machine only; 0.0.0.0: every interface, with no authentication)', STRING,
+              'this machine only, and a handshake must name loopback in its Host; 0.0.0.0: '
+              'every interface, with no authentication; empty or unresolvable: refused)', STRING,
               read_only=True, applies='at start-up'),
     ParamSpec('live_view.port', 8765, '', 'port of the live view; 0 = any free port (logged)',
               INTEGER, 0, 65535, read_only=True, applies='at start-up'),
@@ -147,7 +148,8 @@ _LIVE_VIEW = (
               "node's stability/margin of the Foxglove layout, /diagnostics, the spindle "
               'commands)', STRING_ARRAY, read_only=True, applies='at start-up'),
     ParamSpec('live_view.allowed_origins', list(DEFAULT_ALLOWED_ORIGINS), '', 'browser origins '
-              'that may connect to the live view (shell patterns, * = any; a handshake with '
+              'that may connect to the live view (scheme://host[:port], each part a shell '
+              'pattern, * = any; a handshake with '
               'another Origin gets HTTP 403, one without Origin, from a client that is not a '
               'browser, is taken): the Foxglove web app, desktop apps (file://) and pages '
               'served from this machine', STRING_ARRAY, read_only=True, applies='at start-up'),
