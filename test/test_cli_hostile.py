@@ -371,3 +371,76 @@ def test_sweep_report_onto_an_existing_file_is_exit_2(two_sweeps, tmp_path, caps
     line = refused(capsys, ['sweep-report', str(two_sweeps / 'a'), '--out', str(out)])
     assert f'--out {out}' in line and 'not a directory' in line
     assert out.read_text() == 'mine'
+
+
+# ---- basin directories that no study of this spec wrote, and outputs the system refuses --------
+
+BASIN = ['basin', '--res', '2x2', '--duration', '0.1', '--partition-size', '2', '--serial',
+         '--no-progress']
+
+
+@pytest.fixture(scope='module')
+def two_studies(tmp_path_factory):
+    """Two finished 2 x 2 basin studies of different seeds' drives: a and b (2 parts each)."""
+    root = tmp_path_factory.mktemp('studies')
+    for name, k in (('a', '4000'), ('b', '4100')):
+        assert main([*BASIN, '--set', f'k={k}', '--out', str(root / name)]) == 0
+    return root
+
+
+@pytest.mark.parametrize('case', ['a part of another study', 'a part copied in twice',
+                                  'a part copied under the next name'])
+def test_basin_resume_refuses_parts_of_another_study_in_one_line(two_studies, tmp_path, capsys,
+                                                                 case):
+    """--resume on a directory holding a foreign or duplicated part file: exit 2 and one line
+    naming the file, before any work (never a SweepFileError traceback after it)."""
+    study = _copy_sweep(two_studies / 'a', tmp_path / 'a')
+    parts = study / 'parts'
+    if case == 'a part of another study':
+        (parts / 'part-00001.parquet').write_bytes(
+            (two_studies / 'b' / 'parts' / 'part-00001.parquet').read_bytes())
+        needle = 'part-00001.parquet: a part of another sweep'
+    elif case == 'a part copied in twice':
+        (parts / 'part-00001.parquet').write_bytes(
+            (parts / 'part-00000.parquet').read_bytes())
+        needle = 'part-00001.parquet: holds partition 0'
+    else:
+        (parts / 'part-00001.parquet').rename(parts / 'part-00002.parquet')
+        (parts / 'part-00001.parquet').write_bytes(
+            (parts / 'part-00000.parquet').read_bytes())
+        needle = 'part-00001.parquet'
+    capsys.readouterr()
+    before = sorted(p.name for p in parts.iterdir())
+    line = refused(capsys, [*BASIN, '--set', 'k=4000', '--out', str(study), '--resume'])
+    assert needle in line and '--resume' in line, line
+    assert sorted(p.name for p in parts.iterdir()) == before   # nothing computed or removed
+
+
+def test_sweep_resume_refuses_a_part_copied_in_twice(two_sweeps, tmp_path, capsys):
+    sweep = _copy_sweep(two_sweeps / 'a', tmp_path / 'a')
+    (sweep / 'part-00001.parquet').write_bytes((sweep / 'part-00000.parquet').read_bytes())
+    line = refused(capsys, ['sweep', str(two_sweeps / 'a.yaml'), '--out', str(sweep),
+                            '--resume', '--serial', '--no-progress'])
+    assert 'part-00001.parquet: holds partition 0' in line
+
+
+def _unwritable_out(tmp_path):
+    """An --out this user cannot create: below /sys for root, a read-only directory else."""
+    import os
+    if os.geteuid() == 0:
+        if not os.path.isdir('/sys/kernel'):
+            pytest.skip('no /sys to refuse root a directory')
+        return '/sys/abb_sim_out'
+    ro = tmp_path / 'ro'
+    ro.mkdir()
+    ro.chmod(0o555)
+    return str(ro / 'out')
+
+
+@pytest.mark.parametrize('command', ['basin', 'sweep'])
+def test_an_out_the_system_refuses_is_bad_input_exit_2(two_sweeps, tmp_path, capsys, command):
+    out = _unwritable_out(tmp_path)
+    argv = ([*BASIN, '--out', out] if command == 'basin' else
+            ['sweep', str(two_sweeps / 'a.yaml'), '--out', out, '--serial', '--no-progress'])
+    line = refused(capsys, argv)
+    assert f'--out {out}: cannot be written' in line, line

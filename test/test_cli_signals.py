@@ -210,3 +210,33 @@ def test_the_console_script_notes_signals_before_it_loads_anything_heavy():
     proc = subprocess.run([sys.executable, '-c', code], capture_output=True, text=True,
                           timeout=120, stdin=subprocess.DEVNULL)
     assert proc.stderr.strip().endswith('[]'), proc.stderr
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize('command', ['sweep', 'basin'])
+def test_ctrl_c_to_the_process_group_on_dask_is_one_line(tmp_path, command):
+    """A terminal's Ctrl-C signals every process of the group, the Dask workers too: exit 130,
+    the one line 'interrupted', no KeyboardInterrupt traceback of any worker, at moments
+    from the cluster's start to mid-study."""
+    spec = tmp_path / 'spec.yaml'
+    spec.write_text(SWEEP_SPEC)
+    for k, delay in enumerate((2.0, 6.0)):
+        out = tmp_path / f'out{k}'
+        args = ([command, str(spec)] if command == 'sweep' else
+                [command, '--res', '16x16', '--duration', '5', '--partition-size', '4'])
+        proc = subprocess.Popen(
+            [ABB_SIM, *args, '--out', str(out), '--no-progress', '--workers', '2'],
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True,
+            start_new_session=True)   # a group of its own, as a shell's job
+        _wait_for_handlers(proc)
+        time.sleep(delay)
+        os.killpg(proc.pid, signal.SIGINT)
+        try:
+            _, stderr = proc.communicate(timeout=SWEEP_STOP_S)
+        finally:
+            if proc.poll() is None:
+                os.killpg(proc.pid, signal.SIGKILL)
+                proc.wait()
+        assert 'Traceback' not in stderr and 'KeyboardInterrupt' not in stderr, stderr
+        assert proc.returncode == 130, stderr
+        assert stderr.strip().splitlines() == [f'abb-sim {command}: interrupted'], stderr

@@ -7,6 +7,7 @@ dispatcher imports the subcommands; nothing imports the dispatcher.
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import shutil
 import signal
@@ -26,7 +27,7 @@ from abb_ros.model.parameters.params import (
 __all__ = ['UsageError', 'CommandFailed', 'Terminated', 'stop_signals', 'signals_deferred',
            'stop_point',
            'parse_settings', 'parse_spec_value', 'drive_params', 'check_output', 'output_files',
-           'stage_directory', 'commit_directory', 'run_scenario_from_args',
+           'stage_directory', 'commit_directory', 'writable_directory', 'run_scenario_from_args',
            'dask_client', 'add_dask_arguments', 'check_dask_options']
 
 
@@ -46,9 +47,32 @@ class Terminated(BaseException):
 _DEFERRED = {'depth': 0, 'pending': None}
 
 
-def _on_signal(signum, _frame):
+_CALLBACK_FILES = ('weakref.py', '_weakrefset.py')
+
+
+def _in_finalizer(frame) -> bool:
+    """Whether ``frame`` is a weakref callback or a ``__del__`` (or called from one).
+
+    An exception raised there is printed as "Exception ignored in ..." with a traceback and
+    then dropped: the signal would be lost.
+    """
+    for _ in range(3):
+        if frame is None:
+            return False
+        code = frame.f_code
+        if code.co_name == '__del__' or code.co_filename.endswith(_CALLBACK_FILES):
+            return True
+        frame = frame.f_back
+    return False
+
+
+def _on_signal(signum, frame):
     if _DEFERRED['depth']:
         _DEFERRED['pending'] = signum
+        return
+    if _in_finalizer(frame):   # the same signal again in a moment, outside the finalizer
+        import threading
+        threading.Timer(0.01, os.kill, (os.getpid(), signum)).start()
         return
     raise KeyboardInterrupt if signum == signal.SIGINT else Terminated(signum)
 
@@ -161,6 +185,26 @@ def check_output(option: str, path, suffixes=None) -> Path:
         raise UsageError(f'{option} {path}: {parent} is not a directory')
     if not os.access(parent, os.W_OK | os.X_OK):
         raise UsageError(f'{option} {path}: {parent} is not writable')
+    return path
+
+
+def writable_directory(option: str, path) -> Path:
+    """Make the output directory ``path`` (and its parents) now, before any work.
+
+    A directory the system refuses (read-only file system, no permission, ``/sys``...) is a
+    UsageError naming ``option`` (exit code 2: bad input), never an OSError after the work.
+    """
+    import tempfile
+    path = Path(path)
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+        if not os.access(path, os.W_OK | os.X_OK):
+            raise PermissionError(errno.EACCES, os.strerror(errno.EACCES))
+        with tempfile.TemporaryFile(dir=path):
+            pass
+    except OSError as exc:
+        raise UsageError(f'{option} {path}: cannot be written ({exc.strerror or exc}); give a '
+                         'directory this user may create and write') from None
     return path
 
 
@@ -342,6 +386,7 @@ def dask_client(command: str, scheduler=None, workers=None, serial: bool = False
 
     from abb_ros.sweep.runner import has_bokeh, local_cluster
     cluster = client = None
+    stack = contextlib.ExitStack()
     try:
         if scheduler:
             try:
@@ -353,6 +398,7 @@ def dask_client(command: str, scheduler=None, workers=None, serial: bool = False
             # the finally below, which closes it (never a half-made cluster that
             # distributed's atexit hook trips over)
             with signals_deferred():
+                stack.enter_context(_workers_deaf_to_sigint())   # restarts too, till the end
                 cluster = local_cluster(workers or os.cpu_count() or 1, dashboard=True)
                 client = Client(cluster)
         if has_bokeh() and _has_dashboard(client):
@@ -364,18 +410,46 @@ def dask_client(command: str, scheduler=None, workers=None, serial: bool = False
             client.close()
         if cluster is not None:
             cluster.close()
+        stack.close()
+
+
+@contextlib.contextmanager
+def _workers_deaf_to_sigint():
+    """Start the local cluster's workers with SIGINT ignored; only this process takes it.
+
+    A Ctrl-C at the terminal signals the whole process group: each Dask worker process would
+    print a KeyboardInterrupt traceback (thirty lines each) while this process stops the
+    cluster anyway. An ignored signal stays ignored across fork and exec, and Python then
+    installs no handler of its own, so the workers are forked from a forkserver started
+    with SIGINT ignored (for a few milliseconds here: its start, not the cluster's; the
+    forkserver also makes each worker start faster, with distributed preloaded).
+    """
+    import multiprocessing.forkserver
+
+    import dask
+    from distributed.utils import get_mp_context
+    with dask.config.set({'distributed.worker.multiprocessing-method': 'forkserver'}):
+        get_mp_context()   # the forkserver's preload (distributed and its packages)
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+        try:
+            multiprocessing.forkserver.ensure_running()
+        finally:
+            signal.signal(signal.SIGINT, previous)
+        yield
 
 
 def run_on_dask(command: str, args, total: int, unit: str, desc: str, work):
     """Run ``work(client, progress)`` on the Dask client of ``args``' options, with a bar.
 
     ``args``: the command's parsed options (``scheduler``, ``workers``, ``serial``,
-    ``no_progress``). The bar (tqdm, on stderr) counts ``total`` ``unit``s. A SweepError of
-    ``work`` is a usage error. Returns (what ``work`` returned, the number of workers).
+    ``no_progress``). The bar (tqdm, on stderr) counts ``total`` ``unit``s. A SweepError or
+    SweepFileError of ``work`` is a usage error. Returns (what ``work`` returned, the number
+    of workers).
     """
     import sys
 
     from abb_ros.sweep.runner import SweepError
+    from abb_ros.sweep.store import SweepFileError
     bar = None
     if not args.no_progress:
         from tqdm import tqdm
@@ -384,7 +458,7 @@ def run_on_dask(command: str, args, total: int, unit: str, desc: str, work):
         with dask_client(command, args.scheduler, args.workers, args.serial) as client:
             try:
                 result = work(client, bar.update if bar else None)
-            except SweepError as exc:
+            except (SweepError, SweepFileError) as exc:   # the directory, not the cluster
                 raise UsageError(str(exc)) from None
             workers = len(client.scheduler_info()['workers']) if client is not None else 0
     finally:

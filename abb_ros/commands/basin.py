@@ -51,6 +51,7 @@ def run(args) -> dict:
         check_dask_options,
         run_on_dask,
         run_scenario_from_args,
+        writable_directory,
     )
     from abb_ros.model.stability.outcomes import REST_TOL_DEG
     from abb_ros.sweep.runner import SweepError
@@ -68,6 +69,7 @@ def run(args) -> dict:
         check_out(spec, args.out, args.resume)    # before a cluster is started
     except SweepError as exc:
         raise UsageError(str(exc)) from None
+    writable_directory('--out', args.out)
     summary, workers = run_on_dask(
         'basin', args, spec.total, 'start', f'basin {scenario.name}',
         lambda client, progress: run_basin(spec, args.out, client, resume=args.resume,

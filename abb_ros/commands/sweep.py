@@ -21,7 +21,7 @@ def add_arguments(parser) -> None:
 
 def run(args) -> dict:
     """Run the spec's sweep on a Dask cluster into the output directory; return the summary."""
-    from abb_ros.commands.api import run_on_dask
+    from abb_ros.commands.api import run_on_dask, writable_directory
     from abb_ros.sweep.runner import SweepError, check_out_dir, run_sweep
     from abb_ros.sweep.spec import load_spec
 
@@ -31,6 +31,7 @@ def run(args) -> dict:
         check_out_dir(spec, args.out, args.resume)   # before a cluster is started
     except SweepError as exc:
         raise UsageError(str(exc)) from None
+    writable_directory('--out', args.out)
     result, workers = run_on_dask(
         'sweep', args, spec.total, 'drive', f'sweep {spec.name}',
         lambda client, progress: run_sweep(spec, args.out, client, resume=args.resume,
@@ -39,8 +40,11 @@ def run(args) -> dict:
 
 
 def _summary(spec, result, args, workers) -> dict:
-    from abb_ros.sweep.store import read_results
-    table, _ = read_results(result.out_dir)
+    from abb_ros.sweep.store import SweepFileError, read_results
+    try:
+        table, _ = read_results(result.out_dir)
+    except SweepFileError as exc:
+        raise UsageError(str(exc)) from None
     balanced = table.column('balanced').to_numpy()
     out = {'name': spec.name, 'out': result.out_dir, 'samples': result.samples,
            'partitions': result.partitions, 'partitions_computed': len(result.computed),

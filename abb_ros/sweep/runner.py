@@ -75,6 +75,10 @@ def check_out_dir(spec, out_dir, resume: bool) -> Path:
         if held != store.spec_json(spec):
             raise SweepError(f'--resume: {out} holds a sweep of another spec (its spec is in '
                              f'{out / store.MANIFEST}); the spec must be unchanged to resume')
+        try:
+            store.check_parts(out, spec)
+        except store.SweepFileError as exc:
+            raise SweepError(f'--resume: {exc}') from None
     return out
 
 

@@ -19,8 +19,8 @@ from pathlib import Path
 import numpy as np
 
 __all__ = ['package_version', 'spec_json', 'part_path', 'write_partition', 'finished_partitions',
-           'read_results', 'read_manifest', 'SweepFileError', 'write_manifest', 'MANIFEST',
-           'SPEC_KEY',
+           'read_results', 'read_manifest', 'SweepFileError', 'check_parts', 'write_manifest',
+           'MANIFEST', 'SPEC_KEY',
            'VERSION_KEY']
 
 MANIFEST = '_sweep.json'
@@ -131,6 +131,39 @@ def finished_partitions(out_dir, count: int) -> set:
             continue
         done.add(int(m.group(1)))
     return done
+
+
+def check_parts(out_dir, spec) -> None:
+    """Refuse, before a resume computes anything, part files that are not of ``spec``.
+
+    Each part file with a readable footer (an unreadable one is computed again) must carry
+    this sweep's spec, hold its own partition (the ``partition`` column) and no sample that
+    another part holds. Raises SweepFileError naming the file.
+    """
+    import pyarrow.parquet as pq
+    expected = spec_json(spec).encode()
+    seen: dict[int, str] = {}
+    for path in sorted(p for p in Path(out_dir).iterdir() if _PART.match(p.name)):
+        index = int(_PART.match(path.name).group(1))
+        try:
+            meta = pq.read_metadata(path)
+        except Exception:  # noqa: BLE001 - unreadable: computed again, as finished_partitions
+            continue
+        if (meta.metadata or {}).get(SPEC_KEY) != expected:
+            raise SweepFileError(f'{path}: a part of another sweep (its {SPEC_KEY.decode()} '
+                                 f'is not the spec of {Path(out_dir) / MANIFEST}); remove it to '
+                                 'resume')
+        table = _read_part(pq, path)
+        if 'partition' in table.column_names:
+            held = set(table.column('partition').to_pylist())
+            if held != {index}:
+                raise SweepFileError(f'{path}: holds partition {sorted(held)[0]}, not '
+                                     f'{index} (a part copied or renamed); remove it to resume')
+        for sample in table.column('sample').to_pylist():
+            if sample in seen:
+                raise SweepFileError(f'{path}: sample {sample} is also in {seen[sample]} (a '
+                                     'part copied in twice); remove it to resume')
+            seen[sample] = path.name
 
 
 def remove_temporaries(out_dir) -> None:
