@@ -122,6 +122,8 @@ def simulation_status(node, window: PacingWindow) -> tuple[bytes, str, dict]:
                   recorded=recording.message_count if recording is not None else 0,
                   recording_lost=recording.lost_count if recording is not None else 0,
                   **{f'published {t}': count for t, count in node.published.items()})
+    if node.ros2_control is not None:
+        values.update(node.ros2_control.values())
     if settings.spindle_mode == 'torque':
         values.update(current_cmd=node.current_cmd, motor_current=sim.motor_current,
                       motor_torque=sim.motor_torque)

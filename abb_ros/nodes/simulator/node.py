@@ -25,7 +25,8 @@ earlier way, kept for comparison: benchmarks/bench_plant_thread.py). The /diagno
 published bytes to a bag in process (:class:`abb_ros.nodes.recorder.recording.Recording`; log time
 = stamp, as the headless run writes them), with the other nodes' topics ``record.topics``;
 ``live_view.*`` serve the same bytes to the Foxglove app
-(:mod:`abb_ros.nodes.simulator.live_view`).
+(:mod:`abb_ros.nodes.simulator.live_view`); ``ros2_control.*`` connect ros2_control's
+topic-based system (:mod:`abb_ros.nodes.simulator.ros2_control`).
 """
 
 from __future__ import annotations
@@ -51,7 +52,7 @@ from abb_ros.nodes.recorder.recording import default_output, refuse_bad_topics, 
 from abb_ros.nodes.ros import ros_params
 from abb_ros.nodes.ros import stop as stop_request
 from abb_ros.nodes.ros.entry_point import make_executor, run_node, spin
-from abb_ros.nodes.simulator import live_view, simulation_interfaces
+from abb_ros.nodes.simulator import live_view, ros2_control, simulation_interfaces
 from abb_ros.nodes.simulator.diagnostics import simulation_status
 from abb_ros.nodes.simulator.hil_io import HilIO
 from abb_ros.nodes.simulator.plant import PlantLoop
@@ -135,6 +136,7 @@ class SimulatorNode(PlantLoop, Node):
         self._bag_topics = {topic: (pub.topic_name, _type_name(ros_messages.TOPIC_TYPES[topic]),
                                     pub.qos_profile) for topic, pub in self._pubs.items()}
         self.hil = HilIO(self)   # FG, faults, disturbances, markers
+        self.ros2_control = ros2_control.start(self, ros_messages.TOPIC_TYPES)   # or None
         self.create_subscription(Float64, SPEED_CMD, self._on_speed_cmd, QOS_DEPTH)
         self.create_subscription(Float64, CURRENT_CMD, self._on_current_cmd,
                                  QOS_DEPTH)

@@ -3,8 +3,8 @@
 :data:`SIMULATOR_SPECS` is the node's list, in declaration order: the drive is declared
 first (:mod:`abb_ros.model.parameters.drive_spec`), then these. The plant's parameters (rates,
 spindle, seed, IMU, motor; :mod:`abb_ros.model.parameters.plant_spec`) are shared with ``abb-sim
-run``; pacing, the HIL I/O (FG speed sensor, faults, disturbances, markers), recording and the live
-view are the node's own.
+run``; pacing, the HIL I/O (FG speed sensor, faults, disturbances, markers), recording, the live
+view and the ros2_control bridge are the node's own.
 """
 
 from __future__ import annotations
@@ -155,6 +155,22 @@ _LIVE_VIEW = (
               'served from this machine', STRING_ARRAY, read_only=True, applies='at start-up'),
 )
 
+_ROS2_CONTROL = (
+    # ros2_control's topic-based system (nodes/simulator/ros2_control.py, docs/ros_api.md)
+    ParamSpec('ros2_control.enabled', False, '', "take commands from ros2_control's "
+              'topic-based system (joint_state_topic_hardware_interface/JointStateTopicSystem): '
+              "the spindle entry's velocity (speed) or effort (torque mode) on "
+              'ros2_control.joint_commands_topic; joint_states copied to '
+              'ros2_control.joint_states_topic (sensor-data QoS)', BOOL, read_only=True,
+              applies='at start-up'),
+    ParamSpec('ros2_control.joint_commands_topic', '/robot_joint_commands', '', 'the '
+              "system's joint_commands_topic (sensor_msgs/JointState, reliable)", STRING,
+              read_only=True, applies='at start-up'),
+    ParamSpec('ros2_control.joint_states_topic', '/robot_joint_states', '', "the system's "
+              'joint_states_topic (sensor_msgs/JointState, sensor-data QoS)', STRING,
+              read_only=True, applies='at start-up'),
+)
+
 SPINDLE_MODE = ParamSpec(
     'spindle.mode', 'speed', '', 'speed: theta prescribed, spindle/speed_cmd through the '
     'speed loop above; torque: theta free, driven by the motor.* motor from '
@@ -164,5 +180,5 @@ SPINDLE_MODE = ParamSpec(
 
 
 SIMULATOR_SPECS = (*STEP_SPECS, *_PACING, MAX_SPINDLE_SPEED, *SPINDLE_SPECS, SEED, *_BENCH,
-                   *_LIVE_VIEW, *IMU_SPECS, SPINDLE_MODE, *MOTOR_SPECS)
+                   *_LIVE_VIEW, *_ROS2_CONTROL, *IMU_SPECS, SPINDLE_MODE, *MOTOR_SPECS)
 """The simulator node's parameters besides ``drive.*`` (config/simulator.yaml)."""

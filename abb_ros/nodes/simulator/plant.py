@@ -11,8 +11,8 @@ lock: :meth:`PlantLoop.create_subscription`, :meth:`PlantLoop.create_service` an
 creates through them).
 
 A mixin: the node makes the state it uses (``sim``, ``sampler``, ``pacer``, ``imu``, ``hil``,
-``recorder``, ``live``, ``run_state``, ``fault``, ``plant``, ``plant_lock`` ...) in its
-constructor.
+``recorder``, ``live``, ``ros2_control``, ``run_state``, ``fault``, ``plant``,
+``plant_lock`` ...) in its constructor.
 """
 
 from __future__ import annotations
@@ -169,8 +169,12 @@ class PlantLoop:
                                            pacer.epoch_ns, pacer.publishes_clock)
         for topic, data in encoded:
             self.send(topic, data, stamp_ns)
-            if topic == JOINT_STATES and self._throttle_slots.opens(stamp_ns, self._throttle_hz):
+            if topic != JOINT_STATES:
+                continue
+            if self._throttle_slots.opens(stamp_ns, self._throttle_hz):
                 self.send(JOINT_STATES_THROTTLE, data, stamp_ns)
+            if self.ros2_control is not None:
+                self.ros2_control.on_joint_states(data)
         self.hil.on_sample(sample, stamp_ns)
 
     def send(self, topic: str, data: bytes, stamp_ns: int) -> None:
