@@ -110,7 +110,8 @@ def main(argv=None, early=()) -> int:
     """
     who = ['abb-sim']     # with the subcommand once it is known
     try:
-        from abb_ros.commands.api import Terminated, stop_signals
+        from abb_ros.commands.shared.errors import Terminated
+        from abb_ros.commands.shared.signals import stop_signals
         with stop_signals():
             try:
                 if early:
@@ -129,7 +130,7 @@ def main(argv=None, early=()) -> int:
 
 
 def _dispatch(argv, who: list) -> int:
-    from abb_ros.commands.api import CommandFailed, UsageError
+    from abb_ros.commands.shared.errors import CommandFailed, UsageError
     from abb_ros.model.parameters.params import ParamError
     parser = build_parser()
     try:

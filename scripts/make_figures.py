@@ -149,7 +149,7 @@ def make_speed_curves() -> None:
 
 def _title(head, scenario_name, sets):
     """Return the title: the figure, the scenario and its parameters as abb-sim run applies."""
-    from abb_ros.commands.api import parse_settings
+    from abb_ros.commands.shared.inputs import parse_settings
     from abb_ros.io.files.scenario import load_scenario
     from abb_ros.plots.labels import parameter_text
     scenario = load_scenario(scenario_name)

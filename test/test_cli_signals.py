@@ -201,7 +201,7 @@ def test_the_console_script_notes_signals_before_it_loads_anything_heavy():
     code = '\n'.join([
         'import signal, sys', 'first = []', 'original = signal.signal',
         'def spy(signum, handler):',
-        "    first.append(sorted(m for m in ('argparse', 'numpy', 'abb_ros.commands.api')",
+        "    first.append(sorted(m for m in ('argparse', 'numpy', 'abb_ros.commands.shared')",
         '                        if m in sys.modules))',
         '    return original(signum, handler)',
         'signal.signal = spy', "sys.argv = ['abb-sim', '--help']", 'from abb_ros import cli',

@@ -28,7 +28,8 @@ from std_msgs.msg import Float64
 from std_srvs.srv import SetBool, Trigger
 
 from abb_ros.app.run_sinks import Sinks
-from abb_ros.io.live_view.server import LiveView, LiveViewError, parse_address, service_texts
+from abb_ros.io.live_view.server import LiveView, LiveViewError, parse_address
+from abb_ros.io.live_view.services import service_texts
 from abb_ros.io.wire import msgdefs
 
 ROOT = Path(__file__).resolve().parents[1]

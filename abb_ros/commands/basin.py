@@ -11,7 +11,7 @@ from __future__ import annotations
 
 def add_arguments(parser) -> None:
     """Add the options of `abb-sim basin` to ``parser``."""
-    from abb_ros.commands.api import add_dask_arguments
+    from abb_ros.commands.shared.cluster import add_dask_arguments
     parser.add_argument('--scenario', default='p3',
                         help='a shipped scenario or a YAML file (default: %(default)s)')
     parser.add_argument('--config', help='ROS 2 parameter file with drive.* parameters')
@@ -46,13 +46,10 @@ def run(args) -> dict:
     """Run the basin study into --out and return its summary."""
     from abb_ros.basin.spec import BasinSpec, parse_res
     from abb_ros.basin.study import check_out, run_basin
-    from abb_ros.commands.api import (
-        UsageError,
-        check_dask_options,
-        run_on_dask,
-        run_scenario_from_args,
-        writable_directory,
-    )
+    from abb_ros.commands.shared.cluster import check_dask_options, run_on_dask
+    from abb_ros.commands.shared.errors import UsageError
+    from abb_ros.commands.shared.inputs import run_scenario_from_args
+    from abb_ros.commands.shared.outputs import writable_directory
     from abb_ros.model.stability.outcomes import REST_TOL_DEG
     from abb_ros.sweep.runner import SweepError
 

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from abb_ros.commands.api import drive_params, parse_settings
+from abb_ros.commands.shared.inputs import drive_params, parse_settings
 from abb_ros.model.parameters.params import apply_settings
 
 PAPER = {'X': 298.0, 'Y': 298.0, 'Z': 298.0, 'alpha': 535.0, 'beta': 750.0, 'gamma': 577.0}

@@ -11,14 +11,9 @@ import sys
 
 import numpy as np
 
-from abb_ros.commands.api import (
-    CommandFailed,
-    UsageError,
-    check_output,
-    drive_params,
-    output_files,
-    parse_settings,
-)
+from abb_ros.commands.shared.errors import CommandFailed, UsageError
+from abb_ros.commands.shared.inputs import drive_params, parse_settings
+from abb_ros.commands.shared.outputs import check_output, output_files
 from abb_ros.model.parameters.params import ParamError
 
 DEFAULT_RANGES = {'wbar': (0.2, 3.5), 'zeta': (0.0, 0.15), 'Dbar': (0.0, 1.0),

@@ -30,7 +30,8 @@ def add_arguments(parser) -> None:
 
 def run(args) -> dict:
     """Read the bag(s), write the time-response figures; return the summary."""
-    from abb_ros.commands.api import CommandFailed, UsageError, check_output, output_files
+    from abb_ros.commands.shared.errors import CommandFailed, UsageError
+    from abb_ros.commands.shared.outputs import check_output, output_files
     from abb_ros.io.bag.time_response import TimeResponseError, load_time_response
     from abb_ros.model.dynamics.state import wrap_degrees
     from abb_ros.plots import time_response as plots

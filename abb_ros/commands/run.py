@@ -61,7 +61,7 @@ def _live_view(address: str | None):
     """
     if address is None:
         return None
-    from abb_ros.commands.api import UsageError
+    from abb_ros.commands.shared.errors import UsageError
     from abb_ros.io.live_view.server import LiveView, LiveViewError, parse_address
     try:
         live = LiveView(*parse_address(address), server_time=True,
@@ -75,7 +75,9 @@ def _live_view(address: str | None):
 
 def _finish(bag, path, staged) -> None:
     """Close the bag (signals held meanwhile) and move it into place; a failed close removes it."""
-    from abb_ros.commands.api import CommandFailed, commit_directory, signals_deferred
+    from abb_ros.commands.shared.errors import CommandFailed
+    from abb_ros.commands.shared.outputs import commit_directory
+    from abb_ros.commands.shared.signals import signals_deferred
     from abb_ros.io.bag.writer import BagWriteError
     try:
         with signals_deferred():
@@ -92,16 +94,18 @@ def _scenario(args):
     """Return the scenario of the options and run_scenario's keyword arguments.
 
     ``--config``, ``--set``, ``--no-abb`` and ``--duration`` applied to ``--scenario``, all
-    checked before a file is made (:func:`abb_ros.commands.api.run_scenario_from_args`).
+    checked before a file is made (:func:`abb_ros.commands.shared.inputs.run_scenario_from_args`).
     """
-    from abb_ros.commands.api import run_scenario_from_args
+    from abb_ros.commands.shared.inputs import run_scenario_from_args
     return run_scenario_from_args(args.scenario, args.config, args.set, args.no_abb,
                                   args.duration)
 
 
 def _open_bag(args, staged, params, live):
     """Open the bag of ``--out`` in ``staged``; a failure closes ``live`` and removes it."""
-    from abb_ros.commands.api import CommandFailed, UsageError, commit_directory, signals_deferred
+    from abb_ros.commands.shared.errors import CommandFailed, UsageError
+    from abb_ros.commands.shared.outputs import commit_directory
+    from abb_ros.commands.shared.signals import signals_deferred
     from abb_ros.io.bag.writer import BagError, BagExistsError, BagWriter
     try:
         with signals_deferred():
@@ -137,7 +141,8 @@ def _integrate(args, scenario, options, bag, live, staged):
     """Run the scenario into the bag and the live view; close both, whatever happens."""
     from abb_ros.app.headless import run_scenario
     from abb_ros.app.run_sinks import Sinks
-    from abb_ros.commands.api import CommandFailed, signals_deferred, stop_point
+    from abb_ros.commands.shared.errors import CommandFailed
+    from abb_ros.commands.shared.signals import signals_deferred, stop_point
     from abb_ros.io.bag.writer import BagWriteError
     from abb_ros.model.dynamics.integrate import StateError
     sinks = [sink for sink in (bag, live) if sink is not None]
@@ -173,7 +178,7 @@ def _integrate(args, scenario, options, bag, live, staged):
 def run(args) -> dict:
     """Run the scenario headless (a bag with ``--out``) and return the summary."""
     from abb_ros.app.run_settings import summary
-    from abb_ros.commands.api import stage_directory
+    from abb_ros.commands.shared.outputs import stage_directory
     scenario, options = _scenario(args)
     staged = stage_directory('--out', args.out, args.overwrite) if args.out else None
     live = _live_view(args.live_view)

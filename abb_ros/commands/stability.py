@@ -8,7 +8,8 @@ from __future__ import annotations
 
 import math
 
-from abb_ros.commands.api import UsageError, drive_params, parse_settings
+from abb_ros.commands.shared.errors import UsageError
+from abb_ros.commands.shared.inputs import drive_params, parse_settings
 from abb_ros.model.parameters.params import ParamError, apply_settings
 
 

@@ -9,7 +9,8 @@ finishes an interrupted sweep without recomputing the partitions already written
 
 from __future__ import annotations
 
-from abb_ros.commands.api import UsageError, add_dask_arguments, check_dask_options
+from abb_ros.commands.shared.cluster import add_dask_arguments, check_dask_options
+from abb_ros.commands.shared.errors import UsageError
 
 
 def add_arguments(parser) -> None:
@@ -21,7 +22,8 @@ def add_arguments(parser) -> None:
 
 def run(args) -> dict:
     """Run the spec's sweep on a Dask cluster into the output directory; return the summary."""
-    from abb_ros.commands.api import run_on_dask, writable_directory
+    from abb_ros.commands.shared.cluster import run_on_dask
+    from abb_ros.commands.shared.outputs import writable_directory
     from abb_ros.sweep.runner import SweepError, check_out_dir, run_sweep
     from abb_ros.sweep.spec import load_spec
 

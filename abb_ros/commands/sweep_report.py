@@ -5,7 +5,8 @@ See abb_ros/sweep/report.py and docs/sweep.md.
 
 from __future__ import annotations
 
-from abb_ros.commands.api import UsageError, check_output
+from abb_ros.commands.shared.errors import UsageError
+from abb_ros.commands.shared.outputs import check_output
 
 
 def add_arguments(parser) -> None:

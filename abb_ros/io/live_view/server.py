@@ -55,11 +55,10 @@ No rclpy here: the bytes are encoded by the caller.
 from __future__ import annotations
 
 __all__ = ['DEFAULT_HOST', 'DEFAULT_PORT', 'MAX_MESSAGE_BYTES', 'LiveView', 'LiveViewError',
-           'parse_address', 'service_texts']
+           'parse_address']
 
 import asyncio
 import logging
-import re
 import threading
 import time
 from concurrent.futures import ThreadPoolExecutor
@@ -67,6 +66,7 @@ from concurrent.futures import ThreadPoolExecutor
 from abb_ros.io.live_view import protocol as wire
 from abb_ros.io.live_view.admission import DEFAULT_ALLOWED_ORIGINS, is_loopback
 from abb_ros.io.live_view.protocol import ENCODING, SCHEMA_ENCODING
+from abb_ros.io.live_view.services import service_info
 from abb_ros.io.wire import msgdefs
 from abb_ros.io.wire.topics import CLOCK_TOPIC
 
@@ -136,14 +136,6 @@ def parse_address(text: str) -> tuple[str, int]:
     if not 0 <= number <= 65535:
         raise ValueError(f'port {number} is not in [0, 65535]')
     return host, number
-
-
-def service_texts(type_name: str) -> tuple[str, str]:
-    """Return the request and response ``ros2msg`` texts of service ``pkg/srv/Name``."""
-    package, _, name = type_name.split('/')
-    text = (msgdefs.share_dir(package) / 'srv' / f'{name}.srv').read_text()
-    request, response = re.split(r'^---[ \t]*$', text, maxsplit=1, flags=re.M)
-    return request.strip() + '\n', response.strip() + '\n'
 
 
 def _absolute(topic: str) -> str:
@@ -358,7 +350,7 @@ class LiveView:
                                  channels=[c.info for c in self._channels.values()]))
         if self.services:
             out.append(wire.text('advertiseServices', services=[
-                _service_info(k, name, type_name)
+                service_info(k, name, type_name)
                 for k, (name, type_name, _) in self.services.items()]))
         return out
 
@@ -437,20 +429,3 @@ class LiveView:
         done.wait(START_TIMEOUT_S)
         self._thread.join(START_TIMEOUT_S)
         self._workers.shutdown(wait=False, cancel_futures=True)
-
-
-def _service_info(service_id: int, name: str, type_name: str) -> dict:
-    """Return a service as ``advertiseServices`` lists it.
-
-    With the ``request``/``response`` schemas, and the ``requestSchema``/``responseSchema``
-    texts the protocol's first clients read.
-    """
-    request, response = service_texts(type_name)
-
-    def schema(part: str, text: str) -> dict:
-        return dict(encoding=ENCODING, schemaName=f'{type_name}_{part}',
-                    schemaEncoding=SCHEMA_ENCODING, schema=text)
-
-    return dict(id=service_id, name=name, type=type_name,
-                request=schema('Request', request), response=schema('Response', response),
-                requestSchema=request, responseSchema=response)
