@@ -104,8 +104,8 @@ def _print_human(summary: dict) -> None:
 def main(argv=None, early=()) -> int:
     """Run the `abb-sim` command line ``argv``; return the exit status (0, 1 failed, 2 usage).
 
-    ``early``: the signals that arrived before this was called (the console script's
-    :mod:`abb_ros.cli_script` collects them while the imports run), appended to until this
+    ``early``: the signals that arrived before this was called (the console script,
+    :func:`script`, collects them while the imports run), appended to until this
     function's own handlers are in place; any of them stops the command before it starts.
     """
     who = ['abb-sim']     # with the subcommand once it is known

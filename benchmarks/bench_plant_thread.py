@@ -216,12 +216,22 @@ def wake_floor(seconds: float) -> float:
         time.perf_counter() - wall0)
 
 
+def _step_by_step(sampler):
+    """``sampler``'s period stepped with ``Simulation.advance``, then read by ``sample_now``."""
+    def next_period():
+        sampler.sim.advance(sampler.publish_every - sampler.sim.steps % sampler.publish_every)
+        sample = sampler.sample_now()
+        return [] if sample is None else [sample]
+    return next_period
+
+
 def period_work_us(turns: int = 8, warm: int = 3000, cold: int = 1000
                    ) -> dict[tuple[bool, str], float]:
     """One publish period's work in a paused node in this process [us of thread CPU].
 
     {(fused, 'warm' | 'cold'): median over the turns}: the period integrated and read in two
-    compiled calls (``PlantSampler.fuse``, the default) or step by step; warm: ``warm``
+    compiled calls (``PlantSampler.next_period``, where the IMU is read at every state sample)
+    or step by step (``Simulation.advance``, then ``PlantSampler.sample_now``); warm: ``warm``
     periods back to back; cold: ``cold`` periods each after a 1 ms sleep, as on the plant's
     thread. The two ways take ``turns`` turns each, alternately (which goes first
     alternates too): a single turn moves by tens of percent with the host.
@@ -236,7 +246,10 @@ def period_work_us(turns: int = 8, warm: int = 3000, cold: int = 1000
     try:
         for turn in range(turns):
             for fused in (turn % 2 == 0, turn % 2 == 1):
-                node.sampler.fuse = fused
+                if fused:
+                    vars(node.sampler).pop('next_period', None)
+                else:
+                    node.sampler.next_period = _step_by_step(node.sampler)
                 for _ in range(300):
                     node._integrate_period()
                 start = time.thread_time()

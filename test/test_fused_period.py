@@ -1,12 +1,13 @@
 """A publish period integrated and read in two compiled calls gives the step-by-step samples.
 
-``PlantSampler(fuse=True)`` (the default: the live node and ``abb-sim run``) advances a
-period and computes q'' in one call (``Simulation.advance_accelerations``), then the IMU
-reading and the deck's pose in another, into one outputs vector; ``fuse=False`` advances
-with ``Simulation.advance`` and reads with ``accelerations`` and ``ImuModel.read`` as
-before. Tolerance: none. The same operations run in the same order on the same numbers,
-so every state, reading and message must be equal bit for bit, whatever the drive, the mode
-or the faults switched on and off on the way.
+``PlantSampler.next_period`` (the live node and ``abb-sim run``), where the IMU is read at
+every state sample, advances a period and computes q'' in one call
+(``Simulation.advance_accelerations``), then the IMU reading and the deck's pose in another,
+into one outputs vector. The reference here steps the same drive with ``Simulation.advance``
+and reads with ``PlantSampler.sample_now`` (``accelerations`` and ``ImuModel.read``).
+Tolerance: none. The same operations run in the same order on the same numbers, so every
+state, reading and message must be equal bit for bit, whatever the drive, the mode or the
+faults switched on and off on the way.
 """
 
 import numpy as np
@@ -35,13 +36,23 @@ DRIVES = {
 }
 
 
+class SteppedSampler(PlantSampler):
+    """The reference: a period stepped with ``Simulation.advance``, then read by ``sample_now``."""
+
+    def next_period(self):
+        self.sim.advance(self.publish_every - self.sim.steps % self.publish_every)
+        sample = self.sample_now()
+        return [] if sample is None else [sample]
+
+
 def _sampler(drive: str, fuse: bool, imu_faults=None, speed_faults=None) -> PlantSampler:
     params, spindle = DRIVES[drive]()
     sim = Simulation(params, 2.7 * params.omega0, 1e-4, spindle=spindle)
     if spindle is not None:
         sim.set_command(0.05)
-    return PlantSampler(sim, ImuModel(TYPICAL_IMU, seed=5), 10, 10, SpeedSensor(seed=5),
-                        imu_faults=imu_faults, speed_faults=speed_faults, fuse=fuse)
+    return (PlantSampler if fuse else SteppedSampler)(
+        sim, ImuModel(TYPICAL_IMU, seed=5), 10, 10, SpeedSensor(seed=5), imu_faults=imu_faults,
+        speed_faults=speed_faults)
 
 
 def _same(a, b) -> None:

@@ -130,23 +130,20 @@ class PlantSampler:
         The FG, read with every state sample.
     imu_faults, speed_faults : optional
         :mod:`abb_ros.model.sensors.faults` applied to the readings.
-    fuse : bool
-        Integrate and read a period in two compiled calls when imu_every = publish_every
-        (:attr:`fuse`); False: step by step, for comparison. The same samples either way.
+
+    A period whose one sample has the state and the IMU (imu_every = publish_every) is
+    integrated and read in two compiled calls (:meth:`_fused_period`); other periods step
+    from sample instant to sample instant. The same samples either way.
     """
 
     def __init__(self, sim, imu: ImuModel, publish_every: int, imu_every: int,
                  speed: SpeedSensor | None = None, imu_faults: ImuFaults | None = None,
-                 speed_faults: SpeedFaults | None = None, fuse: bool = True):
+                 speed_faults: SpeedFaults | None = None):
         self.sim = sim
         self.imu = imu
         self.speed = speed
         self.imu_faults = imu_faults
         self.speed_faults = speed_faults
-        self.fuse = fuse
-        """Whether a period whose one sample has the state and the IMU (imu_every =
-        publish_every) is integrated and read in two compiled calls (:meth:`_fused_period`)
-        instead of step by step in Python: the same samples."""
         self.set_rates(publish_every, imu_every)
 
     def set_rates(self, publish_every: int, imu_every: int) -> None:
@@ -200,7 +197,7 @@ class PlantSampler:
         (the samples of the failed period are lost; none is non-finite).
         """
         target = (self.sim.steps // self.publish_every + 1) * self.publish_every
-        if self.fuse and self.imu_every == self.publish_every:
+        if self.imu_every == self.publish_every:
             return [self._fused_period(target)]
         out = []
         while self.sim.steps < target:
@@ -212,7 +209,7 @@ class PlantSampler:
         return out
 
     def _fused_period(self, target: int) -> Sample:
-        """Advance to ``target``, a state and IMU instant, and sample there (see :attr:`fuse`).
+        """Advance to ``target``, a state and IMU instant, and sample there (two compiled calls).
 
         The state and q'' in one compiled call, the IMU reading and the deck's pose in
         another, into one :attr:`Sample.outputs` vector.

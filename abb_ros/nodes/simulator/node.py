@@ -429,14 +429,20 @@ def _type_name(cls) -> str:
 def _warm_up(sim: Simulation, imu: ImuModel, publish_every: int) -> None:
     """Compile the kernels (numba, first call in the process) on copies of the plant.
 
-    Both ways of sampling a period and the encoding of a sample, so that the first paced
-    tick is not seconds late.
+    Both ways of sampling a period (in two compiled calls where the IMU is read with every
+    state sample, else step by step: ``advance`` then ``sample_now``) and the encoding of a
+    sample, so that the first paced tick is not seconds late.
     """
-    for fuse in (True, False):
+    for fused in (True, False):
         twin = Simulation(sim.params, sim.omega, sim.dt, spindle=sim.spindle, y0=sim.y)
         sampler = PlantSampler(twin, ImuModel(imu.config, seed=imu.seed), publish_every,
-                               publish_every, fuse=fuse)
-        for sample in sampler.next_period():
+                               publish_every)
+        if fused:
+            samples = sampler.next_period()
+        else:
+            twin.advance(publish_every)
+            samples = [sampler.sample_now()]
+        for sample in samples:
             cdr.sample_cdr(sample, 1, imu.config)
 
 
