@@ -98,6 +98,11 @@ class Pacer:
         self.max_lag_ns = max_lag_ns
 
     @property
+    def free_running(self) -> bool:
+        """Whether the plant runs as fast as it can (real_time_factor 0: no deadlines)."""
+        return self.real_time_factor == 0.0
+
+    @property
     def epoch_ns(self) -> int:
         """Stamp of step 0 [ns]."""
         return self.clock.epoch_ns

@@ -24,8 +24,8 @@ import ipaddress
 import re
 from urllib.parse import urlsplit
 
-__all__ = ['DEFAULT_ALLOWED_ORIGINS', 'LOOPBACK_HOSTS', 'host_problem', 'is_loopback',
-           'origin_allowed']
+__all__ = ['DEFAULT_ALLOWED_ORIGINS', 'DEFAULT_HOST', 'DEFAULT_PORT', 'LOOPBACK_HOSTS',
+           'host_problem', 'is_loopback', 'origin_allowed']
 
 DEFAULT_ALLOWED_ORIGINS = ('https://app.foxglove.dev', 'file://', 'http://localhost',
                            'http://localhost:*', 'http://127.0.0.1', 'http://127.0.0.1:*',
@@ -34,6 +34,11 @@ DEFAULT_ALLOWED_ORIGINS = ('https://app.foxglove.dev', 'file://', 'http://localh
 
 LOOPBACK_HOSTS = 'localhost, 127.0.0.1 or [::1], with an optional port'
 """What a ``Host`` header may name when the server listens on loopback (for messages)."""
+
+DEFAULT_HOST = '127.0.0.1'
+"""The server listens on loopback unless told otherwise: it has no authentication."""
+DEFAULT_PORT = 8765
+"""The Foxglove WebSocket port the apps propose (and foxglove_bridge uses)."""
 
 _DEFAULT_PORTS = {'http': 80, 'https': 443, 'ws': 80, 'wss': 443}
 _PATTERN = re.compile(r'^(?P<scheme>[^:/]+)://(?P<host>\[[^/]*\]|[^:/]*)(?::(?P<port>[^/]*))?/?$')

@@ -64,16 +64,17 @@ import time
 from concurrent.futures import ThreadPoolExecutor
 
 from abb_ros.io.live_view import protocol as wire
-from abb_ros.io.live_view.admission import DEFAULT_ALLOWED_ORIGINS, is_loopback
+from abb_ros.io.live_view.admission import (
+    DEFAULT_ALLOWED_ORIGINS,
+    DEFAULT_HOST,
+    DEFAULT_PORT,
+    is_loopback,
+)
 from abb_ros.io.live_view.protocol import ENCODING, SCHEMA_ENCODING
 from abb_ros.io.live_view.services import service_info
 from abb_ros.io.wire import msgdefs
 from abb_ros.io.wire.topics import CLOCK_TOPIC
 
-DEFAULT_HOST = '127.0.0.1'
-"""The server listens on loopback unless told otherwise: it has no authentication."""
-DEFAULT_PORT = 8765
-"""The Foxglove WebSocket port the apps propose (and foxglove_bridge uses)."""
 SERVER_NAME = 'abb_ros'
 MAX_MESSAGE_BYTES = 16 * 1024 * 1024
 """The largest frame a client may send [bytes]."""

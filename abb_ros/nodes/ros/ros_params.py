@@ -18,7 +18,7 @@ the nodes' set-parameters callbacks refuse bad values with the ParamError text.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any, Mapping
 
 from rcl_interfaces.msg import (
@@ -176,6 +176,12 @@ class SimSettings:
     hil: HilSettings = HilSettings()
     spindle_mode: str = 'speed'
     motor: TorqueMotor = TorqueMotor()
+    max_stamp_lag: float = field(kw_only=True)
+    """Largest lag of a stamp behind its schedule before a slip [s]."""
+    realtime_priority: int = field(kw_only=True)
+    """SCHED_FIFO priority of the integrating thread while paced (0: the normal scheduler)."""
+    joint_states_throttle_hz: float = field(kw_only=True)
+    """Rate of joint_states_throttle [Hz of simulated time]."""
 
     def spindle(self):
         """Return the Simulation's spindle: the speed loop, or the motor in torque mode."""
@@ -250,7 +256,10 @@ def settings_from(values: Mapping[str, Any]) -> tuple[DriveParams, SimSettings]:
         spindle_max_accel=float(values['spindle.max_accel']),
         spindle_tau=float(values['spindle.tau']), seed=int(values['seed']),
         imu=imu_config(values), spindle_mode=str(values['spindle.mode']),
-        motor=TorqueMotor.from_values(values), hil=hil_settings(values))
+        motor=TorqueMotor.from_values(values), hil=hil_settings(values),
+        max_stamp_lag=float(values['max_stamp_lag']),
+        realtime_priority=int(values['realtime_priority']),
+        joint_states_throttle_hz=float(values['joint_states_throttle_hz']))
     return drive, settings
 
 

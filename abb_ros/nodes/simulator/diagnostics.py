@@ -94,10 +94,10 @@ def simulation_status(node, window: PacingWindow) -> tuple[bytes, str, dict]:
     sim, pacer, settings = node.sim, node.pacer, node.settings
     fg = node.hil.speed
     fg_state = fg.state(sim.omega)
-    max_stamp_lag = node.get_parameter('max_stamp_lag').value
+    max_stamp_lag = settings.max_stamp_lag
     recording = node.recorder.current
     level, message = level_and_message(
-        window, fault=node.fault, paused=node.paused, target=settings.real_time_factor,
+        window, fault=node.fault, paused=node.paused, target=pacer.real_time_factor,
         period_s=pacer.publish_every * pacer.dt_ns * 1e-9, max_lag_ns=pacer.max_lag_ns,
         slipped_s=pacer.slipped_ns * 1e-9,
         recording_error=node.recorder.error,
@@ -106,7 +106,7 @@ def simulation_status(node, window: PacingWindow) -> tuple[bytes, str, dict]:
         contact_note=sim.contact_step_note)
     values = dict(real_time_factor=window.real_time_factor,
                   real_time_factor_since_start=window.since_start,
-                  target_real_time_factor=settings.real_time_factor, stamp_lag=window.stamp_lag,
+                  target_real_time_factor=pacer.real_time_factor, stamp_lag=window.stamp_lag,
                   stamp_lag_max=pacer.lag_max_ns * 1e-9, max_stamp_lag=max_stamp_lag,
                   time_base=pacer.clock.time_base, scheduling=node.scheduling.state,
                   overruns=pacer.overruns, slips=pacer.slips, **node.counters,

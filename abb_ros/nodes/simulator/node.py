@@ -55,7 +55,7 @@ from abb_ros.nodes.ros.entry_point import make_executor, run_node, spin
 from abb_ros.nodes.simulator import live_view, ros2_control, simulation_interfaces
 from abb_ros.nodes.simulator.diagnostics import simulation_status
 from abb_ros.nodes.simulator.hil_io import HilIO
-from abb_ros.nodes.simulator.plant import PlantLoop
+from abb_ros.nodes.simulator.plant import PlantLoop, warm_up
 from abb_ros.nodes.simulator.recording import InProcessRecording
 from abb_ros.runtime.pacing import Pacer
 from abb_ros.runtime.plant_thread import PlantThread
@@ -107,7 +107,7 @@ class SimulatorNode(PlantLoop, Node):
         self.sim = Simulation(self.drive, s.initial_speed, s.dt, spindle=s.spindle())
         self.imu = ImuModel(s.imu, seed=s.seed)
         self.sampler = PlantSampler(self.sim, self.imu, s.publish_every, s.imu_every)
-        _warm_up(self.sim, self.imu, s.publish_every)
+        warm_up(self.sim, self.imu, s.publish_every)
         self.pacer = Pacer(s.dt_ns, s.publish_every, s.real_time_factor,
                            self._max_stamp_lag_ns(), time.monotonic_ns,
                            lead=0.0 if pacing == 'thread' else 0.5)
@@ -120,7 +120,7 @@ class SimulatorNode(PlantLoop, Node):
             self.pacer.hold()
         self.commands = SpindleCommands(s.initial_speed)
         self._throttle_slots = RateSlots()
-        self._throttle_hz = self.get_parameter('joint_states_throttle_hz').value
+        self._throttle_hz = s.joint_states_throttle_hz
         self.counters = self.commands.counters
         self.scheduling = FifoScheduling()   # of the thread that integrates
         self.published = dict.fromkeys(ros_messages.TOPIC_TYPES, 0)
@@ -274,7 +274,7 @@ class SimulatorNode(PlantLoop, Node):
         self.pacer.reconfigure(s.real_time_factor, self.sampler.publish_every,
                                self._max_stamp_lag_ns())
         self.hil.apply(s.hil)
-        self._throttle_hz = self.get_parameter('joint_states_throttle_hz').value
+        self._throttle_hz = s.joint_states_throttle_hz
         self._want_scheduling()
         if (s.real_time_factor, s.publish_rate_hz) != (old.real_time_factor,
                                                        old.publish_rate_hz):
@@ -424,26 +424,6 @@ class SimulatorNode(PlantLoop, Node):
 def _type_name(cls) -> str:
     """Return the ROS type name of a generated message class: sensor_msgs/msg/JointState."""
     return f'{cls.__module__.split(".")[0]}/msg/{cls.__name__}'
-
-
-def _warm_up(sim: Simulation, imu: ImuModel, publish_every: int) -> None:
-    """Compile the kernels (numba, first call in the process) on copies of the plant.
-
-    Both ways of sampling a period (in two compiled calls where the IMU is read with every
-    state sample, else step by step: ``advance`` then ``sample_now``) and the encoding of a
-    sample, so that the first paced tick is not seconds late.
-    """
-    for fused in (True, False):
-        twin = Simulation(sim.params, sim.omega, sim.dt, spindle=sim.spindle, y0=sim.y)
-        sampler = PlantSampler(twin, ImuModel(imu.config, seed=imu.seed), publish_every,
-                               publish_every)
-        if fused:
-            samples = sampler.next_period()
-        else:
-            twin.advance(publish_every)
-            samples = [sampler.sample_now()]
-        for sample in samples:
-            cdr.sample_cdr(sample, 1, imu.config)
 
 
 def main(args=None):

@@ -11,7 +11,7 @@ from __future__ import annotations
 
 import math
 
-from abb_ros.io.live_view.admission import DEFAULT_ALLOWED_ORIGINS
+from abb_ros.io.live_view.admission import DEFAULT_ALLOWED_ORIGINS, DEFAULT_HOST, DEFAULT_PORT
 from abb_ros.io.wire.topics import CURRENT_CMD, DIAGNOSTICS, SPEED_CMD, STABILITY_MARGIN
 from abb_ros.model.parameters.drive_spec import MAX_OMEGA
 from abb_ros.model.parameters.param_spec import (
@@ -137,12 +137,12 @@ _LIVE_VIEW = (
               'ws://live_view.host:live_view.port), with pause, step, reset, the spindle '
               'commands and the parameters from the viewer', BOOL, read_only=True,
               applies='at start-up'),
-    ParamSpec('live_view.host', '127.0.0.1', '', 'address the live view listens on (loopback: '
+    ParamSpec('live_view.host', DEFAULT_HOST, '', 'address the live view listens on (loopback: '
               'this machine only, and a handshake must name loopback in its Host; 0.0.0.0: '
               'every interface, with no authentication; empty or unresolvable: refused)', STRING,
               read_only=True, applies='at start-up'),
-    ParamSpec('live_view.port', 8765, '', 'port of the live view; 0 = any free port (logged)',
-              INTEGER, 0, 65535, read_only=True, applies='at start-up'),
+    ParamSpec('live_view.port', DEFAULT_PORT, '', 'port of the live view; 0 = any free port '
+              '(logged)', INTEGER, 0, 65535, read_only=True, applies='at start-up'),
     ParamSpec('live_view.topics', list(LIVE_VIEW_TOPICS), '', "other nodes' topics served "
               'too, taken from the middleware once a publisher offers them (the analysis '
               "node's stability/margin of the Foxglove layout, /diagnostics, the spindle "

@@ -22,7 +22,9 @@ import warnings
 
 from abb_ros.io.wire import cdr
 from abb_ros.io.wire.topics import CLOCK_TOPIC, JOINT_STATES, JOINT_STATES_THROTTLE
-from abb_ros.model.dynamics.integrate import StateError
+from abb_ros.model.dynamics.integrate import Simulation, StateError
+from abb_ros.model.sensors.imu import ImuModel
+from abb_ros.model.sensors.sampling import PlantSampler
 from abb_ros.runtime.plant_thread import AGAIN, IDLE, locked
 
 __all__ = ['BATCH_WALL_S', 'PlantLoop', 'RESPONSE_TRIES', 'resend_on_timeout']
@@ -66,8 +68,8 @@ class PlantLoop:
         return self.pacer.stamp_ns(self.sim.steps if steps is None else steps)
 
     def _max_stamp_lag_ns(self) -> float:
-        """Return the ``max_stamp_lag`` parameter [ns]."""
-        return self.get_parameter('max_stamp_lag').value * 1e9
+        """Return the ``max_stamp_lag`` setting [ns]."""
+        return self.settings.max_stamp_lag * 1e9
 
     def _restart_pacing(self) -> None:
         """(Re)start the integration for the current mode, anchored now."""
@@ -84,7 +86,7 @@ class PlantLoop:
         self.pacer.start(self.sim.steps)
         if self.plant is not None:
             self.plant.wake()
-        elif self.pacer.real_time_factor == 0.0:
+        elif self.pacer.free_running:
             self._timer = self.create_timer(0.0, self._tick_fast, clock=self._steady)
         else:
             self._timer = self.create_timer(self.pacer.tick_period_s, self._tick_paced,
@@ -95,8 +97,7 @@ class PlantLoop:
 
         A FIFO thread that never sleeps (real_time_factor 0) would hold a core.
         """
-        paced = self.settings.real_time_factor > 0
-        self.scheduling.want(self.get_parameter('realtime_priority').value if paced else 0)
+        self.scheduling.want(0 if self.pacer.free_running else self.settings.realtime_priority)
 
     # ---- integration ---------------------------------------------------------------------
     def _tick_starts(self) -> bool:
@@ -113,13 +114,13 @@ class PlantLoop:
 
         Return the deadline of the next tick, AGAIN or IDLE (:mod:`abb_ros.runtime.plant_thread`).
         """
-        if self.pacer.real_time_factor == 0.0:
+        if self.pacer.free_running:
             self._tick_fast()
         else:
             self._tick_paced()
         if not self._running:   # the factor, the pause or a fault may have changed in the tick
             return IDLE
-        if self.pacer.real_time_factor == 0.0:
+        if self.pacer.free_running:
             return AGAIN
         return self.pacer.deadline_ns(self.sim.steps)
 
@@ -131,7 +132,7 @@ class PlantLoop:
 
     def _tick_paced(self) -> None:
         """Integrate the publish periods due on the wall clock."""
-        if not self._tick_starts() or self.pacer.real_time_factor == 0.0:
+        if not self._tick_starts() or self.pacer.free_running:
             return
         for _ in range(self.pacer.due(self.sim.steps)):
             if not self._integrate_period():
@@ -139,7 +140,7 @@ class PlantLoop:
 
     def _tick_fast(self) -> None:
         """Integrate publish periods for ``BATCH_WALL_S`` of wall time."""
-        if not self._tick_starts() or self.pacer.real_time_factor != 0.0:
+        if not self._tick_starts() or not self.pacer.free_running:
             return
         end = time.perf_counter() + BATCH_WALL_S
         while time.perf_counter() < end:
@@ -225,3 +226,23 @@ class PlantLoop:
         """Create the timer as rclpy does, its callback run under the plant's lock."""
         return super().create_timer(timer_period_sec, locked(self.plant_lock, callback),
                                     *args, **kwargs)
+
+
+def warm_up(sim: Simulation, imu: ImuModel, publish_every: int) -> None:
+    """Compile the kernels (numba, first call in the process) on copies of the plant.
+
+    Both ways of sampling a period (in two compiled calls where the IMU is read with every
+    state sample, else step by step: ``advance`` then ``sample_now``) and the encoding of a
+    sample, so that the first paced tick is not seconds late.
+    """
+    for fused in (True, False):
+        twin = Simulation(sim.params, sim.omega, sim.dt, spindle=sim.spindle, y0=sim.y)
+        sampler = PlantSampler(twin, ImuModel(imu.config, seed=imu.seed), publish_every,
+                               publish_every)
+        if fused:
+            samples = sampler.next_period()
+        else:
+            twin.advance(publish_every)
+            samples = [sampler.sample_now()]
+        for sample in samples:
+            cdr.sample_cdr(sample, 1, imu.config)
