@@ -54,7 +54,7 @@ def run_basin(spec, out_dir, client=None, resume: bool = False, progress=None,
     summary = summarise(spec, table)
     _write_table(out / TABLE, table, spec)
     _write_text(out / SUMMARY, json.dumps(summary, indent=1, sort_keys=True) + '\n')
-    from abb_ros.basin.picture import basin_picture
+    from abb_ros.plots.basin import basin_picture
     tmp = out / f'.{PICTURE}.tmp-{os.getpid()}.png'
     basin_picture(spec, table, summary, tmp)
     os.replace(tmp, out / PICTURE)

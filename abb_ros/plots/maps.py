@@ -8,6 +8,7 @@ surface (Fig. 4a).
 
 from __future__ import annotations
 
+from abb_ros.plots.figure import pyplot, save
 from abb_ros.plots.labels import SYMBOLS as LABELS
 from abb_ros.plots.labels import fit_title, parameter_text
 
@@ -20,19 +21,12 @@ SURFACE_CLIP = 2.0
 """|lambda|max above this is drawn at this height on the surface plot (unbalanced anyway)."""
 
 
-def _pyplot():
-    import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
-    return plt
-
-
 def plot_map(smap, path, title=None, kind='regions') -> None:
     """Write the map ``smap`` (floquet.StabilityMap) as a PNG at ``path``."""
     import numpy as np
 
     from abb_ros.model.stability.floquet import BALANCED
-    plt = _pyplot()
+    plt = pyplot()
     X, Y = np.meshgrid(smap.x_values, smap.y_values)
     if kind == 'surface':
         fig = plt.figure(figsize=(6.4, 5.0))
@@ -59,9 +53,7 @@ def plot_map(smap, path, title=None, kind='regions') -> None:
     ax.set_xlabel(LABELS[smap.x])
     ax.set_ylabel(LABELS[smap.y])
     fit_title(fig, ax, title or map_title(smap))
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    save(fig, path)
 
 
 def _limit_text(name, value) -> str:
@@ -95,7 +87,7 @@ def plot_speed_curves(curves, path, title=None) -> None:
     |lambda| = 1 separates balanced from unbalanced speeds.
     """
     import numpy as np
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(1, len(curves), figsize=(5.2 * len(curves), 4.0), sharey=True,
                              squeeze=False)
     for ax, (label, wbar, lam_in, lam_out) in zip(axes[0], curves):
@@ -110,6 +102,4 @@ def plot_speed_curves(curves, path, title=None) -> None:
     axes[0][0].legend(loc='upper right')
     if title:
         fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(path, dpi=100)
-    plt.close(fig)
+    save(fig, path, dpi=100)

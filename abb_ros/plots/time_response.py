@@ -11,6 +11,7 @@ import numpy as np
 
 from abb_ros.io.bag.time_response import TimeResponse
 from abb_ros.model.dynamics.state import wrap_degrees
+from abb_ros.plots.figure import pyplot, save
 
 LEGEND_OUTSIDE = dict(loc='upper left', bbox_to_anchor=(1.01, 1.0), fontsize=8, borderaxespad=0)
 """Legends right of the axes, where they cover no data."""
@@ -29,16 +30,9 @@ def _thin(t, *ys):
     return (t[::step],) + tuple(y[..., ::step] for y in ys)
 
 
-def _pyplot():
-    import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
-    return plt
-
-
 def plot_rbar_and_balls(resp: TimeResponse, out, title: str = '') -> None:
     """Plot (a) rbar vs time, (b) ball angles phi_i (deg) vs time: Figs. 9-11, 15, 16."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, (ax_r, ax_phi) = plt.subplots(2, 1, figsize=(7, 6.5), sharex=True)
     t, rbar = _thin(resp.t_pose, resp.rbar)
     ax_r.plot(t, rbar, lw=0.8, color='k')
@@ -74,7 +68,7 @@ DECK_PANELS = (('(a) X, in-plane', 'X (mm)', 1e3), ('(b) Y, in-plane', 'Y (mm)',
 
 def plot_deck_coordinates(resp: TimeResponse, out, title: str = '') -> None:
     """Plot the six deck coordinates X, Y, Z (mm), alpha, beta, gamma (deg): Figs. 12, 13."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(3, 2, figsize=(10, 8), sharex=True)
     t, deck = _thin(resp.t_pose, resp.deck)
     order = (0, 3, 1, 4, 2, 5)  # column 1 translations, column 2 rotations
@@ -93,7 +87,7 @@ def plot_deck_coordinates(resp: TimeResponse, out, title: str = '') -> None:
 def plot_abb_comparison(with_abb: TimeResponse, without_abb: TimeResponse, out,
                         title: str = '') -> None:
     """Plot rbar (a) with the ABB and (b) without it, on one scale: Fig. 14."""
-    plt = _pyplot()
+    plt = pyplot()
     fig, axes = plt.subplots(2, 1, figsize=(7, 6.5), sharex=True, sharey=True)
     t_w, r_w = _thin(with_abb.t_pose, with_abb.rbar)
     t_n, r_n = _thin(without_abb.t_pose, without_abb.rbar)
@@ -113,7 +107,4 @@ def plot_abb_comparison(with_abb: TimeResponse, without_abb: TimeResponse, out,
 def _finish(fig, title, out) -> None:
     if title:
         fig.suptitle(title)
-    fig.tight_layout()
-    fig.savefig(out, dpi=110)
-    import matplotlib.pyplot as plt
-    plt.close(fig)
+    save(fig, out)

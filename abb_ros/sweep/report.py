@@ -29,6 +29,7 @@ from pathlib import Path
 
 import numpy as np
 
+from abb_ros.plots import sweep_report as figs
 from abb_ros.sweep.store import read_results
 
 __all__ = ['make_report', 'WORST']
@@ -82,18 +83,6 @@ def _unit(name):
     return f'{name} [{spec.unit}]' if spec and spec.unit else name
 
 
-def _figure(path, draw):
-    import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
-    fig, ax = plt.subplots(figsize=(6.4, 4.2), dpi=110)
-    draw(ax)
-    fig.tight_layout()
-    fig.savefig(path)
-    plt.close(fig)
-    return str(path)
-
-
 def _planned_samples(spec: dict) -> int:
     """Return the drives the spec asks for: its samples times the points of each grid."""
     total = spec.get('samples', 0)
@@ -138,10 +127,7 @@ def make_report(sweep_dir, out_dir) -> dict:
                                                   .astype(bool)).sum())
         lam = np.maximum(_col(table, 'lam_in_op'), _col(table, 'lam_out_op'))
         fin = lam[np.isfinite(lam)]
-        figures.append(_figure(out / 'hist_lambda_op.png', lambda ax: (
-            ax.hist(fin, bins=60, color='tab:blue'), ax.axvline(1.0, color='k', ls='--'),
-            ax.set_xlabel('|lambda|max at the operating speed (max of in-, out-of-plane)'),
-            ax.set_ylabel('drives'), ax.set_title(f'{count} drives; > 1: unbalanced'))))
+        figures.append(figs.lambda_histogram(out / 'hist_lambda_op.png', fin, count))
     if 'final_rbar' in names:
         rbar = _col(table, 'final_rbar')
         failed = _col(table, 'failed').astype(bool)
@@ -154,18 +140,10 @@ def make_report(sweep_dir, out_dir) -> dict:
         summary['final_rbar_quantiles'] = _quantiles(good)
         summary['settle_time_s_quantiles'] = _quantiles(settle[np.isfinite(settle)])
         summary['never_settled'] = int((~np.isfinite(settle)).sum())
-        logr = np.log10(np.maximum(good, 1e-300))
-        figures.append(_figure(out / 'hist_final_rbar.png', lambda ax: (
-            ax.hist(logr, bins=60, color='tab:green'),
-            ax.axvline(math.log10(limit), color='k', ls='--') if limit else None,
-            ax.set_xlabel('log10 final rbar'), ax.set_ylabel('drives'),
-            ax.set_title(f'final rbar of {good.size} runs (dashed: rbar_limit)'))))
-        st = settle[np.isfinite(settle)]
-        figures.append(_figure(out / 'hist_settle_time.png', lambda ax: (
-            ax.hist(st, bins=60, color='tab:orange'), ax.set_xlabel('settle time [s]'),
-            ax.set_ylabel('drives'),
-            ax.set_title(f'time to settle below rbar_limit ({summary["never_settled"]} '
-                         'never did)'))))
+        figures.append(figs.final_rbar_histogram(out / 'hist_final_rbar.png', good, limit))
+        figures.append(figs.settle_time_histogram(out / 'hist_settle_time.png',
+                                                  settle[np.isfinite(settle)],
+                                                  summary['never_settled']))
     for name in parameters:
         x = _col(table, name).astype(float)
         discrete = spec['parameters'][name].get('dist') in ('list', 'grid')
@@ -175,32 +153,16 @@ def make_report(sweep_dir, out_dir) -> dict:
                 for key in ('balanced_op', 'balanced_all_speeds', 'run_balanced') if key in names}
         bins = _bin_intervals(table, idx, centres)
         summary.setdefault('balanced_by_bin', {})[name] = bins
-
-        def draw(ax, centres=centres, frac=frac, name=name, bins=bins):
-            for key, f in frac.items():
-                ax.plot(centres, f, 'o-', label=key)
-            lo, hi = (np.array([b['ci95'][k] for b in bins], dtype=float) for k in (0, 1))
-            ax.fill_between(centres, lo, hi, color='0.5', alpha=0.25,
-                            label='balanced: 95 % Wilson interval')
-            ax.set_ylim(-0.02, 1.02)
-            ax.set_xlabel(_unit(name))
-            ax.set_ylabel('fraction balanced')
-            ax.legend()
-            ax.grid(alpha=0.3)
-        figures.append(_figure(out / f'balanced_vs_{name}.png', draw))
+        ci95 = [np.array([b['ci95'][k] for b in bins], dtype=float) for k in (0, 1)]
+        figures.append(figs.balanced_fraction(out / f'balanced_vs_{name}.png', centres, frac,
+                                              ci95, _unit(name)))
     ranking, ok, where = scatter_by
     top = list(ranking)[:2]
     if len(top) == 2:
         xa, ya = _col(table, top[0]).astype(float), _col(table, top[1]).astype(float)
-
-        def scatter(ax):
-            ax.scatter(xa[ok], ya[ok], s=3, c='tab:blue', label='balanced')
-            ax.scatter(xa[~ok], ya[~ok], s=3, c='tab:red', label='unbalanced')
-            ax.set_xlabel(_unit(top[0]))
-            ax.set_ylabel(_unit(top[1]))
-            ax.legend(markerscale=3)
-            ax.set_title(f'the two most influential parameters\nbalanced {where}', fontsize=10)
-        figures.append(_figure(out / f'scatter_{top[0]}_{top[1]}.png', scatter))
+        figures.append(figs.two_parameter_scatter(
+            out / f'scatter_{top[0]}_{top[1]}.png', xa, ya, ok,
+            (_unit(top[0]), _unit(top[1])), where))
     order = np.argsort(margin, kind='stable')[:WORST]
     show = ['sample'] + parameters + [c for c in (
         'omega0', 'zeta', 'lam_in_op', 'lam_out_op', 'omega_worst', 'final_rbar', 'peak_rbar',

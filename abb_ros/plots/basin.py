@@ -1,4 +1,4 @@
-"""The picture of a basin study (PNG, matplotlib Agg, imported lazily).
+"""The picture of a basin study (PNG, :mod:`abb_ros.plots.figure`).
 
 - n = 2 on a grid: the start plane (phi1, phi2) [deg] coloured by outcome class, the
   balanced equilibria of Eq. (26) marked (the symmetric pair and its mirror, the balls
@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from abb_ros.plots.figure import pyplot, save
 from abb_ros.plots.labels import fit_title
 
 __all__ = ['COLOURS', 'basin_picture']
@@ -42,10 +43,8 @@ def _title(spec, summary) -> str:
 
 def basin_picture(spec, table, summary, path) -> None:
     """Write the study's picture (module docstring) to ``path`` (PNG)."""
-    import matplotlib
-    matplotlib.use('Agg')
-    import matplotlib.pyplot as plt
     from matplotlib.patches import Patch
+    plt = pyplot()
 
     outcome = np.asarray(table.column('outcome').to_pylist(), dtype=object)
     present = [c for c in COLOURS if np.any(outcome == c)]
@@ -91,6 +90,4 @@ def basin_picture(spec, table, summary, path) -> None:
         ax.set_ylabel('starts')
         ax.set_xlabel('outcome')
     fit_title(fig, ax, _title(spec, summary), fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110, format='png')
-    plt.close(fig)
+    save(fig, path, file_format='png')
