@@ -219,7 +219,7 @@ def test_ctrl_c_to_the_process_group_on_dask_is_one_line(tmp_path, command):
     the one line 'interrupted', no KeyboardInterrupt traceback of any worker, at moments
     from the cluster's start to mid-study."""
     spec = tmp_path / 'spec.yaml'
-    spec.write_text(SWEEP_SPEC)
+    spec.write_text(SWEEP_SPEC.replace('duration: 2.0', 'duration: 40.0'))   # minutes of work
     for k, delay in enumerate((2.0, 6.0)):
         out = tmp_path / f'out{k}'
         args = ([command, str(spec)] if command == 'sweep' else
