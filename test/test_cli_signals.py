@@ -141,6 +141,31 @@ def test_sigterm_while_writing_a_bag_leaves_it_closed_and_marked(tmp_path):
             assert 'interrupted' in info['custom_data'][INCOMPLETE_KEY]
 
 
+STIFF = ['--integrator', 'adaptive', '--set', 'c=1e6']
+"""A drive the adaptive integrator finds stiff: about 150 s of wall time per simulated second
+(a compiled call of 1 s of the drive ignored SIGINT for minutes)."""
+
+
+@pytest.mark.slow
+def test_sigint_stops_a_stiff_adaptive_run_within_a_second(tmp_path):
+    """Mid-run (after 2 and 4 s), on a drive whose integration crawls: exit 130 within a
+    second of the signal (plus the bag's closing), one line, and the bag closed and marked."""
+    for i, delay in enumerate((2.0, 4.0)):
+        out = tmp_path / f'bag{i}'
+        proc = _start(['run', *STIFF, '--duration', '5', '--no-progress', '--out', str(out)])
+        _wait_for_handlers(proc)
+        time.sleep(delay)
+        t0 = time.monotonic()
+        proc.send_signal(signal.SIGINT)
+        _, stderr = proc.communicate(timeout=60)
+        waited = time.monotonic() - t0
+        assert proc.returncode == 130, stderr
+        assert stderr.strip().splitlines() == ['abb-sim run: interrupted'], stderr
+        assert waited < 2.0, f'{waited:.2f} s from SIGINT to the exit'
+        if out.exists():
+            assert _closed_or_marked(out)
+
+
 SWEEP_SPEC = """\
 name: long
 scenario: p3
