@@ -102,15 +102,16 @@ def _scenario(args):
 
 
 def _open_bag(args, staged, params, live):
-    """Open the bag of ``--out`` in ``staged``; a failure closes ``live`` and removes it."""
+    """Open the bag of ``--out`` in ``staged``; a failure closes ``live`` and removes it.
+
+    Called with signals held (:func:`_integrate`), so a signal cannot part the bag from its
+    caller."""
     from abb_ros.commands.shared.errors import CommandFailed, UsageError
     from abb_ros.commands.shared.outputs import commit_directory
-    from abb_ros.commands.shared.signals import signals_deferred
     from abb_ros.io.bag.writer import BagError, BagExistsError, BagWriter
     try:
-        with signals_deferred():
-            bag = BagWriter(staged)
-            bag.set_drive_params(params)
+        bag = BagWriter(staged)
+        bag.set_drive_params(params)
         return bag
     except (BagError, OSError) as exc:
         if live is not None:
@@ -137,20 +138,24 @@ def _progress_bar(args, scenario):
                 bar_format='{l_bar}{bar}| {n:.1f}/{total:.1f} sim s [{elapsed}<{remaining}]')
 
 
-def _integrate(args, scenario, options, bag, live, staged):
-    """Run the scenario into the bag and the live view; close both, whatever happens."""
+def _integrate(args, scenario, options, live, staged):
+    """Open the bag (with ``--out``), run the scenario into it and the live view; close both,
+    whatever happens: a signal from the bag's opening on leaves it closed and marked."""
     from abb_ros.app.headless import run_scenario
     from abb_ros.app.run_sinks import Sinks
     from abb_ros.commands.shared.errors import CommandFailed
     from abb_ros.commands.shared.signals import signals_deferred, stop_point
     from abb_ros.io.bag.writer import BagWriteError
     from abb_ros.model.dynamics.integrate import StateError
-    sinks = [sink for sink in (bag, live) if sink is not None]
-    real_time = live is not None if args.real_time is None else args.real_time
-    sink = Sinks(sinks, real_time) if sinks else None
-    bar = _progress_bar(args, scenario)
+    bag = bar = None
     try:
         with signals_deferred():    # a signal stops the run between chunks (stop_point)
+            if staged is not None:
+                bag = _open_bag(args, staged, scenario.params, live)
+            sinks = [sink for sink in (bag, live) if sink is not None]
+            real_time = live is not None if args.real_time is None else args.real_time
+            sink = Sinks(sinks, real_time) if sinks else None
+            bar = _progress_bar(args, scenario)
             return run_scenario(scenario, bag=sink, progress=stop_point(
                 bar.update if bar else None), integrator=args.integrator, **options)
     except StateError as exc:
@@ -182,8 +187,7 @@ def run(args) -> dict:
     scenario, options = _scenario(args)
     staged = stage_directory('--out', args.out, args.overwrite) if args.out else None
     live = _live_view(args.live_view)
-    bag = _open_bag(args, staged, scenario.params, live) if args.out else None
-    result = _integrate(args, scenario, options, bag, live, staged)
+    result = _integrate(args, scenario, options, live, staged)
     out = summary(scenario, result)
     if live is not None:
         out['live_view'] = live.url
