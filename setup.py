@@ -17,6 +17,7 @@ setup(
         ('share/' + package_name + '/config/scenarios', glob('config/scenarios/*.yaml')),
         ('share/' + package_name + '/launch', glob('launch/*.launch.py')),
         ('share/' + package_name + '/config/sweeps', glob('config/sweeps/*.yaml')),
+        ('share/' + package_name + '/config/ros2_control', glob('config/ros2_control/*')),
     ],
     install_requires=['setuptools'],
     zip_safe=True,

@@ -102,10 +102,14 @@ def test_colcon_installs_the_bench_launch_file_where_ros2_launch_looks(install):
     assert installed.read_bytes() == (REPO / 'launch' / 'bench.launch.py').read_bytes()
 
 
-def test_colcon_installs_the_foxglove_layout_beside_the_parameter_files(install):
+def test_colcon_installs_the_foxglove_layout_and_ros2_control_files_beside_the_parameters(
+        install):
     share = install / PACKAGE / 'share' / PACKAGE
     assert (share / 'config' / 'foxglove_layout.json').read_bytes() == \
         (REPO / 'config' / 'foxglove_layout.json').read_bytes()
+    for name in ('abb_spindle.urdf.xacro', 'abb_controllers.yaml'):   # ros2_control's files
+        assert (share / 'config' / 'ros2_control' / name).read_bytes() == \
+            (REPO / 'config' / 'ros2_control' / name).read_bytes()
 
 
 # Run in the sourced environment, as `ros2 run` would: ros2pkg's get_executable_paths() lists

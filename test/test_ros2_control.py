@@ -3,12 +3,14 @@
 controller_manager has no PyPI wheel, so :class:`topic_based_system.TopicBasedSystem` (test/,
 not the package) stands in for ``joint_state_topic_hardware_interface/JointStateTopicSystem``:
 reliable depth-1 commands holding only the declared interfaces, sent when they change, and
-states read with sensor-data QoS. Each test has its own rclpy Context; nothing is mocked.
+states read with sensor-data QoS, configured (joints, interfaces, topics) by the shipped
+config/ros2_control/abb_spindle.urdf.xacro. Each test has its own rclpy Context; nothing is mocked.
 """
 
 from __future__ import annotations
 
 import math
+from pathlib import Path
 
 import pytest
 import rclpy
@@ -31,6 +33,7 @@ pytestmark = pytest.mark.ros
 FAST = {'real_time_factor': 0.0, 'publish_rate_hz': 100, 'imu.rate_hz': 100}
 ENABLED = {**FAST, 'ros2_control.enabled': True}
 JOINTS = ['spindle', 'ball_1', 'ball_2']   # Table 1: two balls
+SHIPPED_URDF = Path(__file__).resolve().parents[1] / 'config/ros2_control/abb_spindle.urdf.xacro'
 LOG_QOS = QoSProfile(depth=1000, reliability=ReliabilityPolicy.RELIABLE)
 
 
@@ -48,7 +51,9 @@ def plants():
 
 
 def connect(plant, **kwargs) -> TopicBasedSystem:
-    system = TopicBasedSystem(plant.node, **kwargs)
+    """The stand-in, as the shipped URDF declares it (or as ``kwargs`` say), once connected."""
+    system = TopicBasedSystem(plant.node, **kwargs) if kwargs else \
+        TopicBasedSystem.from_urdf(plant.node, SHIPPED_URDF)
     plant.wait(system.connected, 'the simulator on both topics')
     return system
 
