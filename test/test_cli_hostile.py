@@ -286,6 +286,15 @@ def test_a_repeated_key_in_a_parameter_file_is_refused(tmp_path, capsys):
     assert str(config) in line and "'k' appears twice" in line
 
 
+def test_a_parameter_file_nested_too_deep_is_refused_naming_the_key(tmp_path, capsys):
+    config = tmp_path / 'drive.yaml'
+    deep = ''.join('  ' * (i + 2) + f'k{i}:\n' for i in range(40))
+    config.write_text('/**:\n  ros__parameters:\n' + deep + '  ' * 42 + 'x: 1\n')
+    line = refused(capsys, ['freqs', '--config', str(config)])
+    assert str(config) in line and 'nested deeper than 32 levels' in line
+    assert "under the key '/**.ros__parameters ... k28.k29'" in line and 'line 33' in line
+
+
 def test_numpy_warnings_are_errors_inside_abb_sim_only(capsys, monkeypatch):
     """A computation that warns ends in one line (exit 1); the caller's filters come back."""
     import warnings

@@ -89,26 +89,39 @@ def _one_line(exc: yaml.YAMLError) -> str:
     return ' '.join(str(exc).split())
 
 
+def _key_path(open_: list) -> str:
+    """Return the dotted path of mapping keys down to the innermost open collection, its
+    middle elided past four keys ('' when no mapping is open)."""
+    keys = [str(c[2]) for c in open_[:-1] if c is not None]
+    if len(keys) > 4:
+        return '.'.join(keys[:2]) + ' ... ' + '.'.join(keys[-2:])
+    return '.'.join(keys)
+
+
 def _check_events(text: str) -> None:
     """Refuse aliases, deep nesting and repeated keys from the event stream, before building."""
-    open_ = []     # per open collection: [keys seen, next node is a key] or None (a sequence)
+    open_ = []     # per open collection: [keys seen, next node is a key, last key] or None
     for event in yaml.parse(text, Loader=_LOADER):
         if isinstance(event, yaml.AliasEvent):
             raise yaml.YAMLError(f'YAML aliases (*name) are not accepted '
                                  f'(line {event.start_mark.line + 1})')
         if isinstance(event, (yaml.ScalarEvent, yaml.CollectionStartEvent)) and open_ \
                 and open_[-1] is not None:
-            keys, is_key = open_[-1]
+            keys, is_key, _ = open_[-1]
             if is_key and isinstance(event, yaml.ScalarEvent):
                 if event.value in keys:
                     raise yaml.YAMLError(f'the key {event.value!r} appears twice in one '
                                          f'mapping (line {event.start_mark.line + 1})')
                 keys.add(event.value)
+                open_[-1][2] = event.value
             open_[-1][1] = not is_key
         if isinstance(event, yaml.CollectionStartEvent):
-            open_.append([set(), True] if isinstance(event, yaml.MappingStartEvent) else None)
+            open_.append([set(), True, None] if isinstance(event, yaml.MappingStartEvent)
+                         else None)
             if len(open_) > MAX_DEPTH:
-                raise yaml.YAMLError(f'nested deeper than {MAX_DEPTH} levels '
+                path = _key_path(open_)
+                under = f' under the key {path!r}' if path else ''
+                raise yaml.YAMLError(f'nested deeper than {MAX_DEPTH} levels{under} '
                                      f'(line {event.start_mark.line + 1})')
         elif isinstance(event, yaml.CollectionEndEvent):
             open_.pop()
