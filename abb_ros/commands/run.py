@@ -105,7 +105,8 @@ def _open_bag(args, staged, params, live):
     """Open the bag of ``--out`` in ``staged``; a failure closes ``live`` and removes it.
 
     Called with signals held (:func:`_integrate`), so a signal cannot part the bag from its
-    caller."""
+    caller.
+    """
     from abb_ros.commands.shared.errors import CommandFailed, UsageError
     from abb_ros.commands.shared.outputs import commit_directory
     from abb_ros.io.bag.writer import BagError, BagExistsError, BagWriter
@@ -139,8 +140,10 @@ def _progress_bar(args, scenario):
 
 
 def _integrate(args, scenario, options, live, staged):
-    """Open the bag (with ``--out``), run the scenario into it and the live view; close both,
-    whatever happens: a signal from the bag's opening on leaves it closed and marked."""
+    """Open the bag (``--out``), run the scenario into it and the live view, close both.
+
+    Whatever happens: a signal from the bag's opening on leaves it closed and marked.
+    """
     from abb_ros.app.headless import run_scenario
     from abb_ros.app.run_sinks import Sinks
     from abb_ros.commands.shared.errors import CommandFailed

@@ -90,8 +90,10 @@ def _one_line(exc: yaml.YAMLError) -> str:
 
 
 def _key_path(open_: list) -> str:
-    """Return the dotted path of mapping keys down to the innermost open collection, its
-    middle elided past four keys ('' when no mapping is open)."""
+    """Return the dotted path of mapping keys down to the innermost open collection.
+
+    Its middle is elided past four keys; '' when no mapping is open.
+    """
     keys = [str(c[2]) for c in open_[:-1] if c is not None]
     if len(keys) > 4:
         return '.'.join(keys[:2]) + ' ... ' + '.'.join(keys[-2:])
