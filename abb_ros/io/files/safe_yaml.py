@@ -94,7 +94,7 @@ def _key_path(open_: list) -> str:
 
     Its middle is elided past four keys; '' when no mapping is open.
     """
-    keys = [str(c[2]) for c in open_[:-1] if c is not None]
+    keys = [str(c[2]) for c in open_[:-1] if c is not None and c[2] is not None]
     if len(keys) > 4:
         return '.'.join(keys[:2]) + ' ... ' + '.'.join(keys[-2:])
     return '.'.join(keys)
