@@ -8,7 +8,8 @@ with a listener already running in this process, and prints for every start: the
 the spawn to the first ``joint_states`` at the listener (simulator) or to the first
 ``stability/margin`` (analysis), the CPU the process had used by then and its exit code
 after SIGINT; then the median and maximum. (That the analysis publishes a STALE status until
-its first verdict is tested in test/test_analysis_first_verdict.py; a listener that has just
+its first verdict is tested in test/nodes/analysis/test_analysis_first_verdict.py; a
+listener that has just
 discovered the node may miss it.)
 The analysis is started beside a simulator that is already running (its verdict needs the
 plant's speed), as a user adds it to a running bench. Between starts the listener waits until

@@ -4,7 +4,8 @@
 
 The table is :func:`abb_ros.nodes.ros.parameter_table.markdown` with the command line's mapping
 (:func:`abb_ros.commands.settings.commands_taking`) for its ``abb-sim --set`` column; the two
-layers do not import each other, so this script joins them. test/test_param_spec.py compares.
+layers do not import each other, so this script joins them.
+test/model/parameters/test_param_spec.py compares.
 """
 
 import sys

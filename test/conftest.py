@@ -6,8 +6,23 @@ ROS_AUTOMATIC_DISCOVERY_RANGE when a context is initialised, and subprocesses in
 
 import os
 import random
+import sys
+from pathlib import Path
 
 import pytest
+
+TEST_ROOT = Path(__file__).resolve().parent
+"""test/: the shared helpers (paper_reference, lagrange_sympy, ...) and the data directory."""
+
+# test/ mirrors the package (test/model/stability/, test/nodes/simulator/, ...). The folders hold
+# no __init__.py, so pytest imports each test module by its basename (every basename is unique
+# in the tree, as pytest's rootdir-relative import requires) and modules import shared helpers
+# from one another by name: put every folder of the tree on sys.path before any is collected,
+# so that the order in which pytest reaches the folders does not matter.
+for _folder in sorted({path.parent for path in TEST_ROOT.rglob('test_*.py')
+                       if 'node_modules' not in path.parts}, reverse=True):
+    if str(_folder) not in sys.path:
+        sys.path.insert(0, str(_folder))
 
 # 1..101: inside the range whose Fast DDS ports are valid on Linux; random so that concurrent
 # runs on the same machine rarely share a domain. A value set by the caller wins.

@@ -2,7 +2,7 @@
 
 The clamped race itself is :func:`abb_ros.model.parameters.ball_materials.clamped_race`; the
 ledger checks the contact and rolling kernels against energy conservation
-(test/test_contact_rolling.py, scripts/make_ball_model_figures.py).
+(test/model/dynamics/kernels/test_contact_rolling.py, scripts/make_ball_model_figures.py).
 """
 
 import numpy as np

@@ -4,7 +4,7 @@ The plant is stepped by the same :class:`~abb_ros.model.sensors.sampling.PlantSa
 simulator node and its messages hold the same contents (:mod:`abb_ros.io.wire.ros_messages`),
 encoded straight to CDR by :mod:`abb_ros.io.wire.cdr` (byte-identical to the serialised rclpy
 messages, without building them), so a headless bag and a live bag of the same scenario hold
-the same messages (test/test_live_vs_headless.py).
+the same messages (test/nodes/simulator/test_live_vs_headless.py).
 Speed commands of the scenario take effect at the first publish instant at or after their
 time, as a command arriving on ``spindle/speed_cmd`` does in the node.
 """

@@ -14,7 +14,7 @@ restarts from now, and stamps on the wall clock jump forward by the dropped time
 pause.
 
 The clocks are functions returning integer nanoseconds, so that the pacing is tested with a
-fake clock (test/test_pacing.py); no rclpy here.
+fake clock (test/runtime/test_pacing.py); no rclpy here.
 """
 
 from __future__ import annotations

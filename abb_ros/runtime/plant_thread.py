@@ -15,7 +15,7 @@ callback the executor runs in it (:func:`locked`). ``tick`` returns
 - :data:`IDLE`: nothing to do (paused, fault) until :meth:`PlantThread.wake`.
 
 :meth:`PlantThread.wake` (after a pause, a rate change, a reset ...) makes the thread tick now.
-No rclpy here: the thread is tested with a plain tick (test/test_plant_thread.py).
+No rclpy here: the thread is tested with a plain tick (test/runtime/test_plant_thread.py).
 """
 
 from __future__ import annotations

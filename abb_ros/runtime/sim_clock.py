@@ -19,7 +19,7 @@ One rule, kept in every mode (docs/time_under_load.md, "The rule"):
 :class:`SimClock` is that rule and nothing else: the pacing (:mod:`abb_ros.runtime.pacing`)
 and the node tell it when the plant runs at which factor (:meth:`SimClock.run`), is held
 (:meth:`SimClock.hold`) or drops periods (:meth:`SimClock.slip`). The wall clock is a function
-returning integer nanoseconds, so the rule is tested on a fake clock (test/test_pacing.py);
+returning integer nanoseconds, so the rule is tested on a fake clock (test/runtime/test_pacing.py);
 no rclpy here.
 """
 

@@ -6,7 +6,7 @@ summary (schemas, channels, statistics, chunk and metadata indexes, summary offs
 footer. The records other than messages, chunks and message indexes are built by the public
 record classes of the ``mcap`` package (``mcap.records``, ``mcap.data_stream.RecordBuilder``);
 the file's layout and bookkeeping are this module's, so no writer's private state is read and
-the bytes are the ones mcap's own ``Writer`` writes for the same calls (test/test_bag.py
+the bytes are the ones mcap's own ``Writer`` writes for the same calls (test/io/bag/test_bag.py
 replays a bag through it and compares the records).
 
 Messages cost one struct pack each: :meth:`McapFile.write` gathers the records of the open

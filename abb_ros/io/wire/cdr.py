@@ -2,9 +2,10 @@
 
 The bytes are those of the tests' reference encoder (test/cdr_reference.py, rosbags' CDR)
 applied to an rclpy message filled with the same contents of :mod:`abb_ros.io.wire.ros_messages`
-(test/test_cdr.py checks it byte for byte), that is what a raw subscription receives over Fast
-DDS: the encapsulation header ``00 01 00 00`` (CDR, little-endian, XCDR1), then the fields in
-order, each primitive aligned to its size relative to the byte after the header, zero padding,
+(test/io/wire/test_cdr.py checks it byte for byte), that is what a raw subscription
+receives over Fast DDS: the encapsulation header ``00 01 00 00`` (CDR, little-endian,
+XCDR1), then the fields in order, each primitive aligned to its size relative to the
+byte after the header, zero padding,
 no trailing padding; strings as uint32 length (with the NUL) + UTF-8 + NUL; sequences as uint32
 count + elements (an empty sequence is not aligned for its elements).
 

@@ -2,7 +2,8 @@
 
 A Generator's normals come one after another from its bit stream, so drawing a block and
 handing its numbers out k at a time gives the same numbers, in the same order, as drawing
-k at a time (test/test_sensors.py checks it), at a fraction of numpy's per-call cost. The IMU
+k at a time (test/model/sensors/test_sensors.py checks it), at a fraction of numpy's
+per-call cost. The IMU
 noise, the FG edge jitter and the speed-sensor noise all draw through :class:`NormalStream`.
 """
 

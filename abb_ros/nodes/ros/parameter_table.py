@@ -89,7 +89,7 @@ def markdown(commands_of) -> str:
              '`abb_ros/model/parameters/plant_spec.py`, each node\'s',
              'own in `abb_ros/nodes/<node>_params.py`) by',
              '`python scripts/make_parameters_doc.py > docs/parameters.md`;',
-             'do not edit by hand (test/test_param_spec.py compares).', '',
+             'do not edit by hand (test/model/parameters/test_param_spec.py compares).', '',
              'Ranges: `[` `]` include the bound, `(` `)` exclude it. ROS nodes take the '
              'parameters with `--ros-args -p name:=value` or `--params-file` '
              '(config/cdrom_table1.yaml, config/simulator.yaml); an integer literal for a '

@@ -1,7 +1,8 @@
 """The simulator's ``<node>: simulation`` status on /diagnostics: level, message and values.
 
 :func:`level_and_message` is a pure function of what the status reports (tested without
-DDS in test/test_simulator_diagnostics.py); :func:`simulation_status` reads it, and the
+DDS in test/nodes/simulator/test_simulator_diagnostics.py);
+:func:`simulation_status` reads it, and the
 key/value list, from the node once per diagnostics period.
 """
 
