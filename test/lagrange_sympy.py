@@ -46,6 +46,8 @@ BEYOND_NAMES = ('r_ball', 'contact_E', 'contact_nu', 'contact_damping', 'ball_ro
 
 docs/ball_size_contact_rolling.md states them.
 """
+HEIGHT_NAMES = ('z_P', 'z_G', 'z_B')
+"""Heights of P, G and the race above the washers' plane (docs/equations.md, F4; 0: the paper)."""
 DECK_NAMES = ('X', 'Y', 'Z', 'alpha', 'beta', 'gamma')
 
 _SOURCE_HASH = hashlib.sha1(open(__file__, 'rb').read()).hexdigest()[:12]
@@ -65,6 +67,7 @@ def symbols(n):
     qd = sp.symbols([s + '_d' for s in names], real=True)
     qdd = sp.symbols([s + '_dd' for s in names], real=True)
     par = {p: sp.Symbol(p, positive=True) for p in PARAM_NAMES + BEYOND_NAMES}
+    par.update({p: sp.Symbol(p, real=True) for p in HEIGHT_NAMES})
     return tuple(q), tuple(qd), tuple(qdd), par
 
 
@@ -121,8 +124,8 @@ def energies(n, beyond=False):
         return mass * v.dot(v) / 2
 
     eps, R, d = par['eps'], par['R'], par['d']
-    r_G = r_C + A_T * sp.Matrix([eps * sp.cos(theta), eps * sp.sin(theta), 0])
-    r_P = r_C + A_T * sp.Matrix([0, -d, 0])
+    r_G = r_C + A_T * sp.Matrix([eps * sp.cos(theta), eps * sp.sin(theta), par['z_G']])
+    r_P = r_C + A_T * sp.Matrix([0, -d, par['z_P']])
     w_P = deck_angular_velocity(alpha, beta, gamma, *qd[4:7])        # Eq. (10)
     w_G = w_P + sp.Matrix([0, 0, qd[0]])                              # Eq. (9), omega -> theta'
     # J_G is diagonal in the spinning rotor: rotor components = R_z(theta)^T deck components.
@@ -133,7 +136,8 @@ def energies(n, beyond=False):
             + par['J_z'] * w_rotor[2] ** 2) / 2
          + (par['J_Px'] * w_P[0] ** 2 + par['J_Py'] * w_P[1] ** 2 + par['J_Pz'] * w_P[2] ** 2) / 2)
     for phi in phis:
-        r_B = r_C + A_T * sp.Matrix([R * sp.cos(phi + theta), R * sp.sin(phi + theta), 0])
+        r_B = r_C + A_T * sp.Matrix([R * sp.cos(phi + theta), R * sp.sin(phi + theta),
+                                     par['z_B']])
         T += kinetic(par['m'], r_B)
     V = 0
     F = 0
@@ -310,7 +314,7 @@ def _function_source(name, exprs, args):
     lines = [f'def {name}(q, qd, qdd, P):']
     for group, vec in ((q, 'q'), (qd, 'qd'), (qdd, 'qdd')):
         lines.append('    ' + ', '.join(str(v) for v in group) + f', = {vec}')
-    lines.append('    ' + ', '.join(PARAM_NAMES + BEYOND_NAMES) + ', = P')
+    lines.append('    ' + ', '.join(PARAM_NAMES + BEYOND_NAMES + HEIGHT_NAMES) + ', = P')
     for sym, e in repl:
         lines.append(f'    {sym} = {printer.doprint(e)}')
     lines.append('    return [' + ', '.join(printer.doprint(e) for e in reduced) + ']')
@@ -372,7 +376,7 @@ def compiled_energy_terms(n):
 
 
 def _pack(params):
-    return tuple(float(getattr(params, p)) for p in PARAM_NAMES + BEYOND_NAMES)
+    return tuple(float(getattr(params, p)) for p in PARAM_NAMES + BEYOND_NAMES + HEIGHT_NAMES)
 
 
 def exact_residual(params, y, qdd, beyond=None):

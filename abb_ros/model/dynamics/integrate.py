@@ -34,6 +34,7 @@ from abb_ros.model.dynamics.kernels.layout import (
 )
 from abb_ros.model.dynamics.spindle import SpindleMotor, TorqueMotor
 from abb_ros.model.dynamics.state import StateLayout
+from abb_ros.model.parameters.drive_spec import HEIGHTS
 from abb_ros.model.parameters.params import DriveParams, ParamError
 
 __all__ = ['DEFAULT_DT', 'MAX_RUN_STEPS', 'StateError', 'Simulation', 'INTEGRATORS',
@@ -122,12 +123,19 @@ class StateError(RuntimeError):
 
 
 def _check_torque_terms(params: DriveParams, spindle) -> None:
-    """Refuse torque mode with rolling resistance or rolling balls.
+    """Refuse torque mode with rolling resistance, rolling balls or heights off the plane.
 
     The free-theta equation of torque mode (docs/torque_mode.md) has ball contact but not
-    yet rolling resistance or rolling balls (docs/ball_size_contact_rolling.md).
+    yet rolling resistance, rolling balls (docs/ball_size_contact_rolling.md) or the
+    heights z_P, z_G, z_B (docs/equations.md, F4).
     """
-    if isinstance(spindle, TorqueMotor) and (params.rolling_mu > 0 or params.ball_rotation):
+    if not isinstance(spindle, TorqueMotor):
+        return
+    if params.off_plane:
+        name = next(h for h in HEIGHTS if getattr(params, h))
+        raise ParamError(name, getattr(params, name), '0 m in torque mode (spindle.mode torque)',
+                         'the free-theta equation does not have the heights yet')
+    if params.rolling_mu > 0 or params.ball_rotation:
         name = 'rolling_mu' if params.rolling_mu > 0 else 'ball_rotation'
         raise ParamError(name, getattr(params, name), '0 in torque mode (spindle.mode torque)',
                          'the free-theta equation does not have this term yet')

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from abb_ros.model.parameters.param_spec import DRIVE_PREFIX, INTEGER, ParamSpec
 
-__all__ = ['DRIVE_SPECS', 'MAX_BALLS', 'RUBBER_C', 'METAL_C', 'SPAN',
+__all__ = ['DRIVE_SPECS', 'HEIGHTS', 'MAX_BALLS', 'RUBBER_C', 'METAL_C', 'SPAN',
            'SPEED_SPEC', 'MAX_OMEGA', 'CLAMPED_DECK']
 
 RUBBER_C = 2.53
@@ -102,6 +102,18 @@ DRIVE_SPECS = (
     ParamSpec('drive.ball_rotation', 0, '', '1 = the balls roll on the race (their spin '
               'inertia 2/5 m r_ball^2 adds 2/5 m R^2 to the ball mass term), 0 = the paper',
               INTEGER, 0, 1, applies='at the next step'),
+    # ---- mass centres off the deck's plane (docs/equations.md, F4); zero = the paper ----
+    _drive('z_P', 0.0, 'm', "height of the deck's mass centre P above the plane of the four "
+           'washer attachment points (which contains C); 0 = the paper', ref=0.01, low=-1.0,
+           high=1.0),
+    _drive('z_G', 0.0, 'm', "height of the rotor's mass centre G above that plane; z_G != z_B "
+           'makes a couple the balls cannot cancel; 0 = the paper', ref=0.01, low=-1.0,
+           high=1.0),
+    _drive('z_B', 0.0, 'm', "height of the balls' race above that plane; 0 = the paper",
+           ref=0.01, low=-1.0, high=1.0),
 )
 """The physical parameters of Table 1 (rubber washers, eps = 0.25 mm, n = 2), SI, and the
 optional terms beyond the paper (zero = the paper's model)."""
+
+HEIGHTS = ('z_P', 'z_G', 'z_B')
+"""The heights of P, G and the race above the washers' plane (all zero: the paper's plane)."""

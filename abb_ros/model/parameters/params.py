@@ -23,6 +23,7 @@ from typing import Any, Mapping
 
 from abb_ros.model.parameters.drive_spec import (
     DRIVE_SPECS,
+    HEIGHTS,
     MAX_BALLS,
     METAL_C,
     RUBBER_C,
@@ -80,6 +81,10 @@ class DriveParams:
     rolling_mu: float = _default('rolling_mu')
     rolling_stick_rate: float = _default('rolling_stick_rate')
     ball_rotation: int = _default('ball_rotation')
+    # ---- mass centres off the deck's plane (docs/equations.md, F4); zero = the paper ----
+    z_P: float = _default('z_P')
+    z_G: float = _default('z_G')
+    z_B: float = _default('z_B')
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
@@ -93,6 +98,23 @@ class DriveParams:
                 raise ParamError('n', self.n, PARAM_SPECS['n'].valid_text(), 'not an integer')
             object.__setattr__(self, 'n', int(self.n))
         self._check_beyond_paper()
+        self._check_heights()
+
+    def _check_heights(self):
+        """Refuse heights beside the ball terms whose kernels assume the paper's plane."""
+        if not self.off_plane:
+            return
+        for name in ('contact_E', 'rolling_mu', 'ball_rotation'):
+            if getattr(self, name):
+                height = next(h for h in HEIGHTS if getattr(self, h))
+                raise ParamError(height, getattr(self, height), '0 m while ' + name + ' > 0',
+                                 'mass centres off the deck plane combine with point balls '
+                                 'only (contact_E, rolling_mu and ball_rotation 0)')
+
+    @property
+    def off_plane(self) -> bool:
+        """Whether P, G or the race lies off the washers' plane (z_P, z_G, z_B not all 0)."""
+        return any(getattr(self, h) != 0.0 for h in HEIGHTS)
 
     def _check_beyond_paper(self):
         """Check the terms beyond the paper: what needs a ball size, and whether balls fit."""

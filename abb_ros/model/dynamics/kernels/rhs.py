@@ -22,6 +22,9 @@ from abb_ros.model.dynamics.kernels.layout import (
     P_BALL_ROTATION,
     P_CONTACT_E,
     P_ROLLING_MU,
+    P_Z_B,
+    P_Z_G,
+    P_Z_P,
     S_MODE,
     SPINDLE_TORQUE,
     kernel,
@@ -76,10 +79,12 @@ def solve_rows(n, mR2, thdd, qdd, solver):
 def on_paper(n, P, S):
     """Return whether only the terms of Eqs. (18)-(24) act (:func:`paper_deriv` applies).
 
-    A speed profile, and point-mass balls without rolling resistance or contact.
+    A speed profile, point-mass balls without rolling resistance or contact, and P, G and
+    the race in the washers' plane.
     """
     return (S[S_MODE] != SPINDLE_TORQUE and P[P_BALL_ROTATION] == 0.0
-            and not (P[P_ROLLING_MU] > 0.0 and n > 0) and not (P[P_CONTACT_E] > 0.0 and n > 1))
+            and not (P[P_ROLLING_MU] > 0.0 and n > 0) and not (P[P_CONTACT_E] > 0.0 and n > 1)
+            and P[P_Z_P] == 0.0 and P[P_Z_G] == 0.0 and P[P_Z_B] == 0.0)
 
 
 @kernel
