@@ -108,7 +108,10 @@ class PointStability:
 
     ``lam_in``/``lam_out``: largest |transverse multiplier| per plane; ``neutral``: the
     family's neutral in-plane multipliers removed; ``invariance``: their self-check
-    ||Phi V - V||; ``member``: which equilibrium of the family was evaluated.
+    ||Phi V - V||; ``member``: which equilibrium of the family was evaluated. A drive with
+    heights (docs/equations.md F4) has one coupled value in both ``lam_in`` and ``lam_out``
+    (``coupled`` True, :mod:`abb_ros.model.stability.coupled`) and its predicted
+    ``residual_tilt`` [rad].
     """
 
     omega: float
@@ -120,6 +123,13 @@ class PointStability:
     neutral: int = 0
     invariance: float = 0.0
     member: str = 'symmetric fan'
+    coupled: bool = False
+    residual_tilt: float = math.nan
+
+    @property
+    def lam_max(self) -> float:
+        """Largest |multiplier| over a spindle period T (out-of-plane group: over T/2, squared)."""
+        return self.lam_in if self.coupled else max(self.lam_in, self.lam_out ** 2)
 
     @property
     def balanced(self) -> bool:
@@ -133,6 +143,8 @@ class PointStability:
             return 'unbalanced (no balanced equilibrium)'
         if self.balanced:
             return 'balanced'
+        if self.coupled:
+            return 'unbalanced (coupled linearisation unstable)'
         planes = [name for name, lam in (('in-plane', self.lam_in), ('out-of-plane', self.lam_out))
                   if lam >= 1.0]
         return 'unbalanced (' + ' and '.join(planes) + ' unstable)'
@@ -143,17 +155,29 @@ def point_stability(params, omega, phi_star=None, member=None) -> PointStability
 
     ``phi_star`` : a member of the family [rad] (checked against Eq. 26), default the
     symmetric fan; ``member`` names it in the result (default 'symmetric fan' or 'given').
+    With heights (F4) the coupled linearisation's lam_max and the predicted residual tilt.
     """
     eq = balanced_equilibrium(params, phi_star)
     name = member or ('symmetric fan' if phi_star is None else 'given')
     if not eq.exists:
         return PointStability(float(omega), False, eq.phi_star, math.inf, math.inf, eq.reason,
-                              member=name)
+                              member=name, coupled=params.off_plane)
+    if params.off_plane:
+        return _coupled_point(params, omega, eq.phi_star, name)
     res = {plane: multipliers_batch([params], [omega], plane, eq.phi_star)
            for plane in ('in', 'out')}
     return PointStability(float(omega), True, eq.phi_star, float(res['in'].lam[0]),
                           float(res['out'].lam[0]), neutral=int(res['in'].neutral[0]),
                           invariance=float(res['in'].invariance[0]), member=name)
+
+
+def _coupled_point(params, omega, phi, name) -> PointStability:
+    """Return the coupled system's PointStability (both planes' fields hold lam_max)."""
+    from abb_ros.model.stability import coupled
+    st = coupled.coupled_stability(params, omega, phi)
+    return PointStability(float(omega), True, phi, st.lam_max, st.lam_max, neutral=st.neutral,
+                          invariance=st.invariance, member=name, coupled=True,
+                          residual_tilt=coupled.residual_tilt(params, omega, phi))
 
 
 @dataclass
