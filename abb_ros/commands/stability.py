@@ -78,7 +78,7 @@ def _two_plane(params, res) -> dict:
     """Return the coupled analysis' extras: residual tilt, couple, the mirrored second race."""
     from abb_ros.model.stability import two_plane
     out = {'linearisation': 'coupled (mass centres off the washers\' plane, F4)',
-           'residual_couple_kg_m2': two_plane.residual_couple(params)}
+           'residual_couple_kg_m2': abs(two_plane.residual_couple(params))}
     if res.exists:
         out['residual_tilt_rad'] = res.residual_tilt
     try:

@@ -7,10 +7,12 @@ them with ``--set`` (without ``drive.``).
 
 from __future__ import annotations
 
+import math
+
 from abb_ros.model.parameters.param_spec import DRIVE_PREFIX, INTEGER, ParamSpec
 
-__all__ = ['DRIVE_SPECS', 'HEIGHTS', 'MAX_BALLS', 'RUBBER_C', 'METAL_C', 'SPAN',
-           'SPEED_SPEC', 'MAX_OMEGA', 'CLAMPED_DECK']
+__all__ = ['DRIVE_SPECS', 'HEIGHTS', 'OFF_PLANE', 'off_plane_unit', 'MAX_BALLS', 'RUBBER_C',
+           'METAL_C', 'SPAN', 'SPEED_SPEC', 'MAX_OMEGA', 'CLAMPED_DECK']
 
 RUBBER_C = 2.53
 """Washer damping c of rubber suspension washers [kg/s] (Table 1)."""
@@ -111,9 +113,25 @@ DRIVE_SPECS = (
            high=1.0),
     _drive('z_B', 0.0, 'm', "height of the balls' race above that plane; 0 = the paper",
            ref=0.01, low=-1.0, high=1.0),
+    # ---- couple (dynamic) imbalance: the rotor's principal axis leans (F6); 0 = the paper ----
+    _drive('tau', 0.0, 'rad', "lean of the rotor's principal axis from the spin axis (couple "
+           'imbalance, the rotating moment (J_z - J_x) sin tau cos tau omega^2); 0 = the paper',
+           ref=0.01, low=-0.5, high=0.5),
+    _drive('psi_tau', 0.0, 'rad', "rotor-fixed direction, from G's, toward which the +z end of "
+           'the leaning axis points (no effect while tau = 0)', ref=1.0, low=-2 * math.pi,
+           high=2 * math.pi),
 )
 """The physical parameters of Table 1 (rubber washers, eps = 0.25 mm, n = 2), SI, and the
 optional terms beyond the paper (zero = the paper's model)."""
 
 HEIGHTS = ('z_P', 'z_G', 'z_B')
 """The heights of P, G and the race above the washers' plane (all zero: the paper's plane)."""
+
+OFF_PLANE = HEIGHTS + ('tau',)
+"""What takes a drive out of the paper's plane model: the heights and the leaning rotor axis;
+nonzero, the groups of Eqs. (27)-(33) couple."""
+
+
+def off_plane_unit(name: str) -> str:
+    """Return the unit of an :data:`OFF_PLANE` parameter, for messages ('m' or 'rad')."""
+    return 'rad' if name == 'tau' else 'm'

@@ -23,11 +23,12 @@ from typing import Any, Mapping
 
 from abb_ros.model.parameters.drive_spec import (
     DRIVE_SPECS,
-    HEIGHTS,
     MAX_BALLS,
     METAL_C,
+    OFF_PLANE,
     RUBBER_C,
     SPEED_SPEC,
+    off_plane_unit,
 )
 from abb_ros.model.parameters.param_spec import ParamError, ParamSpec
 
@@ -81,10 +82,12 @@ class DriveParams:
     rolling_mu: float = _default('rolling_mu')
     rolling_stick_rate: float = _default('rolling_stick_rate')
     ball_rotation: int = _default('ball_rotation')
-    # ---- mass centres off the deck's plane (docs/equations.md, F4); zero = the paper ----
+    # ---- mass centres off the plane, leaning rotor axis (equations.md F4, F6); 0 = paper ----
     z_P: float = _default('z_P')
     z_G: float = _default('z_G')
     z_B: float = _default('z_B')
+    tau: float = _default('tau')
+    psi_tau: float = _default('psi_tau')
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
@@ -101,20 +104,27 @@ class DriveParams:
         self._check_heights()
 
     def _check_heights(self):
-        """Refuse heights beside the ball terms whose kernels assume the paper's plane."""
+        """Refuse heights or a leaning axis beside the ball terms that assume the plane."""
         if not self.off_plane:
             return
         for name in ('contact_E', 'rolling_mu', 'ball_rotation'):
             if getattr(self, name):
-                height = next(h for h in HEIGHTS if getattr(self, h))
-                raise ParamError(height, getattr(self, height), '0 m while ' + name + ' > 0',
-                                 'mass centres off the deck plane combine with point balls '
-                                 'only (contact_E, rolling_mu and ball_rotation 0)')
+                height = self.off_plane_name
+                raise ParamError(height, getattr(self, height),
+                                 f'0 {off_plane_unit(height)} while {name} > 0',
+                                 'mass centres off the deck plane and a leaning rotor axis '
+                                 'combine with point balls only (contact_E, rolling_mu and '
+                                 'ball_rotation 0)')
 
     @property
     def off_plane(self) -> bool:
-        """Whether P, G or the race lies off the washers' plane (z_P, z_G, z_B not all 0)."""
-        return any(getattr(self, h) != 0.0 for h in HEIGHTS)
+        """Whether P, G or the race lies off the washers' plane or the rotor's axis leans."""
+        return any(getattr(self, h) != 0.0 for h in OFF_PLANE)
+
+    @property
+    def off_plane_name(self) -> str:
+        """The first nonzero of :data:`OFF_PLANE` ('' in the paper's plane), for messages."""
+        return next((h for h in OFF_PLANE if getattr(self, h) != 0.0), '')
 
     def _check_beyond_paper(self):
         """Check the terms beyond the paper: what needs a ball size, and whether balls fit."""

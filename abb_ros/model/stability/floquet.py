@@ -94,8 +94,9 @@ def monodromy_reference(system, rtol=1e-12, atol=1e-12, method='DOP853') -> np.n
 
 # ---- one operating point and two-parameter maps ----------------------------------------------
 
-MAP_AXES = ('wbar', 'zeta', 'Dbar', 'epsbar', 'mbar')
-"""Parameters a stability map may vary (Eq. 39)."""
+MAP_AXES = ('wbar', 'zeta', 'Dbar', 'epsbar', 'mbar', 'z_P', 'z_G', 'z_B', 'tau')
+"""Parameters a stability map may vary (Eq. 39, and the offsets of docs/equations.md F4, F6,
+whose maps are of the coupled linearisation: plane 'coupled')."""
 
 BALANCED, UNSTABLE, NO_EQUILIBRIUM = 0, 1, 2
 """Map status codes: balanced and stable (|lambda|max < 1); balanced equilibrium unstable;
@@ -238,8 +239,14 @@ def stability_map(base, x, x_values, y, y_values,
     xs = np.asarray(x_values, dtype=float)
     ys = np.asarray(y_values, dtype=float)
     plist, omegas = _grid_drives(base, x, xs, y, ys, settings)
-    lam, exists = max_multiplier_batch(plist, np.maximum(omegas, 1e-9), plane,
-                                       progress=progress)
+    if plane == 'coupled' or any(p.off_plane for p in plist):
+        if members:
+            raise ParamError('members', members, '0 for a map of the coupled linearisation')
+        plane = 'coupled'
+        lam, exists = _coupled_lam(plist, np.maximum(omegas, 1e-9), progress)
+    else:
+        lam, exists = max_multiplier_batch(plist, np.maximum(omegas, 1e-9), plane,
+                                           progress=progress)
     status = np.where(~exists, NO_EQUILIBRIUM, np.where(lam < 1.0, BALANCED, UNSTABLE))
     first = plist[0]
     fixed = {'settings': settings, 'n': first.n, 'omega0': first.omega0,
@@ -254,6 +261,24 @@ def stability_map(base, x, x_values, y, y_values,
         smap.lam_best, smap.lam_worst = best.reshape(shape), worst.reshape(shape)
         smap.members = int(sampled[exists].min()) if exists.any() else 0
     return smap
+
+
+def _coupled_lam(plist, omegas, progress):
+    """Return (lam_max, exists) of the coupled linearisation: one speed batch per drive."""
+    from abb_ros.model.stability import coupled
+    lam = np.full(len(plist), np.inf)
+    exists = np.zeros(len(plist), dtype=bool)
+    groups = {}
+    for i, p in enumerate(plist):
+        groups.setdefault(id(p), []).append(i)
+    for idx in groups.values():
+        params = plist[idx[0]]
+        if balanced_equilibrium(params).exists:
+            exists[idx] = True
+            lam[idx] = coupled.lam_max_sweep(params, omegas[idx])
+        if progress is not None:
+            progress(len(idx))
+    return lam, exists
 
 
 def _map_settings(x, y, settings) -> dict:

@@ -24,7 +24,7 @@ from types import SimpleNamespace
 import numpy as np
 import scipy.linalg
 
-from abb_ros.model.parameters.drive_spec import HEIGHTS
+from abb_ros.model.parameters.drive_spec import OFF_PLANE, off_plane_unit
 from abb_ros.model.parameters.params import DriveParams, ParamError
 from abb_ros.model.stability.equilibrium import balanced_phi_star
 
@@ -81,10 +81,11 @@ def check_in_plane(params: DriveParams) -> None:
     F4); :mod:`abb_ros.model.stability.coupled` linearises such a drive as one system, and a
     verdict of the decoupled groups would be wrong, so none is given here.
     """
-    for name in HEIGHTS:
+    for name in OFF_PLANE:
         value = getattr(params, name)
         if value != 0.0:
-            raise ParamError(name, value, '0 m for the Floquet analysis of Eqs. (27)-(33)',
+            raise ParamError(name, value, f'0 {off_plane_unit(name)} for the Floquet analysis '
+                             'of Eqs. (27)-(33)',
                              'with mass centres off the plane the groups couple: '
                              'abb_ros.model.stability.coupled analyses such a drive')
 

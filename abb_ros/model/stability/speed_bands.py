@@ -265,7 +265,7 @@ def _tilt_text(p: DriveParams, tilt: float, values: dict) -> str:
     if not math.isfinite(tilt):
         return ''
     values['residual_tilt_rad'] = tilt
-    if p.z_G == p.z_B:      # the race in G's plane: nothing left to say (tilt at round-off)
+    if two_plane.residual_couple(p) == 0.0:     # one race cancels it all (tilt at round-off)
         return ''
     text = f'; residual tilt {tilt * 1e3:.3g} mrad (one race cannot cancel the couple)'
     if 'second_race_z_m' in values:
@@ -276,7 +276,7 @@ def _tilt_text(p: DriveParams, tilt: float, values: dict) -> str:
 
 def _two_plane_values(p: DriveParams, values: dict) -> None:
     """Add the couple one race leaves and the mirrored second race that removes it."""
-    values['residual_couple_kg_m2'] = two_plane.residual_couple(p)
+    values['residual_couple_kg_m2'] = abs(two_plane.residual_couple(p))
     try:
         mirror = two_plane.mirror_race(p)
     except ParamError as err:

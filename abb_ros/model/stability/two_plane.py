@@ -3,7 +3,9 @@
 Each race p (at height z_p, n_p balls of mass m_p at pitch radius R_p) acts on the deck through
 its resultant B_p = m_p R_p sum_i exp(i phi_{p,i}) (complex, in the rotor's frame, angles from
 G's direction). The rotor's imbalance is the force U_s = M eps along G and its moment about the
-washers' plane U_c = M eps z_G (docs/equations.md, F4). The deck stays at rest where the balls
+washers' plane U_c = M eps z_G - (J_z - J_x) sin tau cos tau exp(i psi_tau), the second term the
+couple of its leaning principal axis (docs/equations.md, F4, F6: the rows of a leaning axis at
+rest are those of a point couple of that resultant). The deck stays at rest where the balls
 cancel both:
 
     B_1 + B_2 = -U_s,            z_1 B_1 + z_2 B_2 = -U_c,
@@ -14,7 +16,7 @@ so for z_1 != z_2
 
 A race holds at most its capacity |B_p| <= C_p m_p R_p (C_p = n_p for point balls, Eq. 26's
 limit). One race (B_1 = -U_s, Eq. 26) cancels the force but leaves the couple
-U_c - z_1 U_s = M eps (z_G - z_1), which tilts the deck
+U_c - z_1 U_s (M eps (z_G - z_1) for an upright axis), which tilts the deck
 (:func:`abb_ros.model.stability.coupled.residual_tilt`). The second race that removes it with
 the least asked of either race is the mirror of race 1 about G, z_2 = 2 z_G - z_1: each race
 then carries half the imbalance (:func:`mirror_race`). Each race's balls sit as a symmetric fan
@@ -33,8 +35,8 @@ from abb_ros.model.dynamics.state import wrap_angle
 from abb_ros.model.parameters.params import DriveParams, ParamError
 from abb_ros.model.stability.equilibrium import fan_phi_star
 
-__all__ = ['Race', 'TwoPlaneBalance', 'residual_couple', 'two_plane_balance', 'mirror_race',
-           'race_angles']
+__all__ = ['Race', 'TwoPlaneBalance', 'residual_couple', 'imbalance_couple',
+           'two_plane_balance', 'mirror_race', 'race_angles', 'MIRROR_FALLBACK']
 
 
 @dataclass(frozen=True)
@@ -61,9 +63,15 @@ class TwoPlaneBalance:
     phi: tuple
 
 
-def residual_couple(params: DriveParams) -> float:
-    """Return the couple one race leaves, M eps (z_G - z_B) [kg m^2] (0: the race in G's plane)."""
-    return params.M * params.eps * (params.z_G - params.z_B)
+def imbalance_couple(params: DriveParams) -> complex:
+    """Return U_c [kg m^2]: the moment of the imbalance about the washers' plane (complex)."""
+    lean = (params.J_z - params.J_x) * math.sin(params.tau) * math.cos(params.tau)
+    return params.M * params.eps * params.z_G - lean * cmath.exp(1j * params.psi_tau)
+
+
+def residual_couple(params: DriveParams) -> complex:
+    """Return the couple one race leaves, U_c - z_B M eps [kg m^2] (0: nothing left)."""
+    return imbalance_couple(params) - params.z_B * params.M * params.eps
 
 
 def race_angles(race: Race, B: complex, name: str) -> np.ndarray:
@@ -98,7 +106,7 @@ def two_plane_balance(params: DriveParams, second: Race) -> TwoPlaneBalance:
         raise ParamError('race2.z', second.z, f'a height other than race 1\'s z_B = {first.z:g} m',
                          'two races in one plane cannot cancel a couple')
     U_s = params.M * params.eps
-    U_c = U_s * params.z_G
+    U_c = imbalance_couple(params)
     B1 = complex(-(second.z * U_s - U_c) / dz)
     B2 = complex(-(U_c - first.z * U_s) / dz)
     phi = (race_angles(first, B1, 'n'), race_angles(second, B2, 'race2.n'))
@@ -108,10 +116,17 @@ def two_plane_balance(params: DriveParams, second: Race) -> TwoPlaneBalance:
 def mirror_race(params: DriveParams) -> TwoPlaneBalance | None:
     """Return the two-plane balance with race 1's balls mirrored about G (z_2 = 2 z_G - z_B).
 
-    None where one race already cancels the couple (z_G = z_B). Each race then carries half the
-    imbalance, M eps / 2.
+    None where one race already cancels the couple. Each race then carries half the imbalance,
+    M eps / 2, for an upright axis; with a leaning axis the races share its couple as well
+    (and where G lies in race 1's plane, the second race sits 10 mm away instead).
     """
-    if params.z_G == params.z_B:
+    if residual_couple(params) == 0.0:
         return None
-    return two_plane_balance(params, Race(params.n, params.m, params.R,
-                                          2.0 * params.z_G - params.z_B))
+    z2 = 2.0 * params.z_G - params.z_B
+    if z2 == params.z_B:
+        z2 = params.z_B + MIRROR_FALLBACK
+    return two_plane_balance(params, Race(params.n, params.m, params.R, z2))
+
+
+MIRROR_FALLBACK = 0.01
+"""Height above race 1 [m] of the suggested second race where G lies in race 1's plane."""

@@ -139,3 +139,24 @@ def test_stability_command_gives_lam_max_beside_the_group_values(abb_sim):
     assert 'lam_max_in_plane' not in res and res['residual_tilt_rad'] > 0
     assert res['second_race']['z_m'] == pytest.approx(0.002)
     assert math.isfinite(res['lam_max'])
+
+
+def test_a_map_over_a_height_and_speed_is_of_the_coupled_linearisation():
+    """Every point of a map with a height axis has the coupled lam_max; its z_G = 0 row is the
+    plane's max(in-plane, out-of-plane^2)."""
+    wbar = np.linspace(1.5, 3.0, 4)
+    smap = floquet.stability_map(P3, 'wbar', wbar, 'z_G', [0.0, 0.002])
+    assert smap.plane == 'coupled'
+    omegas = wbar * P3.omega0
+    plane = np.maximum(floquet.sweep_speed(P3, omegas, 'in'),
+                       floquet.sweep_speed(P3, omegas, 'out') ** 2)
+    assert smap.lam[0] == pytest.approx(plane, rel=1e-6)
+    assert smap.lam[1] == pytest.approx(coupled.lam_max_sweep(lifted(z_G=0.002), omegas))
+
+
+def test_map_command_draws_a_height_against_speed(abb_sim, tmp_path):
+    code, out, err = abb_sim('map', '--x', 'wbar', '--y', 'z_G', '--res', '4x3', '--no-progress',
+                             '--json', '--out', str(tmp_path / 'zg.png'))
+    assert code == 0, err
+    res = json.loads(out)
+    assert res['plane'] == 'coupled' and (tmp_path / 'zg.png').stat().st_size > 0

@@ -4,7 +4,8 @@
 = f and the ball rows (Eq. 24) B u + m R^2 phi'' = fb for a known theta''; the solvers
 eliminate the balls (:func:`eliminate_balls`) and solve the deck (:func:`solve_deck`, block
 triangular to the paper's order: two 3 x 3 solves, :func:`solve3`; one coupled 6 x 6 solve,
-:func:`solve6`, where mass centres off the washers' plane couple the groups, docs/equations.md F4).
+:func:`solve6`, where mass centres off the washers' plane or a leaning rotor axis couple the
+groups, docs/equations.md F4, F6).
 """
 
 from __future__ import annotations
@@ -27,7 +28,9 @@ from abb_ros.model.dynamics.kernels.layout import (
     P_K,
     P_M,
     P_M_P,
+    P_PSI_TAU,
     P_R,
+    P_TAU,
     P_Z_B,
     P_Z_G,
     P_Z_P,
@@ -52,8 +55,7 @@ def assemble(y, n, P, thdd, A, W, f, B, fb):
     rolling balls, their spin (:func:`abb_ros.model.dynamics.kernels.ball_size.add_ball_rotation`).
     """
     assemble_rows(y, n, P, thdd, A, W, f, B, fb)
-    if P[P_Z_P] != 0.0 or P[P_Z_G] != 0.0 or P[P_Z_B] != 0.0:
-        add_heights(y, n, P, thdd, A, W, f, B)
+    add_offsets(y, n, P, thdd, A, W, f, B)
     if P[P_CONTACT_E] > 0.0 and n > 1:
         Qc = np.empty(n)
         contact_forces(y, n, P, Qc)
@@ -190,6 +192,18 @@ def assemble_rows(y, n, P, thdd, A, W, f, B, fb):
             - (Ir + J_z) * thdd)
 
 
+@kernel(inline=True)
+def add_offsets(y, n, P, thdd, A, W, f, B):
+    """Add the heights' and the leaning axis' terms where they are set (none: the paper's rows).
+
+    :func:`add_heights`, :func:`add_leaning_axis`.
+    """
+    if P[P_Z_P] != 0.0 or P[P_Z_G] != 0.0 or P[P_Z_B] != 0.0:
+        add_heights(y, n, P, thdd, A, W, f, B)
+    if P[P_TAU] != 0.0:
+        add_leaning_axis(y, n, P, thdd, A, f)
+
+
 @kernel
 def add_heights(y, n, P, thdd, A, W, f, B):
     """Add the terms of mass centres off the washers' plane to the rows (docs/equations.md, F4).
@@ -205,13 +219,13 @@ def add_heights(y, n, P, thdd, A, W, f, B):
     al, be, gad = y[DECK + 3], y[DECK + 4], y[N + DECK + 5]
     om = y[N + THETA]
     # P at (0, -d, z_P): sin = -1, cos = 0, fixed in the deck
-    add_point_at_height(P[P_M_P], P[P_D], P[P_Z_P], -1.0, 0.0, 0.0, al, be, gad, A, f)
+    add_point_at_height(P[P_M_P], P[P_D], P[P_Z_P], -1.0, 0.0, 0.0, (al, be, gad), A, f)
     # G at (eps cos theta, eps sin theta, z_G): its angle's acceleration theta'' is known
     mh = P[P_M] * P[P_Z_G]
     r = P[P_EPS]
     s = math.sin(y[THETA])
     c = math.cos(y[THETA])
-    add_point_at_height(P[P_M], r, P[P_Z_G], s, c, om, al, be, gad, A, f)
+    add_point_at_height(P[P_M], r, P[P_Z_G], s, c, om, (al, be, gad), A, f)
     f[3] += mh * r * c * thdd
     f[4] += mh * r * s * thdd
     f[5] -= mh * r * (be * c - al * s) * thdd
@@ -222,7 +236,7 @@ def add_heights(y, n, P, thdd, A, W, f, B):
         psi = y[THETA] + y[PHI + i]
         s = math.sin(psi)
         c = math.cos(psi)
-        add_point_at_height(P[P_m], r, P[P_Z_B], s, c, om + y[N + PHI + i], al, be, gad, A, f)
+        add_point_at_height(P[P_m], r, P[P_Z_B], s, c, om + y[N + PHI + i], (al, be, gad), A, f)
         # psi_i'' = phi_i'' + theta'': the ball's column, and the known theta'' to the right
         W[3, i] -= mh * r * c
         W[4, i] -= mh * r * s
@@ -234,13 +248,51 @@ def add_heights(y, n, P, thdd, A, W, f, B):
         B[i, 4] -= mh * r * s
 
 
+@kernel
+def add_leaning_axis(y, n, P, thdd, A, f):
+    """Add the terms of the rotor's leaning principal axis (couple imbalance; equations.md F6).
+
+    The axis leans by tau toward the rotor-fixed direction psi_tau from G: J_G = J_x I +
+    (J_z - J_x) n n^T with n = (sin tau cos phi, sin tau sin phi, cos tau), phi = theta +
+    psi_tau (exact in tau, J_x = J_y). Lagrange's equations of the added energy
+    1/2 (J_z - J_x) [(n . w)^2 - w_z^2], w the rotor's angular velocity, to first order in the
+    deck coordinates (sympy, test/lagrange_sympy.py): k = (J_z - J_x) sin tau cos tau is the
+    couple (the rotating moment k omega^2), q = (J_z - J_x) sin^2 tau lowers the spin inertia.
+    """
+    N = PHI + n
+    al, be = y[DECK + 3], y[DECK + 4]
+    ald, bed, gad = y[N + DECK + 3], y[N + DECK + 4], y[N + DECK + 5]
+    w = y[N + THETA]
+    dJ = P[P_J_z] - P[P_J_x]
+    st, ct = math.sin(P[P_TAU]), math.cos(P[P_TAU])
+    k, q = dJ * st * ct, dJ * st * st
+    phi = y[THETA] + P[P_PSI_TAU]
+    s, c = math.sin(phi), math.cos(phi)
+    A[3, 3] += q * c * c
+    A[3, 4] += q * s * c
+    A[3, 5] += k * c
+    f[3] -= (k * (thdd * c - w * w * s) - q * thdd * be - 2.0 * q * w * (s * s * bed + s * c * ald)
+             - 2.0 * k * w * s * gad)
+    A[4, 3] += q * s * c
+    A[4, 4] += q * s * s
+    A[4, 5] += k * s
+    f[4] -= (k * (w * w * c + thdd * s) + 2.0 * q * w * (c * c * ald + s * c * bed)
+             + 2.0 * k * w * c * gad)
+    A[5, 3] += k * c
+    A[5, 4] += k * s
+    A[5, 5] -= q
+    f[5] -= -q * thdd + k * (al * (w * w * c + thdd * s) + be * (w * w * s - thdd * c))
+
+
 @kernel(inline=True)
-def add_point_at_height(mu, r, h, s, c, w, al, be, gad, A, f):
+def add_point_at_height(mu, r, h, s, c, w, tilt, A, f):
     """Add one point mass mu at (r cos psi, r sin psi, h) in the deck's axes: terms of h only.
 
-    ``s, c`` = sin, cos psi, ``w`` = psi'; the terms in psi'' are the caller's (its
-    column, or known). First order in the deck coordinates, as :func:`add_heights`.
+    ``s, c`` = sin, cos psi, ``w`` = psi', ``tilt`` = (alpha, beta, gamma'); the terms in
+    psi'' are the caller's (its column, or known). First order in the deck coordinates, as
+    :func:`add_heights`.
     """
+    al, be, gad = tilt
     mh = mu * h
     A[0, 4] += mh
     A[1, 3] -= mh
