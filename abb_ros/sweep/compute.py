@@ -8,7 +8,9 @@ sample. Drives are grouped by ball count n (a kernel batch shares n):
   (symmetric fan, Eq. 26; for n >= 3 the transverse multipliers, ``neutral_modes`` the
   family's neutral ones removed) at every speed of the spec, by
   :func:`abb_ros.model.stability.floquet.multipliers_batch` over all (drive, speed) pairs at once
-  (its one-thread build, ``floquet.SERIAL``: a worker is one process with one thread);
+  (its one-thread build, ``floquet.SERIAL``: a worker is one process with one thread); a drive
+  with heights or a leaning rotor axis has the coupled linearisation's lam_max over a spindle
+  period in both columns (:mod:`abb_ros.model.stability.coupled`, one speed batch per drive);
 - ``run``: the nonlinear equations integrated from the scenario's initial state with its
   speed profile by :class:`abb_ros.model.dynamics.batch.BatchRun`, which reduces each
   trajectory to its metrics inside the kernel (``compute.run.integrator: rk4``), or by
@@ -103,6 +105,27 @@ def _multipliers(multipliers_batch, plist, omegas, plane, kern):
                          'raise the slowest speed') from None
 
 
+def _coupled_row(params, speeds):
+    """Return (exists, neutral, lam_max over speeds) of a drive with heights or a lean.
+
+    The coupled linearisation (model/stability/coupled.py), whose lam_max fills both planes'
+    columns.
+    """
+    from abb_ros.model.parameters.params import ParamError
+    from abb_ros.model.stability import coupled
+    from abb_ros.model.stability.equilibrium import balanced_equilibrium
+    from abb_ros.model.stability.family import neutral_count
+    eq = balanced_equilibrium(params)
+    if not eq.exists:
+        return False, 0, np.full(speeds.size, np.inf)
+    neutral = int(neutral_count(eq.phi_star)) if params.n > 1 else 0
+    try:
+        return True, neutral, coupled.lam_max_sweep(params, speeds, eq.phi_star)
+    except ParamError as exc:
+        raise ParamError('compute.stability', exc.value, exc.valid,
+                         f'a drawn drive at this speed: {exc.why}') from None
+
+
 def _stability(spec, params, groups) -> dict:
     from abb_ros.model.stability.floquet import SERIAL, multipliers_batch
     speeds = spec.speeds
@@ -112,6 +135,13 @@ def _stability(spec, params, groups) -> dict:
     exists = np.empty(count, dtype=bool)
     neutral = np.zeros(count, dtype=np.int64)
     for idx in groups.values():
+        off = np.array([params[i].off_plane for i in idx], dtype=bool)
+        for i in idx[off]:
+            exists[i], neutral[i], lam['in'][i] = _coupled_row(params[i], speeds)
+            lam['out'][i] = lam['in'][i]
+        idx = idx[~off]
+        if not idx.size:
+            continue
         plist = [params[i] for i in idx for _ in range(S)]
         omegas = np.tile(speeds, idx.size)
         for plane in ('in', 'out'):

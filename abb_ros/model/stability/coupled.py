@@ -38,10 +38,11 @@ from abb_ros.model.stability.floquet_batch import (
     FamilyInvarianceError,
     max_multiplier,
     rate_estimate,
+    refuse_over_step_limit,
     transverse_max_multiplier,
 )
 from abb_ros.model.stability.linear import PeriodicSystem, harmonic_basis, named_modes
-from abb_ros.model.stability.monodromy import monodromy_batch, steps_for
+from abb_ros.model.stability.monodromy import STEPS_PER_RADIAN, monodromy_batch, steps_for
 
 __all__ = ['COORDS', 'CoupledSystem', 'CoupledStability', 'coupled_system', 'coupled_stability',
            'periodic_response', 'residual_tilt', 'SAMPLES', 'ORDER', 'SpeedPolynomial',
@@ -239,8 +240,10 @@ def lam_max_sweep(params: DriveParams, omegas, phi_star=None) -> np.ndarray:
     poly = speed_polynomial(params, phi_star)
     Mh, Ch, Kh, _ = poly.at(omegas)
     tau_end = 2 * math.pi
-    Phi = monodromy_batch(Mh, Ch, Kh, omegas, tau_end,
-                          steps_for(rate_estimate(Mh, Ch, Kh, omegas), tau_end))
+    rate = rate_estimate(Mh, Ch, Kh, omegas)
+    i = int(np.argmax(rate))
+    refuse_over_step_limit(STEPS_PER_RADIAN * float(rate[i]) * tau_end, float(omegas[i]))
+    Phi = monodromy_batch(Mh, Ch, Kh, omegas, tau_end, steps_for(rate, tau_end))
     U, k = tangent_frame(poly.phi_star)
     return max_multiplier(Phi) if k == 0 else _transverse(Phi, U, int(k))[0]
 
@@ -265,7 +268,11 @@ def coupled_stability(params: DriveParams, omega: float, phi_star=None) -> Coupl
     directions are neutral (multipliers exactly 1) and are removed, as for the in-plane group.
     """
     cs = coupled_system(params, omega, phi_star)
-    Phi = monodromy(cs.system)
+    system = cs.system
+    rate = rate_estimate(system.M[None], system.C[None], system.K[None],
+                         np.array([float(omega)]))
+    refuse_over_step_limit(STEPS_PER_RADIAN * float(rate[0]) * 2 * math.pi, float(omega))
+    Phi = monodromy(system)
     U, k = tangent_frame(cs.phi_star)
     if k == 0:
         return CoupledStability(float(omega), float(max_multiplier(Phi)), 0, 0.0)

@@ -40,7 +40,8 @@ from abb_ros.model.stability.monodromy import (
 
 __all__ = ['multipliers', 'max_multiplier', 'PLANES', 'equilibria', 'max_multiplier_batch',
            'sweep_speed', 'INVARIANCE_TOL', 'FamilyInvarianceError', 'MultiplierBatch',
-           'multipliers_batch', 'transverse_max_multiplier', 'member_extremes', 'MAX_MEMBERS']
+           'multipliers_batch', 'transverse_max_multiplier', 'member_extremes', 'MAX_MEMBERS',
+           'rate_estimate', 'refuse_over_step_limit']
 
 def multipliers(Phi) -> np.ndarray:
     """Return the Floquet multipliers, the eigenvalues of Phi, shape (..., 2 nq) complex."""
@@ -156,6 +157,15 @@ def _check_steps(p, builder, omegas, phi, tau_end, chunks, reduce=True):
         i = int(np.argmax(rate))
         if STEPS_PER_RADIAN * rate[i] * tau_end > worst:
             worst, where = STEPS_PER_RADIAN * float(rate[i]) * tau_end, float(omegas[sel][i])
+    refuse_over_step_limit(worst, where)
+    return kept
+
+
+def refuse_over_step_limit(worst: float, where: float) -> None:
+    """Refuse a speed whose period needs more than MAX_STEPS RK4 steps (ParamError: omega).
+
+    ``worst`` steps per period at ``where`` rad/s; the message names the slowest speed that fits.
+    """
     if worst > MAX_STEPS:
         slowest = where * worst / MAX_STEPS
         valid = f'at least about {slowest:.3g} rad/s for this drive' if math.isfinite(
@@ -163,7 +173,6 @@ def _check_steps(p, builder, omegas, phi, tau_end, chunks, reduce=True):
         raise ParamError('omega', where, valid,
                          f'{worst:.3g} RK4 steps per period, over the limit of {MAX_STEPS}: '
                          'the drive\'s fastest rate (stiffness, damping) is far above the speed')
-    return kept
 
 
 def equilibria(params_list):
