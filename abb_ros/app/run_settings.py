@@ -91,6 +91,8 @@ def spindle_with(spindle, node: dict):
 
 TILT_FIT_PERIODS = 4
 """Spindle periods at the end of a run whose samples the residual tilt is fitted to."""
+TILT_FIT_MIN_SAMPLES = 4 * 5
+"""Fewest samples the fit takes: four per coefficient of harmonics 0-2 (five)."""
 
 
 def residual_tilt(t, ys, layout: StateLayout, omega: float) -> float:
@@ -106,7 +108,7 @@ def residual_tilt(t, ys, layout: StateLayout, omega: float) -> float:
     last = t >= t[-1] - TILT_FIT_PERIODS * 2.0 * math.pi / omega if omega > 0 else t >= t[-1]
     deck = ys[last][:, layout.deck_slice]
     tilt = deck[:, 3:5]
-    if tilt.shape[0] < 4 * 5:
+    if tilt.shape[0] < TILT_FIT_MIN_SAMPLES:
         return float(np.max(np.hypot(tilt[:, 0], tilt[:, 1])))
     theta = ys[last][:, layout.theta_index]
     coef = np.linalg.lstsq(_tilt_basis(theta), tilt, rcond=None)[0]

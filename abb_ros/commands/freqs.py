@@ -21,10 +21,10 @@ def add_arguments(parser) -> None:
 
 def run(args) -> dict:
     """Return the drive's natural frequencies [rad/s] beside the paper's."""
-    from abb_ros.model.stability import coupled, linear
+    from abb_ros.model.stability.coupled import deck_natural_frequencies
     base = drive_params(args.config)
     params, _ = apply_settings(base, parse_settings(args.set, 'freqs'))
-    freqs = (coupled if params.off_plane else linear).natural_frequencies(params)
+    freqs = deck_natural_frequencies(params)
     out = {f'omega_{k}_rad_s': v for k, v in freqs.items()}
     out['omega0_rad_s'] = params.omega0
     out['paper_rad_s'] = PAPER

@@ -77,18 +77,12 @@ def run(args) -> dict:
 def _two_plane(params, res) -> dict:
     """Return the coupled analysis' extras: residual tilt, couple, the mirrored second race."""
     from abb_ros.model.stability import two_plane
-    out = {'linearisation': 'coupled (mass centres off the washers\' plane, F4)',
+    out = {'linearisation': 'coupled (mass centres off the washers\' plane or a leaning '
+                            'rotor axis, docs/equations.md F4-F6)',
            'residual_couple_kg_m2': abs(two_plane.residual_couple(params))}
     if res.exists:
         out['residual_tilt_rad'] = res.residual_tilt
-    try:
-        mirror = two_plane.mirror_race(params)
-    except ParamError as err:
-        out['second_race'] = str(err)
-        return out
-    if mirror is not None:
-        out['second_race'] = {'z_m': mirror.races[1].z, 'n': mirror.races[1].n,
-                              'B_kg_m': abs(mirror.B[1]),
-                              'phi_deg': [math.degrees(v) for v in mirror.phi[1]],
-                              'race1_phi_deg': [math.degrees(v) for v in mirror.phi[0]]}
+    race = two_plane.second_race(params)
+    if race:
+        out['second_race'] = race.get('why', race)
     return out

@@ -92,11 +92,11 @@ def compute_partition(spec, index: int, columns: dict) -> dict:
     return out
 
 
-def _multipliers(multipliers_batch, plist, omegas, plane, kern):
-    """Run multipliers_batch; a drive over its step limit is refused naming the spec's field."""
+def _multipliers(compute):
+    """Return compute(), a batch of multipliers; a drive over its step limit names the spec."""
     from abb_ros.model.parameters.params import ParamError
     try:
-        return multipliers_batch(plist, omegas, plane, kern=kern)
+        return compute()
     except ParamError as exc:
         if exc.name != 'omega':
             raise
@@ -105,28 +105,8 @@ def _multipliers(multipliers_batch, plist, omegas, plane, kern):
                          'raise the slowest speed') from None
 
 
-def _coupled_row(params, speeds):
-    """Return (exists, neutral, lam_max over speeds) of a drive with heights or a lean.
-
-    The coupled linearisation (model/stability/coupled.py), whose lam_max fills both planes'
-    columns.
-    """
-    from abb_ros.model.parameters.params import ParamError
-    from abb_ros.model.stability import coupled
-    from abb_ros.model.stability.equilibrium import balanced_equilibrium
-    from abb_ros.model.stability.family import neutral_count
-    eq = balanced_equilibrium(params)
-    if not eq.exists:
-        return False, 0, np.full(speeds.size, np.inf)
-    neutral = int(neutral_count(eq.phi_star)) if params.n > 1 else 0
-    try:
-        return True, neutral, coupled.lam_max_sweep(params, speeds, eq.phi_star)
-    except ParamError as exc:
-        raise ParamError('compute.stability', exc.value, exc.valid,
-                         f'a drawn drive at this speed: {exc.why}') from None
-
-
 def _stability(spec, params, groups) -> dict:
+    from abb_ros.model.stability.coupled import lam_max_batch
     from abb_ros.model.stability.floquet import SERIAL, multipliers_batch
     speeds = spec.speeds
     count = len(params)
@@ -135,17 +115,20 @@ def _stability(spec, params, groups) -> dict:
     exists = np.empty(count, dtype=bool)
     neutral = np.zeros(count, dtype=np.int64)
     for idx in groups.values():
-        off = np.array([params[i].off_plane for i in idx], dtype=bool)
-        for i in idx[off]:
-            exists[i], neutral[i], lam['in'][i] = _coupled_row(params[i], speeds)
-            lam['out'][i] = lam['in'][i]
-        idx = idx[~off]
+        off = idx[np.array([params[i].off_plane for i in idx], dtype=bool)]
+        if off.size:        # heights or a lean: the coupled lam_max in both columns
+            res = _multipliers(lambda: lam_max_batch(
+                [params[i] for i in off for _ in range(S)], np.tile(speeds, off.size)))
+            lam['in'][off] = lam['out'][off] = res.lam.reshape(off.size, S)
+            exists[off] = res.exists.reshape(off.size, S)[:, 0]
+            neutral[off] = res.neutral.reshape(off.size, S)[:, 0]
+        idx = np.setdiff1d(idx, off)
         if not idx.size:
             continue
         plist = [params[i] for i in idx for _ in range(S)]
         omegas = np.tile(speeds, idx.size)
         for plane in ('in', 'out'):
-            res = _multipliers(multipliers_batch, plist, omegas, plane, SERIAL)
+            res = _multipliers(lambda: multipliers_batch(plist, omegas, plane, kern=SERIAL))
             lam[plane][idx] = res.lam.reshape(idx.size, S)
             if plane == 'in':
                 neutral[idx] = res.neutral.reshape(idx.size, S)[:, 0]

@@ -34,8 +34,7 @@ from abb_ros.model.dynamics.kernels.layout import (
 )
 from abb_ros.model.dynamics.spindle import SpindleMotor, TorqueMotor
 from abb_ros.model.dynamics.state import StateLayout
-from abb_ros.model.parameters.drive_spec import off_plane_unit
-from abb_ros.model.parameters.params import DriveParams, ParamError
+from abb_ros.model.parameters.params import PARAM_SPECS, DriveParams, ParamError
 
 __all__ = ['DEFAULT_DT', 'MAX_RUN_STEPS', 'StateError', 'Simulation', 'INTEGRATORS',
            'ADAPTIVE_RTOL', 'adaptive_atol', 'fixed_step_reason']
@@ -134,7 +133,7 @@ def _check_torque_terms(params: DriveParams, spindle) -> None:
     if params.off_plane:
         name = params.off_plane_name
         raise ParamError(name, getattr(params, name),
-                         f'0 {off_plane_unit(name)} in torque mode (spindle.mode torque)',
+                         f'0 {PARAM_SPECS[name].unit} in torque mode (spindle.mode torque)',
                          'the free-theta equation does not have the heights and the leaning '
                          'axis yet')
     if params.rolling_mu > 0 or params.ball_rotation:

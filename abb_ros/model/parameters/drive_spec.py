@@ -11,8 +11,8 @@ import math
 
 from abb_ros.model.parameters.param_spec import DRIVE_PREFIX, INTEGER, ParamSpec
 
-__all__ = ['DRIVE_SPECS', 'HEIGHTS', 'OFF_PLANE', 'off_plane_unit', 'MAX_BALLS', 'RUBBER_C',
-           'METAL_C', 'SPAN', 'SPEED_SPEC', 'MAX_OMEGA', 'CLAMPED_DECK']
+__all__ = ['DRIVE_SPECS', 'HEIGHTS', 'OFF_PLANE', 'MAX_BALLS', 'RUBBER_C', 'METAL_C', 'SPAN',
+           'SPEED_SPEC', 'MAX_OMEGA', 'CLAMPED_DECK']
 
 RUBBER_C = 2.53
 """Washer damping c of rubber suspension washers [kg/s] (Table 1)."""
@@ -131,7 +131,3 @@ OFF_PLANE = HEIGHTS + ('tau',)
 """What takes a drive out of the paper's plane model: the heights and the leaning rotor axis;
 nonzero, the groups of Eqs. (27)-(33) couple."""
 
-
-def off_plane_unit(name: str) -> str:
-    """Return the unit of an :data:`OFF_PLANE` parameter, for messages ('m' or 'rad')."""
-    return 'rad' if name == 'tau' else 'm'

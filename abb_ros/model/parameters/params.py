@@ -28,7 +28,6 @@ from abb_ros.model.parameters.drive_spec import (
     OFF_PLANE,
     RUBBER_C,
     SPEED_SPEC,
-    off_plane_unit,
 )
 from abb_ros.model.parameters.param_spec import ParamError, ParamSpec
 
@@ -111,7 +110,7 @@ class DriveParams:
             if getattr(self, name):
                 height = self.off_plane_name
                 raise ParamError(height, getattr(self, height),
-                                 f'0 {off_plane_unit(height)} while {name} > 0',
+                                 f'0 {PARAM_SPECS[height].unit} while {name} > 0',
                                  'mass centres off the deck plane and a leaning rotor axis '
                                  'combine with point balls only (contact_E, rolling_mu and '
                                  'ball_rotation 0)')

@@ -31,22 +31,24 @@ import numpy as np
 from abb_ros.model.dynamics.equations import lagrange_residual
 from abb_ros.model.dynamics.state import DECK_NAMES, PHI, THETA, n_coords
 from abb_ros.model.parameters.params import DriveParams, ParamError
-from abb_ros.model.stability.equilibrium import balanced_phi_star
+from abb_ros.model.stability.equilibrium import balanced_equilibrium, balanced_phi_star
 from abb_ros.model.stability.family import tangent_frame
-from abb_ros.model.stability.floquet import monodromy
 from abb_ros.model.stability.floquet_batch import (
     FamilyInvarianceError,
+    MultiplierBatch,
     max_multiplier,
     rate_estimate,
     refuse_over_step_limit,
     transverse_max_multiplier,
 )
 from abb_ros.model.stability.linear import PeriodicSystem, harmonic_basis, named_modes
+from abb_ros.model.stability.linear import natural_frequencies as linear_natural_frequencies
 from abb_ros.model.stability.monodromy import STEPS_PER_RADIAN, monodromy_batch, steps_for
 
 __all__ = ['COORDS', 'CoupledSystem', 'CoupledStability', 'coupled_system', 'coupled_stability',
            'periodic_response', 'residual_tilt', 'SAMPLES', 'ORDER', 'SpeedPolynomial',
-           'speed_polynomial', 'lam_max_sweep', 'natural_frequencies']
+           'speed_polynomial', 'lam_max_sweep', 'lam_max_batch', 'natural_frequencies',
+           'stability_of', 'tilt_of', 'deck_natural_frequencies']
 
 COORDS = DECK_NAMES
 """The deck's coordinates of the coupled system; the ball angles phi_1..phi_n follow."""
@@ -239,13 +241,54 @@ def lam_max_sweep(params: DriveParams, omegas, phi_star=None) -> np.ndarray:
     _check_omega(omegas)
     poly = speed_polynomial(params, phi_star)
     Mh, Ch, Kh, _ = poly.at(omegas)
+    return _lam_max(Mh, Ch, Kh, omegas, poly.phi_star)[0]
+
+
+def _lam_max(Mh, Ch, Kh, omegas, phi):
+    """Return (lam_max (B,), neutral k, invariance (B,)) of a batch of coupled systems at phi.
+
+    The monodromy over T by the compiled RK4 kernels at the steps of each point's fastest rate
+    (a speed needing more than the stated maximum is refused, naming omega); where the
+    balanced equilibria form a family (n >= 3, or n = 2 at eps = 0) its tangent directions
+    are neutral (multipliers exactly 1) and are removed, as for the in-plane group.
+    """
     tau_end = 2 * math.pi
     rate = rate_estimate(Mh, Ch, Kh, omegas)
     i = int(np.argmax(rate))
     refuse_over_step_limit(STEPS_PER_RADIAN * float(rate[i]) * tau_end, float(omegas[i]))
     Phi = monodromy_batch(Mh, Ch, Kh, omegas, tau_end, steps_for(rate, tau_end))
-    U, k = tangent_frame(poly.phi_star)
-    return max_multiplier(Phi) if k == 0 else _transverse(Phi, U, int(k))[0]
+    U, k = tangent_frame(phi)
+    if k == 0:
+        return max_multiplier(Phi), 0, np.zeros(len(omegas))
+    lam, invariance = _transverse(Phi, U, int(k))
+    return lam, int(k), invariance
+
+
+def lam_max_batch(params_list, omegas, progress=None) -> MultiplierBatch:
+    """Return lam_max of a batch of (drive, speed) pairs, as the plane's batches do.
+
+    The pairs of one drive share one speed batch (drives compare by value); lam +inf and
+    exists False where the drive has no balanced equilibrium. ``progress(k)`` is called with
+    the number of pairs done after each drive.
+    """
+    omegas = np.asarray(omegas, dtype=float).reshape(-1)
+    lam = np.full(len(params_list), np.inf)
+    exists = np.zeros(len(params_list), dtype=bool)
+    neutral = np.zeros(len(params_list), dtype=np.int64)
+    invariance = np.zeros(len(params_list))
+    groups = {}
+    for i, p in enumerate(params_list):
+        groups.setdefault(p, []).append(i)
+    for params, idx in groups.items():
+        eq = balanced_equilibrium(params)
+        if eq.exists:
+            exists[idx] = True
+            Mh, Ch, Kh, _ = speed_polynomial(params, eq.phi_star).at(omegas[idx])
+            lam[idx], neutral[idx], invariance[idx] = _lam_max(Mh, Ch, Kh, omegas[idx],
+                                                               eq.phi_star)
+        if progress is not None:
+            progress(len(idx))
+    return MultiplierBatch(lam, exists, neutral, invariance)
 
 
 def natural_frequencies(params: DriveParams) -> dict:
@@ -261,23 +304,28 @@ def natural_frequencies(params: DriveParams) -> dict:
     return named_modes(M, K, COORDS)
 
 
-def coupled_stability(params: DriveParams, omega: float, phi_star=None) -> CoupledStability:
-    """Return lam_max, the largest |Floquet multiplier| over T of the coupled linearisation.
+def deck_natural_frequencies(params: DriveParams) -> dict:
+    """Return the natural frequencies a drive's analysis names [rad/s].
 
-    Where the balanced equilibria form a family (n >= 3, or n = 2 at eps = 0) its tangent
-    directions are neutral (multipliers exactly 1) and are removed, as for the in-plane group.
+    Section 4's of Eqs. (27)-(32) in the washers' plane
+    (:func:`abb_ros.model.stability.linear.natural_frequencies`), the coupled deck's
+    (:func:`natural_frequencies`) where heights or a leaning axis couple the groups.
     """
-    cs = coupled_system(params, omega, phi_star)
+    return (natural_frequencies if params.off_plane else linear_natural_frequencies)(params)
+
+
+def coupled_stability(params: DriveParams, omega: float, phi_star=None) -> CoupledStability:
+    """Return lam_max, the largest |Floquet multiplier| over T of the coupled linearisation."""
+    return stability_of(coupled_system(params, omega, phi_star))
+
+
+def stability_of(cs: CoupledSystem) -> CoupledStability:
+    """Return the :class:`CoupledStability` of a coupled system (see :func:`_lam_max`)."""
     system = cs.system
-    rate = rate_estimate(system.M[None], system.C[None], system.K[None],
-                         np.array([float(omega)]))
-    refuse_over_step_limit(STEPS_PER_RADIAN * float(rate[0]) * 2 * math.pi, float(omega))
-    Phi = monodromy(system)
-    U, k = tangent_frame(cs.phi_star)
-    if k == 0:
-        return CoupledStability(float(omega), float(max_multiplier(Phi)), 0, 0.0)
-    lam, inv = _transverse(Phi[None], U, int(k))
-    return CoupledStability(float(omega), float(lam[0]), int(k), float(inv[0]))
+    omega = np.array([system.omega])
+    lam, k, invariance = _lam_max(system.M[None], system.C[None], system.K[None], omega,
+                                  cs.phi_star)
+    return CoupledStability(system.omega, float(lam[0]), k, float(invariance[0]))
 
 
 def periodic_response(cs: CoupledSystem, samples: int = 256, rtol: float = 1e-10):
@@ -293,21 +341,30 @@ def periodic_response(cs: CoupledSystem, samples: int = 256, rtol: float = 1e-10
     nq = system.M.shape[1]
     m = 2 * nq
 
-    def rhs(t, y):
-        A = system.state_matrix(t)
-        Mt = system.at(t)[0]
-        g = np.concatenate([np.zeros(nq), np.linalg.solve(Mt, cs.forcing(t))])
-        Y = y[:m * m].reshape(m, m)
-        return np.concatenate([(A @ Y).ravel(), A @ y[m * m:] + g])
+    def state_and_forcing(t):
+        """Return A(t) of y' = A y + g and g(t), from one evaluation of M, C, K."""
+        M, C, K = system.at(t)
+        A = np.zeros((m, m))
+        A[:nq, nq:] = np.eye(nq)
+        A[nq:] = -np.linalg.solve(M, np.hstack([K, C]))
+        return A, np.concatenate([np.zeros(nq), np.linalg.solve(M, cs.forcing(t))])
+
+    def fundamental(t, y):
+        A, g = state_and_forcing(t)
+        return np.concatenate([(A @ y[:m * m].reshape(m, m)).ravel(), A @ y[m * m:] + g])
+
+    def forced(t, y):
+        A, g = state_and_forcing(t)
+        return A @ y + g
 
     T = system.period
     start = np.concatenate([np.eye(m).ravel(), np.zeros(m)])
-    end = solve_ivp(rhs, (0.0, T), start, method='DOP853', rtol=rtol, atol=1e-14).y[:, -1]
+    end = solve_ivp(fundamental, (0.0, T), start, method='DOP853', rtol=rtol,
+                    atol=1e-14).y[:, -1]
     Phi, yp = end[:m * m].reshape(m, m), end[m * m:]
     y0 = np.linalg.lstsq(np.eye(m) - Phi, yp, rcond=None)[0]
     t = np.linspace(0.0, T, samples, endpoint=False)
-    sol = solve_ivp(lambda s, y: rhs(s, np.concatenate([np.zeros(m * m), y]))[m * m:],
-                    (0.0, T), y0, method='DOP853', rtol=rtol, atol=1e-16, t_eval=t)
+    sol = solve_ivp(forced, (0.0, T), y0, method='DOP853', rtol=rtol, atol=1e-16, t_eval=t)
     return sol.t, sol.y.T
 
 
@@ -316,6 +373,11 @@ def residual_tilt(params: DriveParams, omega: float, phi_star=None) -> float:
 
     Zero (to round-off) where the balls cancel both the force and the couple of the imbalance.
     """
-    _, x = periodic_response(coupled_system(params, omega, phi_star))
+    return tilt_of(coupled_system(params, omega, phi_star))
+
+
+def tilt_of(cs: CoupledSystem) -> float:
+    """Return the residual tilt [rad] of a coupled system's periodic response."""
+    _, x = periodic_response(cs)
     al, be = COORDS.index('alpha'), COORDS.index('beta')
     return float(np.hypot(x[:, al], x[:, be]).max())

@@ -175,10 +175,11 @@ def point_stability(params, omega, phi_star=None, member=None) -> PointStability
 def _coupled_point(params, omega, phi, name) -> PointStability:
     """Return the coupled system's PointStability (both planes' fields hold lam_max)."""
     from abb_ros.model.stability import coupled
-    st = coupled.coupled_stability(params, omega, phi)
+    cs = coupled.coupled_system(params, omega, phi)
+    st = coupled.stability_of(cs)
     return PointStability(float(omega), True, phi, st.lam_max, st.lam_max, neutral=st.neutral,
                           invariance=st.invariance, member=name, coupled=True,
-                          residual_tilt=coupled.residual_tilt(params, omega, phi))
+                          residual_tilt=coupled.tilt_of(cs))
 
 
 @dataclass
@@ -242,8 +243,10 @@ def stability_map(base, x, x_values, y, y_values,
     if plane == 'coupled' or any(p.off_plane for p in plist):
         if members:
             raise ParamError('members', members, '0 for a map of the coupled linearisation')
+        from abb_ros.model.stability.coupled import lam_max_batch
         plane = 'coupled'
-        lam, exists = _coupled_lam(plist, np.maximum(omegas, 1e-9), progress)
+        res = lam_max_batch(plist, np.maximum(omegas, 1e-9), progress)
+        lam, exists = res.lam, res.exists
     else:
         lam, exists = max_multiplier_batch(plist, np.maximum(omegas, 1e-9), plane,
                                            progress=progress)
@@ -261,24 +264,6 @@ def stability_map(base, x, x_values, y, y_values,
         smap.lam_best, smap.lam_worst = best.reshape(shape), worst.reshape(shape)
         smap.members = int(sampled[exists].min()) if exists.any() else 0
     return smap
-
-
-def _coupled_lam(plist, omegas, progress):
-    """Return (lam_max, exists) of the coupled linearisation: one speed batch per drive."""
-    from abb_ros.model.stability import coupled
-    lam = np.full(len(plist), np.inf)
-    exists = np.zeros(len(plist), dtype=bool)
-    groups = {}
-    for i, p in enumerate(plist):
-        groups.setdefault(id(p), []).append(i)
-    for idx in groups.values():
-        params = plist[idx[0]]
-        if balanced_equilibrium(params).exists:
-            exists[idx] = True
-            lam[idx] = coupled.lam_max_sweep(params, omegas[idx])
-        if progress is not None:
-            progress(len(idx))
-    return lam, exists
 
 
 def _map_settings(x, y, settings) -> dict:

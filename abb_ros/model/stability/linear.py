@@ -24,8 +24,8 @@ from types import SimpleNamespace
 import numpy as np
 import scipy.linalg
 
-from abb_ros.model.parameters.drive_spec import OFF_PLANE, off_plane_unit
-from abb_ros.model.parameters.params import DriveParams, ParamError
+from abb_ros.model.parameters.drive_spec import OFF_PLANE
+from abb_ros.model.parameters.params import PARAM_SPECS, DriveParams, ParamError
 from abb_ros.model.stability.equilibrium import balanced_phi_star
 
 __all__ = ['PeriodicSystem', 'in_plane', 'out_of_plane', 'in_plane_harmonics',
@@ -84,7 +84,7 @@ def check_in_plane(params: DriveParams) -> None:
     for name in OFF_PLANE:
         value = getattr(params, name)
         if value != 0.0:
-            raise ParamError(name, value, f'0 {off_plane_unit(name)} for the Floquet analysis '
+            raise ParamError(name, value, f'0 {PARAM_SPECS[name].unit} for the Floquet analysis '
                              'of Eqs. (27)-(33)',
                              'with mass centres off the plane the groups couple: '
                              'abb_ros.model.stability.coupled analyses such a drive')

@@ -34,7 +34,6 @@ from abb_ros.model.stability import coupled, two_plane
 from abb_ros.model.stability.equilibrium import balanced_equilibrium
 from abb_ros.model.stability.family import neutral_count
 from abb_ros.model.stability.floquet import point_stability, sweep_speed
-from abb_ros.model.stability.linear import natural_frequencies
 
 __all__ = ['OK', 'WARN', 'ERROR', 'STALE', 'TABLE_POINTS', 'MARGIN_WARN', 'BAND_GUARD_WBAR',
            'TRANSLATIONAL', 'ROTATIONAL', 'Band', 'SpeedTable', 'Assessment', 'speed_table',
@@ -135,7 +134,7 @@ def speed_table(params: DriveParams, omega_max: float, points: int = TABLE_POINT
     start = time.perf_counter()
     eq = balanced_equilibrium(params)
     omegas = np.linspace(omega_max / points, omega_max, points)
-    natural = (coupled.natural_frequencies if params.off_plane else natural_frequencies)(params)
+    natural = coupled.deck_natural_frequencies(params)
     if eq.exists and params.off_plane:
         lam_in = lam_out = coupled.lam_max_sweep(params, omegas, eq.phi_star)
         bands = unbalanced_bands(omegas, lam_in, natural)
@@ -277,16 +276,13 @@ def _tilt_text(p: DriveParams, tilt: float, values: dict) -> str:
 def _two_plane_values(p: DriveParams, values: dict) -> None:
     """Add the couple one race leaves and the mirrored second race that removes it."""
     values['residual_couple_kg_m2'] = abs(two_plane.residual_couple(p))
-    try:
-        mirror = two_plane.mirror_race(p)
-    except ParamError as err:
-        values['second_race'] = str(err)
-        return
-    if mirror is not None:
-        values['second_race_z_m'] = mirror.races[1].z
-        values['second_race_B_kg_m'] = abs(mirror.B[1])
-        values['second_race_phi_deg'] = ', '.join(f'{math.degrees(x):.2f}'
-                                                  for x in mirror.phi[1])
+    race = two_plane.second_race(p)
+    if 'why' in race:
+        values['second_race'] = race['why']
+    elif race:
+        values['second_race_z_m'] = race['z_m']
+        values['second_race_B_kg_m'] = race['B_kg_m']
+        values['second_race_phi_deg'] = ', '.join(f'{x:.2f}' for x in race['phi_deg'])
 
 
 def _band_at(table: SpeedTable, omega: float):

@@ -35,7 +35,7 @@ from abb_ros.model.dynamics.state import wrap_angle
 from abb_ros.model.parameters.params import DriveParams, ParamError
 from abb_ros.model.stability.equilibrium import fan_phi_star
 
-__all__ = ['Race', 'TwoPlaneBalance', 'residual_couple', 'imbalance_couple',
+__all__ = ['Race', 'TwoPlaneBalance', 'residual_couple', 'imbalance_couple', 'second_race',
            'two_plane_balance', 'mirror_race', 'race_angles', 'MIRROR_FALLBACK']
 
 
@@ -63,15 +63,42 @@ class TwoPlaneBalance:
     phi: tuple
 
 
+def _lean_couple(params: DriveParams) -> complex:
+    """Return the leaning axis' part of U_c, -(J_z - J_x) sin tau cos tau exp(i psi_tau)."""
+    lean = (params.J_z - params.J_x) * math.sin(params.tau) * math.cos(params.tau)
+    return -lean * cmath.exp(1j * params.psi_tau)
+
+
 def imbalance_couple(params: DriveParams) -> complex:
     """Return U_c [kg m^2]: the moment of the imbalance about the washers' plane (complex)."""
-    lean = (params.J_z - params.J_x) * math.sin(params.tau) * math.cos(params.tau)
-    return params.M * params.eps * params.z_G - lean * cmath.exp(1j * params.psi_tau)
+    return params.M * params.eps * params.z_G + _lean_couple(params)
 
 
 def residual_couple(params: DriveParams) -> complex:
-    """Return the couple one race leaves, U_c - z_B M eps [kg m^2] (0: nothing left)."""
-    return imbalance_couple(params) - params.z_B * params.M * params.eps
+    """Return the couple one race leaves, U_c - z_B M eps [kg m^2].
+
+    Exactly 0 where the race lies in G's plane and the axis is upright (the lever z_G - z_B is
+    formed first, so no rounding leaves a couple that is not there).
+    """
+    return params.M * params.eps * (params.z_G - params.z_B) + _lean_couple(params)
+
+
+def second_race(params: DriveParams) -> dict:
+    """Return the second race that removes the couple one race leaves, for people to read.
+
+    {} where one race cancels it; else the mirrored race (:func:`mirror_race`): its height
+    ``z_m``, ball count ``n``, resultant ``B_kg_m`` and ball angles ``phi_deg`` beside race 1's
+    ``race1_phi_deg``, or ``why`` (the ParamError text) where its balls cannot carry it.
+    """
+    try:
+        mirror = mirror_race(params)
+    except ParamError as err:
+        return {'why': str(err)}
+    if mirror is None:
+        return {}
+    return {'z_m': mirror.races[1].z, 'n': mirror.races[1].n, 'B_kg_m': abs(mirror.B[1]),
+            'phi_deg': [math.degrees(v) for v in mirror.phi[1]],
+            'race1_phi_deg': [math.degrees(v) for v in mirror.phi[0]]}
 
 
 def race_angles(race: Race, B: complex, name: str) -> np.ndarray:

@@ -104,6 +104,15 @@ def test_predicted_tilt_grows_with_the_lever_of_the_couple():
     assert big / small == pytest.approx(2.0, rel=5e-3)
 
 
+def test_predicted_tilt_is_linear_in_the_couple_of_a_leaning_axis():
+    """The lean's couple k = (J_z - J_x) sin tau cos tau drives the tilt; its inertia term
+    (J_z - J_x) sin^2 tau is of second order, so for tiny leans the tilt doubles with the
+    couple to that order (tau = 1e-4: ~1e-8 relative; 1e-6 allowed for the integration)."""
+    tilt = [coupled.residual_tilt(lifted(tau=t), W3) for t in (1e-4, 2e-4)]
+    k = [math.sin(t) * math.cos(t) for t in (1e-4, 2e-4)]
+    assert tilt[1] / tilt[0] == pytest.approx(k[1] / k[0], rel=1e-6)
+
+
 @pytest.mark.slow
 def test_residual_tilt_from_simulation_equals_the_periodic_linear_response(abb_sim, tmp_path):
     """P3 with G 0.5 mm above the race, 6 s: the nonlinear run's fitted tilt (abb-sim run
@@ -129,10 +138,15 @@ def test_analysis_of_a_lifted_drive_reports_tilt_and_the_second_race():
 
 
 def test_stability_command_gives_lam_max_beside_the_group_values(abb_sim):
+    """The command's lam_max (from the groups of Eqs. 27-33) is the coupled linearisation's
+    over the period, computed independently (1e-6, as above)."""
     code, out, err = abb_sim('stability', '--set', 'wbar=2.7', '--json')
     assert code == 0, err
     res = json.loads(out)
     assert res['lam_max'] == max(res['lam_max_in_plane'], res['lam_max_out_of_plane'] ** 2)
+    table1 = DriveParams()
+    assert res['lam_max'] == pytest.approx(
+        coupled.lam_max_sweep(table1, [2.7 * table1.omega0])[0], rel=1e-6)
     code, out, err = abb_sim('stability', '--set', 'wbar=2.7', '--set', 'z_G=0.001', '--json')
     assert code == 0, err
     res = json.loads(out)

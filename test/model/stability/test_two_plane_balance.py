@@ -63,6 +63,16 @@ def test_one_race_leaves_the_couple_of_its_lever():
     assert two_plane.residual_couple(P3) == 0.0
 
 
+def test_a_race_in_g_plane_leaves_no_couple_and_no_second_race_to_suggest():
+    """Exactly zero, not the rounding of M eps z_G - z_B M eps: at 2001 common heights the
+    analysis must not suggest a second race (before the lever was formed first, 684 of them
+    left a couple of ~1e-25 kg m^2 and a useless race 10 mm away)."""
+    for z in np.linspace(-0.01, 0.01, 2001):
+        p = apply_settings(P3, {'z_G': float(z), 'z_B': float(z), 'eps': 3.3e-4})[0]
+        assert two_plane.residual_couple(p) == 0.0
+        assert two_plane.second_race(p) == {}
+
+
 def test_the_mirrored_race_carries_half_the_imbalance():
     p = apply_settings(P3, {'z_G': 0.001})[0]
     bal = two_plane.mirror_race(p)
