@@ -3,8 +3,10 @@
 Side by side in one process, P3 (metal washers, wbar = 2.7, n = 2 and 10), the node's fixed
 RK4 step: the paper's path (all offsets zero: ``on_paper``, the block-triangular deck solve)
 against the general path with the heights z_P, z_G, z_B and the lean tau (the coupled 6 x 6
-deck solve, the extra row terms). Prints the real-time factor of each and their ratio (the
-issue's bound: the general path at most 1.5x the paper's per simulated second), then the
+deck solve, the extra row terms), and with a second race (F7: n balls in race 1 and as many
+in race 2, against the paper's path with all 2n balls in one race and against n in one race).
+Prints the real-time factor of each and their ratio (the issue's bound: the general path at
+most 1.5x the paper's per simulated second), then the
 coupled analysis: one point (lam_max and the predicted residual tilt) and the analysis node's
 table of 300 speeds, beside the plane's Floquet table of the same drive.
 Nothing is asserted: these machines are shared and noisy; ratios are measured in one run.
@@ -24,6 +26,8 @@ from abb_ros.model.parameters.params import METAL_C, DriveParams, apply_settings
 from abb_ros.model.stability import coupled, speed_bands
 
 OFFSETS = {'z_P': 0.004, 'z_G': 0.001, 'z_B': -0.0005, 'tau': 0.002, 'psi_tau': 0.5}
+RACE2_Z = 2 * OFFSETS['z_G'] - OFFSETS['z_B']
+"""The second race mirrored about G (two-plane balancing)."""
 
 
 def best_of(fn, repeats=3):
@@ -36,14 +40,15 @@ def best_of(fn, repeats=3):
     return best
 
 
-def drive(n, offsets):
-    return apply_settings(DriveParams(), {'mbar': 0.03 * 2 / n, 'c': METAL_C, 'wbar': 2.7,
-                                          'n': n, **offsets})
+def drive(n, offsets, balls=None):
+    """Return P3 with n balls in race 1 and ``offsets``; the ball mass of ``balls`` balls."""
+    return apply_settings(DriveParams(), {'mbar': 0.03 * 2 / (balls or n), 'c': METAL_C,
+                                          'wbar': 2.7, 'n': n, **offsets})
 
 
-def simulation_rate(n, offsets, seconds):
+def simulation_rate(n, offsets, seconds, balls=None):
     """Return simulated seconds per wall second of the fixed RK4 at DEFAULT_DT."""
-    params, omega = drive(n, offsets)
+    params, omega = drive(n, offsets, balls)
     y0 = initial_state(params, omega)
     nsteps = int(round(seconds / DEFAULT_DT))
 
@@ -65,6 +70,14 @@ def main():
         general = simulation_rate(n, OFFSETS, args.seconds)
         print(f'  n = {n:2d}: paper path {paper:7.1f} x real time, with offsets '
               f'{general:7.1f} x real time: general / paper cost = {paper / general:.2f}')
+    for n in (2, 5):
+        races = {**OFFSETS, 'race2.n': n, 'race2.z': RACE2_Z}
+        alone = simulation_rate(n, {}, args.seconds, 2 * n)
+        paper = simulation_rate(2 * n, {}, args.seconds)
+        two = simulation_rate(n, races, args.seconds, 2 * n)
+        print(f'  two races of {n} balls with offsets {two:7.1f} x real time; paper path with '
+              f'{2 * n} balls in one race {paper:7.1f} (cost ratio {paper / two:.2f}), with '
+              f'race 1 alone ({n} balls) {alone:7.1f} (cost ratio {alone / two:.2f})')
     params, omega = drive(2, OFFSETS)
     plane, _ = drive(2, {})
     t_point = best_of(lambda: coupled.coupled_stability(params, omega), 3)

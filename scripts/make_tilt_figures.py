@@ -7,6 +7,8 @@
 - tilt_vs_speed.png: the same drive with G 1 mm above the race, the predicted tilt against the
   spindle speed wbar (unbalanced bands shaded: there the balls do not hold the balanced state
   and no tilt is predicted), with runs at three speeds.
+- one_vs_two_races.png: P3 with G 1 mm above race 1, the nonlinear runs' tilt and rbar over
+  40 s with one race and with race 2 mirrored about G (race2.n = 2 at race2.z = 2 mm; F7).
 
 Run from the repository root: ``nice -n 10 .venv/bin/python scripts/make_tilt_figures.py``
 (about 2 minutes).
@@ -22,6 +24,10 @@ from pathlib import Path
 
 import numpy as np
 
+from abb_ros.app import run_settings
+from abb_ros.app.headless import run_scenario
+from abb_ros.io.files.scenario import load_scenario
+from abb_ros.model.dynamics.state import StateLayout
 from abb_ros.model.parameters.params import DriveParams, apply_settings
 from abb_ros.model.stability import coupled, speed_bands
 from abb_ros.plots.figure import pyplot, save
@@ -97,11 +103,51 @@ def speed_figure(work: Path) -> str:
     return save(fig, OUT / 'tilt_vs_speed.png')
 
 
+RACES = {'one race (z_B = 0)': {'z_G': 1e-3},
+         'two races (race 2: 2 balls at z = 2 mm)': {'z_G': 1e-3, 'race2.n': 2,
+                                                     'race2.z': 2e-3}}
+"""The drives of one_vs_two_races.png: G 1 mm above race 1, alone or with race 2 mirrored."""
+
+
+def envelope(t, values, window: float = 0.05):
+    """Return (window ends, largest value in each window): the orbit's size, not its phase."""
+    edges = np.arange(t[0], t[-1], window)
+    index = np.searchsorted(t, edges)
+    return t[np.minimum(index[1:], len(t) - 1)], np.maximum.reduceat(values, index)[:-1]
+
+
+def races_figure() -> str:
+    """Draw the tilt and rbar of P3 runs with one race and with two (the nonlinear model)."""
+    plt = pyplot()
+    fig, (ax_t, ax_r) = plt.subplots(1, 2, figsize=(11, 4))
+    for label, sets in RACES.items():
+        scenario, _ = run_settings.apply_settings(load_scenario('p3'), {**sets, 'wbar': 2.7})
+        scenario.duration = 40.0
+        result = run_scenario(scenario)
+        layout = StateLayout.of(scenario.params.n_balls)
+        deck = layout.deck(result.y)
+        t, tilt = envelope(result.t, np.hypot(deck[:, 3], deck[:, 4]))
+        ax_t.semilogy(t, tilt * 1e3, label=label)
+        ax_r.semilogy(*envelope(result.t, layout.rbar(result.y, scenario.params.R)), label=label)
+    ax_t.set_ylabel('tilt sqrt(alpha^2 + beta^2), largest per 50 ms [mrad]')
+    ax_r.set_ylabel('rbar = |C| / R, largest per 50 ms')
+    for ax in (ax_t, ax_r):
+        ax.set_xlabel('time [s]')
+        ax.grid(alpha=0.3, which='both')
+        ax.legend(loc='lower left')
+    fig.suptitle('P3, G 1 mm above race 1: one race cancels the force, two cancel the couple too')
+    return save(fig, OUT / 'one_vs_two_races.png')
+
+
 def main() -> int:
     OUT.mkdir(parents=True, exist_ok=True)
+    if sys.argv[1:] == ['--races']:          # only the race figure (about 20 s)
+        print(races_figure())
+        return 0
     with tempfile.TemporaryDirectory() as tmp:
         print(offset_figure(Path(tmp)))
         print(speed_figure(Path(tmp)))
+    print(races_figure())
     return 0
 
 

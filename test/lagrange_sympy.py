@@ -50,6 +50,10 @@ HEIGHT_NAMES = ('z_P', 'z_G', 'z_B')
 """Heights of P, G and the race above the washers' plane (docs/equations.md, F4; 0: the paper)."""
 TILT_NAMES = ('tau', 'psi_tau')
 """The rotor's principal axis leaning by tau toward psi_tau from G (docs/equations.md, F6)."""
+RACE2_NAMES = ('m_2', 'R_2', 'D_2', 'z_2')
+"""A second race's ball mass, pitch radius, drag and height (docs/equations.md, F7)."""
+RACE2_VALUES = ('race2_mass', 'race2_radius', 'race2_drag', 'race2_z')
+"""The DriveParams values of :data:`RACE2_NAMES` (race 1's m, R, D where not given)."""
 DECK_NAMES = ('X', 'Y', 'Z', 'alpha', 'beta', 'gamma')
 
 _SOURCE_HASH = hashlib.sha1(open(__file__, 'rb').read()).hexdigest()[:12]
@@ -70,6 +74,8 @@ def symbols(n):
     qdd = sp.symbols([s + '_dd' for s in names], real=True)
     par = {p: sp.Symbol(p, positive=True) for p in PARAM_NAMES + BEYOND_NAMES}
     par.update({p: sp.Symbol(p, real=True) for p in HEIGHT_NAMES + TILT_NAMES})
+    par.update({p: sp.Symbol(p, positive=True) for p in RACE2_NAMES[:3]})
+    par['z_2'] = sp.Symbol('z_2', real=True)
     return tuple(q), tuple(qd), tuple(qdd), par
 
 
@@ -121,14 +127,22 @@ def rotor_inertia(par, tilt):
     return Q * J * Q.T
 
 
+def ball_race(par, n, n2, i):
+    """Return (m, R, D, z) of ball i of n, the last n2 of which run in the second race."""
+    if i >= n - n2:
+        return par['m_2'], par['R_2'], par['D_2'], par['z_2']
+    return par['m'], par['R'], par['D'], par['z_B']
+
+
 @functools.lru_cache(maxsize=None)
-def energies(n, beyond=False, tilt=False):
+def energies(n, beyond=False, tilt=False, n2=0):
     """(T, V, F) of Eqs. (11), (13), (16) as sympy expressions in q, q' (exact, no small angles).
 
     Positions are inertial: body vector p -> (T_beta T_alpha T_gamma)^T p, C at (X, Y, Z).
     ``beyond``: add the ball-size, contact and spin terms (:func:`beyond_energies`); 'spin':
     only the rolling balls' spin energy. ``tilt``: the rotor's leaning principal axis
-    (:func:`rotor_inertia`).
+    (:func:`rotor_inertia`). ``n2``: the last n2 of the n balls run in a second race
+    (:func:`ball_race`).
     """
     q, qd, _, par = symbols(n)
     theta, X, Y, Z, alpha, beta, gamma = q[:7]
@@ -143,7 +157,7 @@ def energies(n, beyond=False, tilt=False):
         v = velocity(r)
         return mass * v.dot(v) / 2
 
-    eps, R, d = par['eps'], par['R'], par['d']
+    eps, d = par['eps'], par['d']
     r_G = r_C + A_T * sp.Matrix([eps * sp.cos(theta), eps * sp.sin(theta), par['z_G']])
     r_P = r_C + A_T * sp.Matrix([0, -d, par['z_P']])
     w_P = deck_angular_velocity(alpha, beta, gamma, *qd[4:7])        # Eq. (10)
@@ -154,10 +168,10 @@ def energies(n, beyond=False, tilt=False):
     T = (kinetic(par['M'], r_G) + kinetic(par['M_P'], r_P)
          + (w_rotor.T * rotor_inertia(par, tilt) * w_rotor)[0, 0] / 2
          + (par['J_Px'] * w_P[0] ** 2 + par['J_Py'] * w_P[1] ** 2 + par['J_Pz'] * w_P[2] ** 2) / 2)
-    for phi in phis:
-        r_B = r_C + A_T * sp.Matrix([R * sp.cos(phi + theta), R * sp.sin(phi + theta),
-                                     par['z_B']])
-        T += kinetic(par['m'], r_B)
+    for i, phi in enumerate(phis):
+        m_i, R_i, _, z_i = ball_race(par, n, n2, i)
+        r_B = r_C + A_T * sp.Matrix([R_i * sp.cos(phi + theta), R_i * sp.sin(phi + theta), z_i])
+        T += kinetic(m_i, r_B)
     V = 0
     F = 0
     for off in corner_offsets(par):
@@ -165,7 +179,7 @@ def energies(n, beyond=False, tilt=False):
         V += par['k'] * r_D.dot(r_D) / 2                              # Eq. (13)
         v_D = velocity(r_D)
         F += par['c'] * v_D.dot(v_D) / 2                              # Eq. (16)
-    F += par['D'] * sum(v ** 2 for v in qd[7:]) / 2
+    F += sum(ball_race(par, n, n2, i)[2] * v ** 2 for i, v in enumerate(qd[7:])) / 2
     if beyond:
         dT, dV, dF = beyond_energies(n)
         if beyond == 'spin':           # the rolling balls' spin only (no contact terms)
@@ -215,14 +229,14 @@ def beyond_energies(n):
 
 
 @functools.lru_cache(maxsize=None)
-def lagrange_expressions(n, beyond=False, theta_row=False, tilt=False):
+def lagrange_expressions(n, beyond=False, theta_row=False, tilt=False, n2=0):
     """Lagrange's Eq. (17) for X, Y, Z, alpha, beta, gamma, phi_i: list of 6 + n expressions.
 
     ``theta_row``: prepend theta's row, the torque the spindle motor must apply to impose
     theta(t) (its input power is theta' times it).
     """
     q, qd, qdd, _ = symbols(n)
-    T, V, F = energies(n, beyond, tilt)
+    T, V, F = energies(n, beyond, tilt, n2)
     out = []
     for k in range(0 if theta_row else 1, len(q)):
         p_k = sp.diff(T, qd[k])
@@ -333,8 +347,8 @@ def _function_source(name, exprs, args):
     lines = [f'def {name}(q, qd, qdd, P):']
     for group, vec in ((q, 'q'), (qd, 'qd'), (qdd, 'qdd')):
         lines.append('    ' + ', '.join(str(v) for v in group) + f', = {vec}')
-    lines.append('    ' + ', '.join(PARAM_NAMES + BEYOND_NAMES + HEIGHT_NAMES + TILT_NAMES)
-                 + ', = P')
+    lines.append('    ' + ', '.join(PARAM_NAMES + BEYOND_NAMES + HEIGHT_NAMES + TILT_NAMES
+                                  + RACE2_NAMES) + ', = P')
     for sym, e in repl:
         lines.append(f'    {sym} = {printer.doprint(e)}')
     lines.append('    return [' + ', '.join(printer.doprint(e) for e in reduced) + ']')
@@ -359,12 +373,12 @@ def _load(name, n, build):
 
 
 @functools.lru_cache(maxsize=None)
-def compiled_lagrange(n, beyond=False, tilt=False):
+def compiled_lagrange(n, beyond=False, tilt=False, n2=0):
     """(real, complex) numeric versions of :func:`lagrange_expressions` for n balls."""
     name = {False: 'lagrange', True: 'lagrange_beyond', 'spin': 'lagrange_spin'}[beyond]
-    name += '_tilt' if tilt else ''
+    name += ('_tilt' if tilt else '') + (f'_race2_{n2}' if n2 else '')
     src, path = _load(name, n, lambda: _function_source(
-        name, lagrange_expressions(n, beyond, tilt=tilt), symbols(n)))
+        name, lagrange_expressions(n, beyond, tilt=tilt, n2=n2), symbols(n)))
     return _exec(src, path, name, (math, cmath))
 
 
@@ -397,8 +411,8 @@ def compiled_energy_terms(n):
 
 
 def _pack(params):
-    return tuple(float(getattr(params, p))
-                 for p in PARAM_NAMES + BEYOND_NAMES + HEIGHT_NAMES + TILT_NAMES)
+    return tuple(float(getattr(params, p)) for p in PARAM_NAMES + BEYOND_NAMES + HEIGHT_NAMES
+                 + TILT_NAMES + RACE2_VALUES)
 
 
 def exact_residual(params, y, qdd, beyond=None):
@@ -407,11 +421,11 @@ def exact_residual(params, y, qdd, beyond=None):
     Same API as ``abb_ros.model.dynamics.equations.lagrange_residual``: y = [q, q'] (2N,), qdd (N,)
     with theta'' at index 0; order [X, Y, Z, alpha, beta, gamma, phi_1..phi_n].
     """
-    n = params.n
+    n = params.n_balls
     N = 7 + n
     y = [float(v) for v in y]
     f = compiled_lagrange(n, bool(params.beyond_paper) if beyond is None else beyond,
-                          params.tau != 0.0)[0]
+                          params.tau != 0.0, params.race2_n)[0]
     return np.array(f(y[:N], y[N:], [float(v) for v in qdd], _pack(params)))
 
 
@@ -425,10 +439,10 @@ def first_order_residual(params, y, qdd, beyond=None):
     E(0) + E'(0), where E(s) has X, Y, Z, alpha, beta, gamma and their rates and accelerations
     scaled by s; E'(0) by the complex step Im E(i h) / h, exact to round-off.
     """
-    n = params.n
+    n = params.n_balls
     N = 7 + n
     f = compiled_lagrange(n, bool(params.beyond_paper) if beyond is None else beyond,
-                          params.tau != 0.0)[1]
+                          params.tau != 0.0, params.race2_n)[1]
     deck = np.zeros(N, dtype=bool)
     deck[1:7] = True
     y = np.asarray(y, dtype=float)

@@ -133,11 +133,12 @@ def summary(scenario, result) -> dict:
     """
     p = scenario.params
     y = result.y[-1]
-    layout = StateLayout(p.n)
+    layout = StateLayout(p.n_balls)
     omega = float(layout.omega(y))
     out = {
         'scenario': scenario.name,
         'n': p.n,
+        **({'race2_n': p.race2_n} if p.race2_n else {}),
         'wbar': omega / p.omega0,
         'omega_rad_s': omega,
         'duration_s': float(result.t[-1] - result.t[0]),

@@ -62,14 +62,14 @@ def compute_partition(spec, index: int, columns: dict) -> dict:
     if phi0.shape[0] != count:
         raise ValueError(f'partition {index} holds {count} starts')
     p = spec.scenario.params
-    layout = StateLayout.of(p.n)
+    layout = StateLayout.of(p.n_balls)
     out = {'sample': np.arange(start, stop, dtype=np.int64),
            'partition': np.full(count, index, dtype=np.int64)}
     for i, name in enumerate(names):
         out[name] = phi0[:, i].copy()
     outcome = np.empty(count, dtype=object)
     final_rbar = np.full(count, np.nan)
-    final_phi = np.full((count, p.n), np.nan)
+    final_phi = np.full((count, p.n_balls), np.nan)
     omega = np.full(count, np.nan)
     residual = np.full(count, np.nan)
     motion = np.full(count, np.nan)
@@ -88,7 +88,7 @@ def compute_partition(spec, index: int, columns: dict) -> dict:
     out['balanced'] = outcome == 'balanced'
     out['outcome'] = outcome
     out['final_rbar'] = final_rbar
-    for i in range(p.n):
+    for i in range(p.n_balls):
         out[f'phi{i + 1}_final_deg'] = final_phi[:, i].copy()
     out['omega_final'] = omega
     out['eq26_residual'] = residual

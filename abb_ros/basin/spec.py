@@ -66,7 +66,7 @@ class BasinSpec:
     partition_size: int = 64
 
     def __post_init__(self):
-        n = self.scenario.params.n
+        n = self.scenario.params.n_balls
         if n < 2:
             raise ParamError('n', n, 'at least 2 balls for a basin study')
         if (self.res is None) == (self.samples is None):
@@ -87,8 +87,8 @@ class BasinSpec:
 
     @property
     def n(self) -> int:
-        """Ball count."""
-        return self.scenario.params.n
+        """Ball count (both races: race 1's then race 2's, as in the state)."""
+        return self.scenario.params.n_balls
 
     @property
     def total(self) -> int:

@@ -69,6 +69,8 @@ def run(args) -> dict:
         out['family_invariance'] = res.invariance
     else:
         out['reason'] = res.reason
+    if params.race2_n:
+        out['race2_n'] = params.race2_n
     if params.off_plane:
         out.update(_two_plane(params, res))
     return out
@@ -77,8 +79,8 @@ def run(args) -> dict:
 def _two_plane(params, res) -> dict:
     """Return the coupled analysis' extras: residual tilt, couple, the mirrored second race."""
     from abb_ros.model.stability import two_plane
-    out = {'linearisation': 'coupled (mass centres off the washers\' plane or a leaning '
-                            'rotor axis, docs/equations.md F4-F6)',
+    out = {'linearisation': 'coupled (mass centres off the washers\' plane, a leaning '
+                            'rotor axis or a second race, docs/equations.md F4-F7)',
            'residual_couple_kg_m2': abs(two_plane.residual_couple(params))}
     if res.exists:
         out['residual_tilt_rad'] = res.residual_tilt

@@ -67,8 +67,8 @@ def warm_simulator() -> None:
     sim.accelerations()
     s = sim.layout
     ImuModel(TYPICAL_IMU).read(sim.y[s.q], sim.y[s.qd], qdd)
-    ImuModel(TYPICAL_IMU).read_with_pose(sim.y, params.n, qdd, np.empty(sim.y.size + 19))
-    imu.JIT.deck_pose_twist(sim.y, params.n, np.empty(13))
+    ImuModel(TYPICAL_IMU).read_with_pose(sim.y, params.n_balls, qdd, np.empty(sim.y.size + 19))
+    imu.JIT.deck_pose_twist(sim.y, params.n_balls, np.empty(13))
     fg = SpeedSensor()
     for step in range(2):
         fg.update(step * 1e-3, step * 1e-3 * omega, omega)
@@ -82,7 +82,7 @@ def warm_general() -> None:
     sim.advance_accelerations(1, np.empty(sim.N))
     sim.trajectory(2, 1)
     ys = np.array([sim.y, sim.y])                      # the headless run's periods in batches
-    ImuModel(TYPICAL_IMU).read_many(ys, sim.accelerations_along(ys, [1, 2]), params.n)
+    ImuModel(TYPICAL_IMU).read_many(ys, sim.accelerations_along(ys, [1, 2]), params.n_balls)
 
 
 def warm_adaptive() -> None:

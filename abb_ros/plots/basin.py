@@ -21,7 +21,7 @@ __all__ = ['COLOURS', 'basin_picture']
 
 COLOURS = {'balanced': '#2ca02c', 'settling': '#98df8a', 'packed': '#d62728',
            'friction_rest': '#ff7f0e', 'unbalanced_rest': '#9467bd', 'moving': '#1f77b4',
-           'failed': '#000000', 'overlap': '#bbbbbb'}
+           'drifting': '#17becf', 'failed': '#000000', 'overlap': '#bbbbbb'}
 """Colour of each outcome class."""
 
 

@@ -76,7 +76,7 @@ def _region_legend(ax, plane, limits) -> None:
 def map_title(smap) -> str:
     """Return the map's title: its plane and the parameters held fixed (others: Table 1 values)."""
     from abb_ros.model.parameters.params import DriveParams
-    params = DriveParams(**smap.fixed['SI'])
+    params = DriveParams.from_mapping(smap.fixed['SI'])
     wbar = smap.fixed['settings'].get('wbar')
     plane = {'in': 'In-plane', 'out': 'Out-of-plane', 'coupled': 'Coupled'}[smap.plane]
     return f'{plane} stability: ' + parameter_text(params, wbar, omit=(smap.x, smap.y))

@@ -75,11 +75,11 @@ def compute_partition(spec, index: int, columns: dict) -> dict:
         out[name] = np.asarray(values)
     for name in DERIVED:
         if name not in out:
-            values = [p.n if name == 'n' else getattr(p, name) for p in params]
+            values = [p.value(name) if name == 'n' else getattr(p, name) for p in params]
             out[name] = np.asarray(values, dtype=np.int64 if name == 'n' else float)
     groups = {}
     for i, p in enumerate(params):
-        groups.setdefault(p.n, []).append(i)
+        groups.setdefault(p.n_balls, []).append(i)
     groups = {n: np.asarray(idx) for n, idx in sorted(groups.items())}
     if spec.speeds is not None:
         out.update(_stability(spec, params, groups))
@@ -209,7 +209,7 @@ def _initial(scen, columns, idx, plist):
     """Return the initial states of the samples ``idx`` and which of them overlap."""
     from abb_ros.model.dynamics.initial import initial_state
     from abb_ros.model.parameters.params import ParamError
-    n = plist[0].n
+    n = plist[0].n_balls
     phi0, deck0 = initial_states(scen, columns, idx, n)
     y0 = []
     overlap = np.zeros(len(plist), dtype=bool)

@@ -28,7 +28,6 @@ from __future__ import annotations
 
 import math
 import time
-from dataclasses import fields
 
 import numpy as np
 
@@ -40,7 +39,7 @@ from abb_ros.io.wire.topics import (
     STABILITY_MARGIN,
 )
 from abb_ros.model.dynamics.state import rbar
-from abb_ros.model.parameters.params import DriveParams
+from abb_ros.model.parameters.params import PARAM_SPECS, DriveParams
 from abb_ros.model.parameters.plant_spec import MOTOR_DEFAULTS
 
 __all__ = ['LockstepPlant', 'LockstepTimeout', 'Trace', 'drive_parameters', 'DEADLINE_S']
@@ -57,7 +56,7 @@ class LockstepTimeout(AssertionError):
 
 def drive_parameters(drive: DriveParams) -> dict:
     """Return ``{'drive.<name>': value}`` for each field of ``drive`` (as parameter overrides)."""
-    return {f'drive.{f.name}': getattr(drive, f.name) for f in fields(drive)}
+    return {f'drive.{name}': value for name, value in drive.as_dict().items()}
 
 
 class Trace:
@@ -197,7 +196,7 @@ class LockstepPlant:
         As rclpy Parameters: the ``parameter_overrides`` that give a node under test the plant's
         drive.
         """
-        return self.sim.get_parameters([f'drive.{f.name}' for f in fields(DriveParams)]
+        return self.sim.get_parameters([f'drive.{name}' for name in PARAM_SPECS]
                                        + [f'motor.{name}' for name in MOTOR_DEFAULTS]
                                        + ['max_spindle_speed'])
 

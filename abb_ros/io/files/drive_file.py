@@ -35,12 +35,36 @@ def read_drive_yaml(path, node: str | None = None) -> DriveParams:
     if section is None:
         raise ParamError('drive', None, 'a mapping under <node>: ros__parameters: drive:',
                          f'no drive parameters in {path}')
-    return DriveParams.from_mapping(section)
+    return DriveParams.from_mapping(_flat(section))
+
+
+def _flat(section: Mapping, prefix: str = '') -> dict:
+    """Return the drive section with nested groups as dotted names (race2: {n: 2} = race2.n)."""
+    out = {}
+    for key, value in section.items():
+        name = f'{prefix}{key}'
+        if isinstance(value, Mapping):
+            out.update(_flat(value, name + '.'))
+        else:
+            out[name] = value
+    return out
+
+
+def _nested(values: Mapping) -> dict:
+    """Return {name: value} with dotted names as nested groups, as ROS 2 writes them."""
+    out = {}
+    for name, value in values.items():
+        *groups, leaf = name.split('.')
+        place = out
+        for group in groups:
+            place = place.setdefault(group, {})
+        place[leaf] = value
+    return out
 
 
 def write_drive_yaml(params: DriveParams, path, node: str = '/**') -> None:
     """Write ``params`` to ``path`` as a ROS 2 parameter file (``drive.*`` names)."""
-    doc = {node: {'ros__parameters': {'drive': params.as_dict()}}}
+    doc = {node: {'ros__parameters': {'drive': _nested(params.as_dict())}}}
     with open(path, 'w', encoding='utf-8') as f:
         f.write('# abb_ros drive parameters, SI units (see abb_ros/model/parameters/params.py)\n')
         yaml.safe_dump(doc, f, sort_keys=False)

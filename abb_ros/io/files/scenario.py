@@ -93,7 +93,7 @@ class Scenario:
         """Return a copy with ``--set`` style settings applied (SI or Eq. 39 names)."""
         params, omega = apply_settings(self.params, settings, self.omega)
         phi0 = self.phi0
-        if phi0 is not None and len(phi0) != params.n:
+        if phi0 is not None and len(phi0) != params.n_balls:
             phi0 = None   # a changed ball count takes the default start (documented)
         return Scenario(self.name, self.description, params, omega, self.duration, self.deck0,
                         phi0, self.spindle, list(self.commands))
@@ -174,8 +174,10 @@ def load_scenario(name_or_path: str, base: DriveParams | None = None) -> Scenari
     deck0 = _initial_deck(initial['deck']) if 'deck' in initial else INITIAL_DECK
     phi0 = None
     if 'phi_deg' in initial:
-        phi0 = np.radians(_numbers('scenario.initial.phi_deg', initial['phi_deg'], params.n,
-                                   f'ball angles in degrees (n = {params.n})'))
+        counts = f'n = {params.n}' if not params.race2_n else \
+            f"race 1's n = {params.n} then race 2's race2.n = {params.race2_n}"
+        phi0 = np.radians(_numbers('scenario.initial.phi_deg', initial['phi_deg'],
+                                   params.n_balls, f'ball angles in degrees ({counts})'))
     spindle, commands = _spindle(doc.get('spindle') or {}, params)
     return Scenario(fields.text('scenario.name', doc.get('name', path.stem)),
                     fields.text('scenario.description', doc.get('description', '')), params,

@@ -50,8 +50,7 @@ def marker_poses(y: np.ndarray, params: DriveParams, exaggeration: float
 
     [(marker type, (x, y, z, qx, qy, qz, qw) in base, (scale x, y, z))].
     """
-    n = params.n
-    N = n_coords(n)
+    N = n_coords(params.n_balls)
     k = exaggeration
     c = k * np.asarray(y[1:4], dtype=float)
     angles = (k * float(y[4]), k * float(y[5]), k * float(y[6]))
@@ -68,11 +67,11 @@ def marker_poses(y: np.ndarray, params: DriveParams, exaggeration: float
            (Marker.CYLINDER, at((0.0, 0.0, race)),
             (2 * (params.R + r_ball),) * 2 + (ROTOR_HEIGHT,))]
     theta = float(y[0])
-    for phi in y[7:N]:
+    for phi, (m, R, z) in zip(y[7:N], params.per_ball()):
         psi = theta + float(phi)
         out.append((Marker.SPHERE,
-                    at((params.R * math.cos(psi), params.R * math.sin(psi), race)),
-                    (2 * r_ball,) * 3))
+                    at((R * math.cos(psi), R * math.sin(psi), z + ROTOR_HEIGHT / 2)),
+                    (2 * ball_radius(m),) * 3))
     return out
 
 

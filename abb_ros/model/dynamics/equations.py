@@ -56,9 +56,9 @@ def solver_buffers(n: int) -> kernels.Solver:
 
 def _check(params: DriveParams, y) -> np.ndarray:
     y = np.ascontiguousarray(y, dtype=float)
-    if y.shape != (2 * n_coords(params.n),):
-        raise ValueError(f'state y must have shape ({2 * n_coords(params.n)},) for n = '
-                         f'{params.n}, got {y.shape}')
+    if y.shape != (2 * n_coords(params.n_balls),):
+        raise ValueError(f'state y must have shape ({2 * n_coords(params.n_balls)},) for '
+                         f'{params.n_balls} balls, got {y.shape}')
     return y
 
 
@@ -72,14 +72,15 @@ def lagrange_residual(params: DriveParams, y, qdd, kern=None) -> np.ndarray:
     kern = kern or kernels.JIT
     y = _check(params, y)
     qdd = np.asarray(qdd, dtype=float)
-    n = params.n
+    n = params.n_balls
     solver = solver_buffers(n)
     A, W, f, B, fb = solver.A, solver.W, solver.f, solver.B, solver.fb
     kern.assemble(y, n, kernels.pack_params(params), float(qdd[0]), A, W, f, B, fb)
     layout = StateLayout(n)
     u = qdd[layout.deck_slice]
     phidd = qdd[layout.phi_slice]
-    mR2 = params.m * params.R ** 2 * (1.4 if params.ball_rotation else 1.0)   # 7/5: rolling
+    mR2 = np.array([m * R ** 2 for m, R, _ in params.per_ball()])
+    mR2 *= 1.4 if params.ball_rotation else 1.0         # 7/5: rolling balls (one race only)
     deck = A @ u + W[:, :n] @ phidd - f
     balls = B[:n] @ u + mR2 * phidd - fb[:n]
     return np.concatenate([deck, balls])
@@ -94,7 +95,7 @@ def accelerations(params: DriveParams, y, t: float = 0.0, spindle=None, kern=Non
     """
     kern = kern or kernels.JIT
     y = _check(params, y)
-    n = params.n
+    n = params.n_balls
     S = np.zeros(kernels.N_SPINDLE) if spindle is None else np.asarray(spindle, dtype=float)
     qdd = np.empty(n_coords(n))
     kern.accel(float(t), y, n, kernels.pack_params(params), S, qdd, solver_buffers(n))

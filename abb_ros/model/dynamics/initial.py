@@ -49,13 +49,18 @@ def default_phi0(n: int, separation: float = 0.0) -> np.ndarray:
 def initial_state(params: DriveParams, omega: float, phi0=None, deck0=INITIAL_DECK,
                   theta0: float = 0.0) -> np.ndarray:
     """Return the state y0 of Section 5 at spindle speed omega [rad/s]; shape (2N,)."""
-    n = params.n
+    n = params.n_balls
     if phi0 is None:
-        phi = default_phi0(n, params.contact_separation if params.contact_E > 0 else 0.0)
+        # each race starts from its own fan of Section 5 (race 2's balls after race 1's)
+        phi = np.concatenate([
+            default_phi0(params.n, params.contact_separation if params.contact_E > 0 else 0.0),
+            default_phi0(params.race2_n, 0.0)])
     else:
         phi = np.asarray(phi0, dtype=float)
     if phi.shape != (n,):
-        raise ParamError('phi0', list(np.degrees(phi)), f'{n} ball angles (n = {n})')
+        counts = f'n = {n}' if not params.race2_n else \
+            f'n + race2.n = {params.n} + {params.race2_n}'
+        raise ParamError('phi0', list(np.degrees(phi)), f'{n} ball angles ({counts})')
     _check_no_overlap(params, phi)
     return StateLayout(n).pack(theta=theta0, deck=deck0, phi=phi, omega=omega)
 

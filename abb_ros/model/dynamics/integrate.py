@@ -132,10 +132,11 @@ def _check_torque_terms(params: DriveParams, spindle) -> None:
         return
     if params.off_plane:
         name = params.off_plane_name
-        raise ParamError(name, getattr(params, name),
-                         f'0 {PARAM_SPECS[name].unit} in torque mode (spindle.mode torque)',
-                         'the free-theta equation does not have the heights and the leaning '
-                         'axis yet')
+        raise ParamError(name, params.value(name),
+                         f'0 {PARAM_SPECS[name].unit} in torque mode (spindle.mode '
+                         'torque)'.replace('  ', ' '),
+                         'the free-theta equation does not have the heights, the leaning '
+                         'axis and a second race yet')
     if params.rolling_mu > 0 or params.ball_rotation:
         name = 'rolling_mu' if params.rolling_mu > 0 else 'ball_rotation'
         raise ParamError(name, getattr(params, name), '0 in torque mode (spindle.mode torque)',
@@ -185,13 +186,13 @@ class Simulation:
     def _set_params(self, params: DriveParams):
         _check_torque_terms(params, self.spindle)
         self.params = params
-        self.layout = StateLayout.of(params.n)
+        self.layout = StateLayout.of(params.n_balls)
         self._P = kernels.pack_params(params)
-        self._work = kernels.make_work(params.n)
-        self._solver = solver_buffers(params.n)
+        self._work = kernels.make_work(params.n_balls)
+        self._solver = solver_buffers(params.n_balls)
         self._S = self.spindle.pack(self.omega_cmd)
-        self._ad, self._aw = adaptive_buffers(params.n)
-        self._atol = adaptive_atol(params.n)
+        self._ad, self._aw = adaptive_buffers(params.n_balls)
+        self._atol = adaptive_atol(params.n_balls)
 
     @property
     def integrator_used(self) -> str:
@@ -262,9 +263,11 @@ class Simulation:
 
     def set_params(self, params: DriveParams) -> None:
         """Apply new physical parameters at the current step boundary (same n)."""
-        if params.n != self.params.n:
-            raise ParamError('n', params.n, f'{self.params.n} until reset (a change of n '
-                             'needs a new state: use reset(params=...))')
+        for name in ('n', 'race2.n'):
+            if params.value(name) != self.params.value(name):
+                raise ParamError(name, params.value(name), f'{self.params.value(name)} until '
+                                 f'reset (a change of {name} needs a new state: use '
+                                 'reset(params=...))')
         self._set_params(params)
 
     def reset(self, y0=None, params: DriveParams | None = None) -> None:
@@ -273,9 +276,9 @@ class Simulation:
         Time keeps running (the step counter is not reset), so clocks never go backwards.
         """
         if params is not None:
-            old = self.layout
+            old, races = self.layout, (self.params.n, self.params.race2_n)
             self._set_params(params)
-            if params.n != old.n:
+            if (params.n, params.race2_n) != races:
                 self._y0 = initial_state(params, float(old.omega(self._y0)))
         y0 = self._y0 if y0 is None else np.asarray(y0, dtype=float)
         if y0.shape != (self.layout.size,):
@@ -296,7 +299,7 @@ class Simulation:
         calls the paper's own compiled stepping (the same numbers, a fraction of the compile
         time); a torque command, contact or rolling resistance takes the general one.
         """
-        return bool(kernels.PY.on_paper(self.params.n, self._P, self._S))
+        return bool(kernels.PY.on_paper(self.params.n_balls, self._P, self._S))
 
     def advance(self, nsteps: int) -> None:
         """Advance by nsteps steps.
@@ -339,7 +342,7 @@ class Simulation:
     def accelerations(self) -> np.ndarray:
         """Return q'' at the current state, shape (N,) (a new array; the scratch is reused)."""
         qdd = np.empty(self.N)
-        self.kern.accel(self.t, self.y, self.params.n, self._P, self._S, qdd, self._solver)
+        self.kern.accel(self.t, self.y, self.params.n_balls, self._P, self._S, qdd, self._solver)
         return qdd
 
     def accelerations_along(self, ys: np.ndarray, steps) -> np.ndarray:
@@ -350,7 +353,7 @@ class Simulation:
         """
         qdd = np.empty((len(ys), self.N))
         self.kern.accel_rows(ys, self.t0, self.dt, np.asarray(steps, dtype=np.int64),
-                             self.params.n, self._P, self._S, qdd, self._solver)
+                             self.params.n_balls, self._P, self._S, qdd, self._solver)
         return qdd
 
     @property

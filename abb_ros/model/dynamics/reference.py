@@ -26,7 +26,7 @@ def reference_solution(params: DriveParams, y0, t_span, spindle=None, t_eval=Non
     kernels).
     """
     from scipy.integrate import solve_ivp
-    n = params.n
+    n = params.n_balls
     layout = StateLayout(n)
     P = kernels.pack_params(params)
     S = (spindle or ConstantSpeed()).pack(float(layout.omega(y0)))

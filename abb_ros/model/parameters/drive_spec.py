@@ -12,7 +12,7 @@ import math
 from abb_ros.model.parameters.param_spec import DRIVE_PREFIX, INTEGER, ParamSpec
 
 __all__ = ['DRIVE_SPECS', 'HEIGHTS', 'OFF_PLANE', 'MAX_BALLS', 'RUBBER_C', 'METAL_C', 'SPAN',
-           'SPEED_SPEC', 'MAX_OMEGA', 'CLAMPED_DECK']
+           'SPEED_SPEC', 'MAX_OMEGA', 'CLAMPED_DECK', 'RACE2']
 
 RUBBER_C = 2.53
 """Washer damping c of rubber suspension washers [kg/s] (Table 1)."""
@@ -120,6 +120,18 @@ DRIVE_SPECS = (
     _drive('psi_tau', 0.0, 'rad', "rotor-fixed direction, from G's, toward which the +z end of "
            'the leaning axis points (no effect while tau = 0)', ref=1.0, low=-2 * math.pi,
            high=2 * math.pi),
+    # ---- a second race (two-plane balancing, docs/equations.md F7); race2.n 0 = none ----
+    ParamSpec('drive.race2.n', 0, '', 'number of balls in a second race (0 = none, the paper); '
+              "their angles follow race 1's in every output", INTEGER, 0, MAX_BALLS,
+              applies='on ~/reset (simulator)'),
+    _drive('race2.m', 0.0, 'kg', "mass of one ball of the second race (0 = race 1's m)",
+           ref=0.43e-3, **_NONNEG),
+    _drive('race2.R', 0.0, 'm', "pitch radius of the second race (0 = race 1's R)",
+           ref=0.015, **_NONNEG),
+    _drive('race2.D', 0.0, 'kg m^2/s', "viscous drag of one ball of the second race (0 = race "
+           "1's D)", ref=5e-6, **_NONNEG),
+    _drive('race2.z', 0.0, 'm', "height of the second race above the washers' plane (two-plane "
+           'balancing: on the other side of G from race 1)', ref=0.01, low=-1.0, high=1.0),
 )
 """The physical parameters of Table 1 (rubber washers, eps = 0.25 mm, n = 2), SI, and the
 optional terms beyond the paper (zero = the paper's model)."""
@@ -127,7 +139,10 @@ optional terms beyond the paper (zero = the paper's model)."""
 HEIGHTS = ('z_P', 'z_G', 'z_B')
 """The heights of P, G and the race above the washers' plane (all zero: the paper's plane)."""
 
-OFF_PLANE = HEIGHTS + ('tau',)
-"""What takes a drive out of the paper's plane model: the heights and the leaning rotor axis;
-nonzero, the groups of Eqs. (27)-(33) couple."""
+OFF_PLANE = HEIGHTS + ('tau', 'race2.n')
+"""What takes a drive out of the paper's plane model: the heights, the leaning rotor axis and a
+second race; nonzero, the groups of Eqs. (27)-(33) couple."""
+
+RACE2 = ('race2.n', 'race2.m', 'race2.R', 'race2.D', 'race2.z')
+"""The second race's parameters (race2.n 0: no second race)."""
 

@@ -39,6 +39,11 @@ __all__ = [
 PARAM_SPECS: dict[str, ParamSpec] = {s.short: s for s in DRIVE_SPECS}
 """{SI name: spec} of the drive parameters (abb_ros/model/parameters/drive_spec.py)."""
 
+FIELD_OF = {name: name.replace('.', '_') for name in PARAM_SPECS}
+"""{SI name: DriveParams field}: the same, with the dots of ``race2.n`` ... as underscores."""
+NAME_OF = {field: name for name, field in FIELD_OF.items()}
+"""{DriveParams field: SI name}, the inverse of :data:`FIELD_OF`."""
+
 
 def _default(name):
     return PARAM_SPECS[name].default
@@ -87,18 +92,30 @@ class DriveParams:
     z_B: float = _default('z_B')
     tau: float = _default('tau')
     psi_tau: float = _default('psi_tau')
+    # ---- a second race (two-plane balancing, equations.md F7); race2.n 0 = none ----
+    race2_n: int = _default('race2.n')
+    race2_m: float = _default('race2.m')
+    race2_R: float = _default('race2.R')
+    race2_D: float = _default('race2.D')
+    race2_z: float = _default('race2.z')
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
-            PARAM_SPECS[f.name].check(getattr(self, f.name), f.name)
+            PARAM_SPECS[NAME_OF[f.name]].check(getattr(self, f.name), NAME_OF[f.name])
         if abs(self.J_x - self.J_y) > 1e-9 * max(self.J_x, self.J_y):
             raise ParamError('J_y', self.J_y, f'equal to J_x = {self.J_x:g} kg m^2',
                              'the equations of motion (Eqs. 21, 22) hold for an axisymmetric '
                              'rotor only')
-        if isinstance(self.n, float):
-            if not self.n.is_integer():
-                raise ParamError('n', self.n, PARAM_SPECS['n'].valid_text(), 'not an integer')
-            object.__setattr__(self, 'n', int(self.n))
+        for field in ('n', 'race2_n'):
+            count = getattr(self, field)
+            if isinstance(count, float):
+                if not count.is_integer():
+                    raise ParamError(NAME_OF[field], count,
+                                     PARAM_SPECS[NAME_OF[field]].valid_text(), 'not an integer')
+                object.__setattr__(self, field, int(count))
+        if self.n_balls > MAX_BALLS:
+            raise ParamError('race2.n', self.race2_n, f'at most {MAX_BALLS - self.n} (n + '
+                             f'race2.n <= {MAX_BALLS})', 'more balls than the model takes')
         self._check_beyond_paper()
         self._check_heights()
 
@@ -109,21 +126,55 @@ class DriveParams:
         for name in ('contact_E', 'rolling_mu', 'ball_rotation'):
             if getattr(self, name):
                 height = self.off_plane_name
-                raise ParamError(height, getattr(self, height),
-                                 f'0 {PARAM_SPECS[height].unit} while {name} > 0',
+                unit = PARAM_SPECS[height].unit
+                raise ParamError(height, self.value(height),
+                                 f'0 {unit} while {name} > 0'.replace('  ', ' '),
                                  'mass centres off the deck plane and a leaning rotor axis '
                                  'combine with point balls only (contact_E, rolling_mu and '
                                  'ball_rotation 0)')
 
     @property
     def off_plane(self) -> bool:
-        """Whether P, G or the race lies off the washers' plane or the rotor's axis leans."""
-        return any(getattr(self, h) != 0.0 for h in OFF_PLANE)
+        """Whether the drive leaves the paper's plane model (:data:`OFF_PLANE`).
+
+        P, G or a race off the washers' plane, a leaning rotor axis, or a second race.
+        """
+        return any(self.value(h) != 0.0 for h in OFF_PLANE)
 
     @property
     def off_plane_name(self) -> str:
         """The first nonzero of :data:`OFF_PLANE` ('' in the paper's plane), for messages."""
-        return next((h for h in OFF_PLANE if getattr(self, h) != 0.0), '')
+        return next((h for h in OFF_PLANE if self.value(h) != 0.0), '')
+
+    def value(self, name: str):
+        """Return the value of SI parameter ``name`` (``race2.n`` as well as ``k``)."""
+        return getattr(self, FIELD_OF[name])
+
+    # ---- the second race (F7): its values, race 1's where given as 0 ----
+    @property
+    def n_balls(self) -> int:
+        """Balls of both races: race 1's n, then race 2's race2.n (the state's ball count)."""
+        return self.n + self.race2_n
+
+    @property
+    def race2_mass(self) -> float:
+        """Mass of one ball of race 2 [kg] (race 1's m where race2.m is 0)."""
+        return self.race2_m or self.m
+
+    @property
+    def race2_radius(self) -> float:
+        """Pitch radius of race 2 [m] (race 1's R where race2.R is 0)."""
+        return self.race2_R or self.R
+
+    @property
+    def race2_drag(self) -> float:
+        """Drag of one ball of race 2 [kg m^2/s] (race 1's D where race2.D is 0)."""
+        return self.race2_D or self.D
+
+    def per_ball(self) -> list[tuple[float, float, float]]:
+        """Return each ball's (m_i, R_i, z_i), race 1's balls then race 2's."""
+        return ([(self.m, self.R, self.z_B)] * self.n
+                + [(self.race2_mass, self.race2_radius, self.race2_z)] * self.race2_n)
 
     def _check_beyond_paper(self):
         """Check the terms beyond the paper: what needs a ball size, and whether balls fit."""
@@ -209,11 +260,11 @@ class DriveParams:
             name = sorted(unknown)[0]
             raise ParamError(name, changes[name], 'one of ' + ', '.join(PARAM_SPECS),
                              'unknown parameter')
-        return dataclasses.replace(self, **changes)
+        return dataclasses.replace(self, **{FIELD_OF[k]: v for k, v in changes.items()})
 
     def as_dict(self) -> dict[str, float]:
         """Return {SI name: value} of every field, in declaration order."""
-        return dataclasses.asdict(self)
+        return {NAME_OF[k]: v for k, v in dataclasses.asdict(self).items()}
 
     @classmethod
     def from_mapping(cls, values: Mapping[str, Any], base: 'DriveParams | None' = None
@@ -234,9 +285,9 @@ def parse_value(name: str, text: str) -> float:
         spec = PARAM_SPECS.get(name)
         valid = spec.valid_text() if spec else 'a finite number'
         raise ParamError(name, text, valid, 'not a number') from None
-    if name == 'n':
+    if name in ('n', 'race2.n'):
         if not value.is_integer():
-            raise ParamError('n', text, PARAM_SPECS['n'].valid_text(), 'not an integer')
+            raise ParamError(name, text, PARAM_SPECS[name].valid_text(), 'not an integer')
         return int(value)
     return value
 

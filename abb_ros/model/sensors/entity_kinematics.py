@@ -121,7 +121,7 @@ def kinematics(y: np.ndarray, qdd: np.ndarray, params: DriveParams) -> dict[str,
     ``qdd`` is q'' at ``y`` (``Simulation.accelerations()``); keys in :func:`entity_names`
     order.
     """
-    s = StateLayout.of(params.n)
+    s = StateLayout.of(params.n_balls)
     q, qd = y[s.q], y[s.qd]
     X, angles = s.translation(y), s.deck(y)[3:]
     Xd, rates = s.deck_rates(y)[:3], s.deck_rates(y)[3:]
@@ -138,10 +138,10 @@ def kinematics(y: np.ndarray, qdd: np.ndarray, params: DriveParams) -> dict[str,
         _t(X), _quaternion(rotation @ _rz(theta)), _t(Xd), _t(rotation @ w_rotor), _t(Xdd),
         _t(rotation @ (wd_deck + theta_dd * ez + np.cross(w_deck, omega * ez))))
     phi, phi_d, phi_dd = s.phi(y), s.phi_rates(y), qdd[7:]
-    for i in range(params.n):
+    for i, (_, R, z) in enumerate(params.per_ball()):
         psi = theta + float(phi[i])
         psi_d, psi_dd = omega + float(phi_d[i]), theta_dd + float(phi_dd[i])
-        r = np.array([params.R * math.cos(psi), params.R * math.sin(psi), params.z_B])
+        r = np.array([R * math.cos(psi), R * math.sin(psi), z])
         r_rel_v = psi_d * np.cross(ez, r)
         v = Xd + rotation @ (np.cross(w_deck, r) + r_rel_v)
         a = Xdd + rotation @ (np.cross(wd_deck, r) + np.cross(w_deck, np.cross(w_deck, r))
@@ -187,19 +187,21 @@ def with_ball(y: np.ndarray, params: DriveParams, i: int, position, velocity,
     field and what is valid.
     """
     unit_quaternion(orientation)
-    reach = MAX_TRANSLATION + params.R + abs(params.z_B) + ON_RACE_TOL
+    _, R, z = params.per_ball()[i]
+    reach = MAX_TRANSLATION + R + abs(z) + ON_RACE_TOL
     _within('pose.position', position, reach, 'm', 'the deck envelope plus the race radius')
     _within('twist.linear', velocity, MAX_SPEED, 'm/s', 'far beyond any ball speed')
-    s = StateLayout.of(params.n)
+    s = StateLayout.of(params.n_balls)
     q, qd = y[s.q], y[s.qd]
     rotation = euler_rotation(*s.deck(y)[3:])
     r = rotation.T @ (np.asarray(position, dtype=float) - s.translation(y))
     radius = math.hypot(r[0], r[1])
-    if abs(radius - params.R) > ON_RACE_TOL or abs(r[2] - params.z_B) > ON_RACE_TOL:
+    if abs(radius - R) > ON_RACE_TOL or abs(r[2] - z) > ON_RACE_TOL:
+        height = 'z_B' if i < params.n else 'race2.z'
         raise EntityError(
             f'{ball_name(i)} must lie on its race: {radius:.9g} m from the spin axis '
-            f'(R = {params.R:.9g} m) and {r[2] - params.z_B:.3g} m off the race plane at '
-            f'z_B = {params.z_B:g} m (tolerance {ON_RACE_TOL:g} m)')
+            f'(R = {R:.9g} m) and {r[2] - z:.3g} m off the race plane at '
+            f'{height} = {z:g} m (tolerance {ON_RACE_TOL:g} m)')
     psi = math.atan2(r[1], r[0])
     _, w_deck = deck_velocity(q, qd)
     v_rel = (rotation.T @ (np.asarray(velocity, dtype=float) - s.deck_rates(y)[:3])
@@ -211,12 +213,12 @@ def with_ball(y: np.ndarray, params: DriveParams, i: int, position, velocity,
                           f'{float(np.linalg.norm(across)):.3g} m/s across it')
     out = y.copy()
     theta, omega = float(q[0]), float(qd[0])
-    rate = float(tangent @ v_rel) / params.R - omega
+    rate = float(tangent @ v_rel) / R - omega
     if abs(rate) > MAX_BALL_RATE:
         raise EntityError(
             f'state.twist.linear: {ball_name(i)} would turn at phi\' = {rate:.6g} rad/s in the '
             f'rotor; valid: |phi\'| <= {MAX_BALL_RATE:g} rad/s (the model\'s envelope), a speed '
-            f'along the race within {MAX_BALL_RATE * params.R:.6g} m/s of the rotor\'s')
+            f'along the race within {MAX_BALL_RATE * R:.6g} m/s of the rotor\'s')
     old = float(s.phi(out)[i])   # the nearest angle to the old one: no turns added
     s.phi(out)[i] = old + float(wrap_angle(psi - theta - old))
     s.phi_rates(out)[i] = rate
@@ -264,7 +266,7 @@ def with_deck(y: np.ndarray, params: DriveParams, position, orientation, velocit
     dalpha = w_deck[0] * cb + w_deck[2] * sb
     dgamma = (w_deck[2] * cb - w_deck[0] * sb) / ca
     dbeta = w_deck[1] - dgamma * sa
-    s = StateLayout.of(params.n)
+    s = StateLayout.of(params.n_balls)
     out = y.copy()
     s.deck(out)[:] = [*np.asarray(position, dtype=float), alpha, beta, gamma]
     s.deck_rates(out)[:] = [*np.asarray(velocity, dtype=float), dalpha, dbeta, dgamma]
@@ -285,7 +287,7 @@ def with_entity(sim: Simulation, name: str, position, orientation, velocity, ang
                 y = with_deck(sim.y, sim.params, position, orientation, velocity,
                               angular_velocity)
             else:
-                i = entity_names(sim.params.n).index(name) - 2
+                i = entity_names(sim.params.n_balls).index(name) - 2
                 y = with_ball(sim.y, sim.params, i, position, velocity, orientation)
         except FloatingPointError as err:
             raise EntityError(f'{name}: the state overflows ({err}); valid: finite values of '

@@ -168,7 +168,7 @@ class PlantSampler:
             reading = self._given(self.imu.read(self.sim.y[s.q], self.sim.y[s.qd], qdd))
         if state_due:
             speed, effort = self._speed_and_effort()
-        return Sample(steps, self.sim.params.n, y, reading, effort, speed)
+        return Sample(steps, self.sim.params.n_balls, y, reading, effort, speed)
 
     def _given(self, reading: ImuReading) -> ImuReading | None:
         """Return the IMU reading given out for the sensor's ``reading`` (the IMU faults)."""
@@ -215,7 +215,7 @@ class PlantSampler:
         another, into one :attr:`Sample.outputs` vector.
         """
         sim = self.sim
-        n = sim.params.n
+        n = sim.params.n_balls
         at = Outputs.of(n)
         out = np.empty(at.size)
         qdd = np.empty(at.state // 2)
@@ -258,7 +258,7 @@ class PlantSampler:
         rows = (sim.steps - step0) // every
         ys = ys[:rows]
         steps = list(range(step0 + every, step0 + (rows + 1) * every, every))
-        n = sim.params.n
+        n = sim.params.n_balls
         imu = self.imu.read_many(ys, sim.accelerations_along(ys, steps), n)
         speed = None
         if self.speed is not None:

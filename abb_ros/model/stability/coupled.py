@@ -32,7 +32,7 @@ from abb_ros.model.dynamics.equations import lagrange_residual
 from abb_ros.model.dynamics.state import DECK_NAMES, PHI, THETA, n_coords
 from abb_ros.model.parameters.params import DriveParams, ParamError
 from abb_ros.model.stability.equilibrium import balanced_equilibrium, balanced_phi_star
-from abb_ros.model.stability.family import tangent_frame
+from abb_ros.model.stability.family import null_frame, tangent_frame
 from abb_ros.model.stability.floquet_batch import (
     FamilyInvarianceError,
     MultiplierBatch,
@@ -44,6 +44,7 @@ from abb_ros.model.stability.floquet_batch import (
 from abb_ros.model.stability.linear import PeriodicSystem, harmonic_basis, named_modes
 from abb_ros.model.stability.linear import natural_frequencies as linear_natural_frequencies
 from abb_ros.model.stability.monodromy import STEPS_PER_RADIAN, monodromy_batch, steps_for
+from abb_ros.model.stability.two_plane import balance_jacobian
 
 __all__ = ['COORDS', 'CoupledSystem', 'CoupledStability', 'coupled_system', 'coupled_stability',
            'periodic_response', 'residual_tilt', 'SAMPLES', 'ORDER', 'SpeedPolynomial',
@@ -74,11 +75,13 @@ class CoupledSystem:
 
     ``F`` : harmonics of the forcing, shape (2 ORDER + 1, 6 + n) (same basis as M, C, K).
     ``phi_star`` : the balanced equilibrium it is taken at [rad].
+    ``frame`` : (U, k) of the balanced family through it (:func:`family_frame`).
     """
 
     system: PeriodicSystem
     F: np.ndarray
     phi_star: np.ndarray
+    frame: tuple
 
     def forcing(self, t: float) -> np.ndarray:
         """Return F(t), shape (6 + n,)."""
@@ -97,7 +100,7 @@ class CoupledStability:
 
 def _rows_at(params: DriveParams, omega: float, phi: np.ndarray, tau: float):
     """Return (M, C, K, F) of the rows at the balanced position at angle tau."""
-    n = params.n
+    n = params.n_balls
     N = n_coords(n)
     y0 = np.zeros(2 * N)
     y0[THETA] = tau
@@ -154,13 +157,25 @@ def _coords(n: int) -> tuple:
     return COORDS + tuple(f'phi_{i + 1}' for i in range(n))
 
 
+def family_frame(params: DriveParams, phi) -> tuple:
+    """Return (U, k) of the balanced family through phi: its k tangent directions last in U.
+
+    One race: Eq. (26)'s (:func:`~.family.tangent_frame`); two races: the null space of both
+    planes' conditions (:func:`~.two_plane.balance_jacobian`).
+    """
+    if not params.race2_n:
+        return tangent_frame(phi)
+    return null_frame(balance_jacobian(params, phi))
+
+
 def coupled_system(params: DriveParams, omega: float, phi_star=None) -> CoupledSystem:
     """Return the coupled linearisation at the balanced equilibrium (symmetric fan or given)."""
     _check_omega(omega)
     phi = balanced_phi_star(params, phi_star)
     M, C, K, F = _linearised(params, omega, phi, omega)
     return CoupledSystem(PeriodicSystem(M, C, K, float(omega), 2 * math.pi / omega,
-                                        _coords(params.n)), F, phi)
+                                        _coords(params.n_balls)), F, phi,
+                         family_frame(params, phi))
 
 
 def _check_omega(omega) -> None:
@@ -241,11 +256,13 @@ def lam_max_sweep(params: DriveParams, omegas, phi_star=None) -> np.ndarray:
     _check_omega(omegas)
     poly = speed_polynomial(params, phi_star)
     Mh, Ch, Kh, _ = poly.at(omegas)
-    return _lam_max(Mh, Ch, Kh, omegas, poly.phi_star)[0]
+    return _lam_max(Mh, Ch, Kh, omegas, family_frame(params, poly.phi_star))[0]
 
 
-def _lam_max(Mh, Ch, Kh, omegas, phi):
-    """Return (lam_max (B,), neutral k, invariance (B,)) of a batch of coupled systems at phi.
+def _lam_max(Mh, Ch, Kh, omegas, frame):
+    """Return (lam_max (B,), neutral k, invariance (B,)) of a batch of coupled systems.
+
+    ``frame``: (U, k) of the balanced family at their equilibrium (:func:`family_frame`).
 
     The monodromy over T by the compiled RK4 kernels at the steps of each point's fastest rate
     (a speed needing more than the stated maximum is refused, naming omega); where the
@@ -257,7 +274,7 @@ def _lam_max(Mh, Ch, Kh, omegas, phi):
     i = int(np.argmax(rate))
     refuse_over_step_limit(STEPS_PER_RADIAN * float(rate[i]) * tau_end, float(omegas[i]))
     Phi = monodromy_batch(Mh, Ch, Kh, omegas, tau_end, steps_for(rate, tau_end))
-    U, k = tangent_frame(phi)
+    U, k = frame
     if k == 0:
         return max_multiplier(Phi), 0, np.zeros(len(omegas))
     lam, invariance = _transverse(Phi, U, int(k))
@@ -281,14 +298,16 @@ def lam_max_batch(params_list, omegas, progress=None) -> MultiplierBatch:
         groups.setdefault(p, []).append(i)
     for params, idx in groups.items():
         eq = balanced_equilibrium(params)
+        phi = eq.phi_star
         if eq.exists:
             exists[idx] = True
-            Mh, Ch, Kh, _ = speed_polynomial(params, eq.phi_star).at(omegas[idx])
+            Mh, Ch, Kh, _ = speed_polynomial(params, phi).at(omegas[idx])
             lam[idx], neutral[idx], invariance[idx] = _lam_max(Mh, Ch, Kh, omegas[idx],
-                                                               eq.phi_star)
+                                                               family_frame(params, phi))
         if progress is not None:
             progress(len(idx))
     return MultiplierBatch(lam, exists, neutral, invariance)
+
 
 
 def natural_frequencies(params: DriveParams) -> dict:
@@ -299,7 +318,7 @@ def natural_frequencies(params: DriveParams) -> dict:
     :func:`abb_ros.model.stability.linear.natural_frequencies` to 1e-8 (which keep eps's
     first-order mass terms: 1e-5 apart at Table 1).
     """
-    bare = dataclasses.replace(params, n=0, eps=0.0)
+    bare = dataclasses.replace(params, n=0, race2_n=0, eps=0.0)
     M, _, K, _ = _rows_at(bare, 0.0, np.zeros(0), 0.0)
     return named_modes(M, K, COORDS)
 
@@ -324,7 +343,7 @@ def stability_of(cs: CoupledSystem) -> CoupledStability:
     system = cs.system
     omega = np.array([system.omega])
     lam, k, invariance = _lam_max(system.M[None], system.C[None], system.K[None], omega,
-                                  cs.phi_star)
+                                  cs.frame)
     return CoupledStability(system.omega, float(lam[0]), k, float(invariance[0]))
 
 

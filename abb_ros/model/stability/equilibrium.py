@@ -148,24 +148,15 @@ def balanced_equilibrium(params: DriveParams, phi_star=None) -> BalancedEquilibr
     """Return the balanced equilibrium of Eq. (26) (symmetric fan, or the given ``phi_star``).
 
     A given ``phi_star`` [rad] must have n entries and satisfy Eq. (26) to :data:`EQ26_TOL`;
-    otherwise :class:`ParamError` is raised naming ``phi_star``.
+    otherwise :class:`ParamError` is raised naming ``phi_star``. With a second race
+    (race2.n > 0) the two-plane balance (:func:`two_race_equilibrium`).
     """
+    if params.race2_n:
+        return two_race_equilibrium(params, phi_star)
     n = params.n
     ratio = params.M * params.eps / (params.m * params.R) if n > 0 else math.inf
     if phi_star is not None:
-        phi = np.asarray(phi_star, dtype=float).reshape(-1)
-        if phi.size != n or not np.all(np.isfinite(phi)):
-            raise ParamError('phi_star', _deg(phi), f'{n} finite angles')
-        res = eq26_residual(params, phi)
-        if res > EQ26_TOL * max(n, 1):
-            raise ParamError('phi_star', _deg(phi), 'a solution of Eq. (26)',
-                             f'residual {res:.3g}')
-        if not balls_apart(params, phi):
-            raise ParamError('phi_star', _deg(phi), 'balls at least the contact separation '
-                             f'2 asin(r_ball / R) = {math.degrees(params.contact_separation):.4g}'
-                             ' deg apart', f'two are {math.degrees(min_spacing(phi)):.4g} deg '
-                             'apart')
-        return BalancedEquilibrium(True, phi)
+        return _given_equilibrium(params, phi_star)
     if n == 0:
         if params.eps == 0.0:
             return BalancedEquilibrium(True, np.zeros(0))
@@ -181,9 +172,54 @@ def balanced_equilibrium(params: DriveParams, phi_star=None) -> BalancedEquilibr
     return BalancedEquilibrium(True, fan_phi_star(n, ratio))
 
 
+def _given_equilibrium(params: DriveParams, phi_star) -> BalancedEquilibrium:
+    """Return the given ``phi_star`` [rad] as the equilibrium, checked (ParamError where not)."""
+    n = params.n
+    phi = np.asarray(phi_star, dtype=float).reshape(-1)
+    if phi.size != n or not np.all(np.isfinite(phi)):
+        raise ParamError('phi_star', _deg(phi), f'{n} finite angles')
+    res = eq26_residual(params, phi)
+    if res > EQ26_TOL * max(n, 1):
+        raise ParamError('phi_star', _deg(phi), 'a solution of Eq. (26)',
+                         f'residual {res:.3g}')
+    if not balls_apart(params, phi):
+        raise ParamError('phi_star', _deg(phi), 'balls at least the contact separation '
+                         f'2 asin(r_ball / R) = {math.degrees(params.contact_separation):.4g}'
+                         ' deg apart', f'two are {math.degrees(min_spacing(phi)):.4g} deg '
+                         'apart')
+    return BalancedEquilibrium(True, phi)
+
+
+def two_race_equilibrium(params: DriveParams, phi_star=None) -> BalancedEquilibrium:
+    """Return the balanced equilibrium of two races: force and couple cancelled (F7).
+
+    The closed form of :func:`abb_ros.model.stability.two_plane.drive_balance` (race 1's
+    angles, then race 2's), or the given ``phi_star`` checked against both conditions.
+    """
+    from abb_ros.model.stability import two_plane  # it builds on this module's fans
+    if phi_star is not None:
+        phi = np.asarray(phi_star, dtype=float).reshape(-1)
+        if phi.size != params.n_balls or not np.all(np.isfinite(phi)):
+            raise ParamError('phi_star', _deg(phi), f'{params.n_balls} finite angles (race '
+                             f"1's {params.n}, then race 2's {params.race2_n})")
+        res = two_plane.balance_residual(params, phi)
+        if res > EQ26_TOL * params.n_balls:
+            raise ParamError('phi_star', _deg(phi), 'a two-plane balance (force and couple '
+                             'cancelled)', f'residual {res:.3g}')
+        return BalancedEquilibrium(True, phi)
+    try:
+        balance = two_plane.drive_balance(params)
+    except ParamError as err:
+        return BalancedEquilibrium(False, np.zeros(0), str(err))
+    return BalancedEquilibrium(True, np.concatenate(balance.phi))
+
+
 def balanced_phi_star(params: DriveParams, phi_star=None) -> np.ndarray:
     """Return the balanced equilibrium's angles [rad]; ParamError naming eps where none exists."""
     eq = balanced_equilibrium(params, phi_star)
+    if not eq.exists and params.race2_n:
+        raise ParamError('race2.n', params.race2_n, 'two races that can hold the two-plane '
+                         'balance', eq.reason)
     if not eq.exists:
         raise ParamError('eps', params.eps, f'M eps <= n m R = {params.n * params.m * params.R:g} '
                          'kg m for a balanced equilibrium', eq.reason)

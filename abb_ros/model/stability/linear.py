@@ -82,12 +82,12 @@ def check_in_plane(params: DriveParams) -> None:
     verdict of the decoupled groups would be wrong, so none is given here.
     """
     for name in OFF_PLANE:
-        value = getattr(params, name)
+        value = params.value(name)
         if value != 0.0:
-            raise ParamError(name, value, f'0 {PARAM_SPECS[name].unit} for the Floquet analysis '
-                             'of Eqs. (27)-(33)',
-                             'with mass centres off the plane the groups couple: '
-                             'abb_ros.model.stability.coupled analyses such a drive')
+            unit = f' {PARAM_SPECS[name].unit}'.rstrip()
+            raise ParamError(name, value, f'0{unit} for the Floquet analysis of Eqs. (27)-(33)',
+                             'with mass centres off the plane or a second race the groups '
+                             'couple: abb_ros.model.stability.coupled analyses such a drive')
 
 
 def stack_params(plist) -> SimpleNamespace:

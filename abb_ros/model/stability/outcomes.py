@@ -9,7 +9,8 @@ of the run, the *rest window* (the last :data:`REST_WINDOW` of the duration, at 
   more than ``rest_tol_deg`` within the window;
 - **balanced**: at rest, final rbar <= ``rbar_limit``, and the final angles near an
   equilibrium of Eq. (26): the Eq. (26) residual (``equilibrium.eq26_residual``, the
-  imbalance left over in units of one ball's m R) at most :data:`EQ26_NEAR`;
+  imbalance left over in units of one ball's m R) at most :data:`EQ26_NEAR`; with two races
+  both the force and the couple left over (``two_plane.balance_residual``);
 - **settling**: at rest near an Eq. (26) equilibrium, but rbar still above the limit;
 - **packed**: at rest, not balanced, all balls side by side in one chain (for point masses
   merged within :data:`PACK_TOL_DEG`; for balls with contact each within the contact
@@ -18,8 +19,11 @@ of the run, the *rest window* (the last :data:`REST_WINDOW` of the duration, at 
 - **friction_rest**: at rest elsewhere with rolling resistance on: held by it short of an
   equilibrium (the "plug and pray" rest states);
 - **unbalanced_rest**: at rest elsewhere without rolling resistance;
-- **moving**: not at rest at the end (still travelling, or oscillating as in an unbalanced
-  speed band);
+- **drifting**: not at rest, and some ball laps the rotor within the rest window (turns a full
+  revolution or more relative to it): a non-synchronous state, which two races can settle
+  into (docs/equations.md, F7), never a balanced one;
+- **moving**: not at rest at the end otherwise (still travelling, or oscillating as in an
+  unbalanced speed band);
 - **failed**: the state left the model's envelope or became non-finite (StateError).
 
 The classes are exclusive and checked in that order (failed first).
@@ -33,12 +37,13 @@ import numpy as np
 
 from abb_ros.model.dynamics.state import StateLayout
 from abb_ros.model.stability.equilibrium import eq26_residual
+from abb_ros.model.stability.two_plane import balance_residual
 
 __all__ = ['CLASSES', 'EQ26_NEAR', 'PACK_TOL_DEG', 'REST_WINDOW', 'REST_WINDOW_MIN',
            'REST_TOL_DEG', 'classify', 'rest_window', 'packed']
 
-CLASSES = ('balanced', 'settling', 'packed', 'friction_rest', 'unbalanced_rest', 'moving',
-           'failed')
+CLASSES = ('balanced', 'settling', 'packed', 'friction_rest', 'unbalanced_rest', 'drifting',
+           'moving', 'failed')
 """Outcome classes, in the order they are checked (after 'failed')."""
 
 EQ26_NEAR = 0.05
@@ -88,15 +93,17 @@ def classify(params, t, ys, rbar_limit: float, rest_tol_deg: float = REST_TOL_DE
     t [s] shape (T,), ys the states, shape (T, 2N); a run that failed is class 'failed'
     without samples to classify (:mod:`abb_ros.basin.compute`).
     """
-    layout = StateLayout.of(params.n)
+    layout = StateLayout.of(params.n_balls)
     phi = layout.phi(ys)
     window = rest_window(t)
     unwrapped = np.unwrap(phi[window], axis=0)
     motion = float(np.degrees((unwrapped.max(axis=0) - unwrapped.min(axis=0)).max(initial=0.0)))
     final = phi[-1]
-    residual = float(eq26_residual(params, final))
+    residual = float(balance_residual(params, final) if params.race2_n
+                     else eq26_residual(params, final))
     if motion > rest_tol_deg:
-        return 'moving', residual, motion
+        laps = np.abs(unwrapped[-1] - unwrapped[0]).max(initial=0.0) / (2 * math.pi)
+        return ('drifting' if laps >= 1.0 else 'moving'), residual, motion
     if residual <= EQ26_NEAR:
         rbar = float(layout.rbar(ys[-1], params.R))
         return ('balanced' if rbar <= rbar_limit else 'settling'), residual, motion

@@ -32,7 +32,6 @@ import numpy as np
 from abb_ros.model.parameters.params import DriveParams, ParamError
 from abb_ros.model.stability import coupled, two_plane
 from abb_ros.model.stability.equilibrium import balanced_equilibrium
-from abb_ros.model.stability.family import neutral_count
 from abb_ros.model.stability.floquet import point_stability, sweep_speed
 
 __all__ = ['OK', 'WARN', 'ERROR', 'STALE', 'TABLE_POINTS', 'MARGIN_WARN', 'BAND_GUARD_WBAR',
@@ -145,7 +144,8 @@ def speed_table(params: DriveParams, omega_max: float, points: int = TABLE_POINT
     else:
         lam_in = lam_out = np.full(points, math.inf)
         bands = ()
-    neutral = int(neutral_count(eq.phi_star)) if eq.exists and params.n > 1 else 0
+    neutral = int(coupled.family_frame(params, eq.phi_star)[1]) \
+        if eq.exists and params.n_balls > 1 else 0
     return SpeedTable(params, float(omega_max), omegas, lam_in, lam_out, eq.exists,
                       eq.phi_star, eq.reason, natural, bands, time.perf_counter() - start,
                       neutral, params.off_plane)

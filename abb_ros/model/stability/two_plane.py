@@ -75,11 +75,14 @@ def imbalance_couple(params: DriveParams) -> complex:
 
 
 def residual_couple(params: DriveParams) -> complex:
-    """Return the couple one race leaves, U_c - z_B M eps [kg m^2].
+    """Return the couple the drive's balls leave at their balance [kg m^2].
 
-    Exactly 0 where the race lies in G's plane and the axis is upright (the lever z_G - z_B is
-    formed first, so no rounding leaves a couple that is not there).
+    One race: U_c - z_B M eps, exactly 0 where the race lies in G's plane and the axis is
+    upright (the lever z_G - z_B is formed first, so no rounding leaves a couple that is not
+    there). Two races (race2.n > 0) balance the couple too: 0.
     """
+    if params.race2_n:
+        return 0j
     return params.M * params.eps * (params.z_G - params.z_B) + _lean_couple(params)
 
 
@@ -89,7 +92,10 @@ def second_race(params: DriveParams) -> dict:
     {} where one race cancels it; else the mirrored race (:func:`mirror_race`): its height
     ``z_m``, ball count ``n``, resultant ``B_kg_m`` and ball angles ``phi_deg`` beside race 1's
     ``race1_phi_deg``, or ``why`` (the ParamError text) where its balls cannot carry it.
+    {} too for a drive that has its second race (race2.n > 0).
     """
+    if params.race2_n:
+        return {}
     try:
         mirror = mirror_race(params)
     except ParamError as err:
@@ -138,6 +144,71 @@ def two_plane_balance(params: DriveParams, second: Race) -> TwoPlaneBalance:
     B2 = complex(-(U_c - first.z * U_s) / dz)
     phi = (race_angles(first, B1, 'n'), race_angles(second, B2, 'race2.n'))
     return TwoPlaneBalance((first, second), (B1, B2), phi)
+
+
+def race2_of(params: DriveParams) -> Race:
+    """Return the drive's own second race (race2.n balls; m, R and z as resolved, F7)."""
+    return Race(params.race2_n, params.race2_mass, params.race2_radius, params.race2_z)
+
+
+def drive_balance(params: DriveParams) -> TwoPlaneBalance:
+    """Return the balanced equilibrium of a drive with two races (race2.n > 0), closed form."""
+    if not params.race2_n:
+        raise ParamError('race2.n', params.race2_n, 'at least 1 for the two-plane balance')
+    second = race2_of(params)
+    if second.z == params.z_B and residual_couple(params.replace(**{'race2.n': 0})) == 0.0:
+        return _one_plane_balance(params, second)
+    return two_plane_balance(params, second)
+
+
+def _one_plane_balance(params: DriveParams, second: Race) -> TwoPlaneBalance:
+    """Return a balance of two races in one plane that holds G: the force shared by capacity.
+
+    Such races balance any split of -U_s between them (a family); this member gives each race
+    the share of its capacity, so both fans are alike.
+    """
+    first = Race(params.n, params.m, params.R, params.z_B)
+    U_s = params.M * params.eps
+    share = first.capacity / (first.capacity + second.capacity)
+    B1, B2 = complex(-U_s * share), complex(-U_s * (1.0 - share))
+    phi = (race_angles(first, B1, 'n'), race_angles(second, B2, 'race2.n'))
+    return TwoPlaneBalance((first, second), (B1, B2), phi)
+
+
+def balance_residual(params: DriveParams, phi) -> float:
+    """Return the imbalance the balls at ``phi`` (race 1's, then race 2's) leave uncancelled.
+
+    The larger of the force |B_1 + B_2 + U_s| / (m R) and, with two races, the couple
+    |z_B B_1 + z_2 B_2 + U_c| / (m R |z_2 - z_B|): in units of one ball of race 1, like
+    Eq. (26)'s residual (one race: the modulus of the force whose components
+    :func:`~.equilibrium.eq26_residual` bounds).
+    """
+    phi = np.asarray(phi, dtype=float)
+    unit = params.m * params.R
+    e = np.exp(1j * phi)
+    B1 = unit * complex(e[:params.n].sum())
+    U_s = params.M * params.eps
+    if not params.race2_n:
+        return abs(B1 + U_s) / unit
+    B2 = params.race2_mass * params.race2_radius * complex(e[params.n:].sum())
+    lever = abs(params.race2_z - params.z_B) or 1.0
+    couple = params.z_B * B1 + params.race2_z * B2 + imbalance_couple(params)
+    return max(abs(B1 + B2 + U_s) / unit, abs(couple) / (unit * lever))
+
+
+def balance_jacobian(params: DriveParams, phi) -> np.ndarray:
+    """Return d(force, couple)/d phi of the two-plane conditions at ``phi``, shape (4, n).
+
+    Rows Re, Im of sum_p B_p / (m R) and of sum_p z_p B_p / (m R |z_2 - z_B|); its null
+    space is the tangent of the family of balanced states through phi (none where the races
+    hold two balls each and a resultant: then the equilibrium is isolated).
+    """
+    phi = np.asarray(phi, dtype=float)
+    weight = np.array([m * R for m, R, _ in params.per_ball()]) / (params.m * params.R)
+    height = np.array([z for _, _, z in params.per_ball()])
+    lever = abs(params.race2_z - params.z_B) or 1.0
+    d = 1j * weight * np.exp(1j * phi)
+    return np.stack([d.real, d.imag, (height * d).real / lever, (height * d).imag / lever])
 
 
 def mirror_race(params: DriveParams) -> TwoPlaneBalance | None:

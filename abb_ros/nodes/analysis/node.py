@@ -156,9 +156,12 @@ class AnalysisNode(Node):
         self._dirty = True
 
     def _effective_drive(self) -> DriveParams:
-        """Return the drive as the simulator runs it: n from joint_states once seen."""
-        if self.n_seen is not None and self.n_seen != self.drive.n:
-            return self.drive.replace(n=self.n_seen)
+        """Return the drive as the simulator runs it: n from joint_states once seen.
+
+        joint_states carry race 1's balls then race 2's: n is what race2.n leaves of them.
+        """
+        if self.n_seen is not None and self.n_seen != self.drive.n_balls:
+            return self.drive.replace(n=max(self.n_seen - self.drive.race2_n, 0))
         return self.drive
 
     def _request_table(self) -> None:
@@ -298,7 +301,7 @@ class AnalysisNode(Node):
         level, message = a.level, a.message
         if self.sync_error:
             level, message = speed_bands.ERROR, f'{self.sync_error}; {message}'
-        if self.n_seen is not None and self.n_seen != self.drive.n:
+        if self.n_seen is not None and self.n_seen != self.drive.n_balls:
             message += f' (n = {self.n_seen} from joint_states; drive.n = {self.drive.n} ' \
                        'applies on the simulator\'s ~/reset)'
         values = dict(a.values, parameters_from=self.parameters_from)

@@ -89,7 +89,7 @@ class HilIO:
         sim = self.node.sim
         step = self.config.shock_velocity
         try:
-            y = disturbances.apply_shock(sim.y, sim.params.n, step)
+            y = disturbances.apply_shock(sim.y, sim.params.n_balls, step)
         except np.linalg.LinAlgError as err:   # singular L (cos(alpha) = 0): change nothing
             response.success, response.message = False, f'shock not applied: {err}'
             return response
@@ -110,7 +110,7 @@ class HilIO:
             return response
         node._apply_parameters()
         delta = math.radians(b.disc_angle_deg)
-        sim.y[:] = disturbances.swap_disc(sim.y, sim.params.n, delta)
+        sim.y[:] = disturbances.swap_disc(sim.y, sim.params.n_balls, delta)
         self.speed.shift_angle(delta)
         self.counters['disc_swaps'] += 1
         self._last_event = (f'disc swap to eps = {b.disc_eps:g} m, imbalance moved by '

@@ -171,7 +171,10 @@ class SimulatorNode(PlantLoop, Node):
         self._diag_timer = self.create_timer(DIAGNOSTICS_PERIOD_S, self.publish_diagnostics,
                                              clock=self._steady)
         self.get_logger().info(
-            f'n = {self.drive.n} balls, omega0 = {self.drive.omega0:.1f} rad/s, initial '
+            f'n = {self.drive.n} balls'
+            + (f' + race2.n = {self.drive.race2_n} at z = {self.drive.race2_z:g} m'
+               if self.drive.race2_n else '')
+            + f', omega0 = {self.drive.omega0:.1f} rad/s, initial '
             f'{s.initial_speed:.1f} rad/s, {s.integration_rate_hz} Hz steps, publishing at '
             f'{s.publish_rate_hz} Hz, real_time_factor {s.real_time_factor:g}'
             + (', paused' if self.paused else ''))
@@ -262,11 +265,11 @@ class SimulatorNode(PlantLoop, Node):
         drive, s = ros_params.settings_from(ros_params.current_values(self))
         self.settings = s
         self.pending_drive = drive
-        if drive.n == self.drive.n:
-            self.drive = drive
-        else:
-            self.drive = drive.replace(n=self.drive.n)
-            self.get_logger().info(f'n = {drive.n} applies on ~/reset')
+        counts = {name: self.drive.value(name) for name in ('n', 'race2.n')
+                  if drive.value(name) != self.drive.value(name)}
+        self.drive = drive.replace(**counts) if counts else drive
+        for name in counts:
+            self.get_logger().info(f'{name} = {drive.value(name)} applies on ~/reset')
         self.sim.set_params(self.drive)
         self._set_spindle(s)
         self.imu.reconfigure(s.imu)

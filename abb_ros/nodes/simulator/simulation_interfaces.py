@@ -287,7 +287,7 @@ class SimulationInterfacesServer:
         pattern, why = compile_filter(filters.filter)
         if why:
             return None, self._result(self.Result.RESULT_OPERATION_FAILED, why)
-        names = ek.entity_names(self.node.drive.n)
+        names = ek.entity_names(self.node.drive.n_balls)
         if pattern is not None:
             names = [n for n in names if pattern.search(n)]
         bounds = filters.bounds
@@ -327,7 +327,7 @@ class SimulationInterfacesServer:
     def _not_found(self, name: str):
         return self._result(self.Result.RESULT_NOT_FOUND,
                             f'no entity {name!r}: entities are '
-                            + ', '.join(ek.entity_names(self.node.drive.n)))
+                            + ', '.join(ek.entity_names(self.node.drive.n_balls)))
 
     def _entity_state(self, k: ek.Kinematics, stamp_ns: int):
         from simulation_interfaces.msg import EntityState
@@ -346,7 +346,7 @@ class SimulationInterfacesServer:
     def _set_entity_state(self, request, response):
         from simulation_interfaces.srv import SetEntityState
         name, state = request.entity, request.state
-        names = ek.entity_names(self.node.drive.n)
+        names = ek.entity_names(self.node.drive.n_balls)
         if name not in names:
             response.result = self._not_found(name)
             return response

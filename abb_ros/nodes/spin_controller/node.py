@@ -21,7 +21,6 @@ command, so lockstep runs stay deterministic). Parameters: docs/ros_api.md.
 from __future__ import annotations
 
 import math
-from dataclasses import fields
 
 from rcl_interfaces.msg import SetParametersResult
 from rclpy.node import Node
@@ -30,7 +29,7 @@ from std_msgs.msg import Float64
 
 from abb_ros.io.wire.topics import CURRENT_CMD, JOINT_STATES, SPEED_CMD, STABILITY_MARGIN
 from abb_ros.model.dynamics.spindle import TorqueMotor
-from abb_ros.model.parameters.params import DriveParams, ParamError
+from abb_ros.model.parameters.params import PARAM_SPECS, DriveParams, ParamError
 from abb_ros.model.stability import speed_bands
 from abb_ros.nodes.ros import ros_params
 from abb_ros.nodes.ros.entry_point import run_node
@@ -89,8 +88,8 @@ class SpinController(Node):
         shared = {k: s for k, s in PARAMS.items() if k == 'max_spindle_speed'
                   or k.startswith((ros_params.DRIVE_PREFIX, MOTOR_PREFIX))}
         ros_params.declare(self, shared)
-        drive = DriveParams.from_mapping({f.name: self.get_parameter(
-            ros_params.DRIVE_PREFIX + f.name).value for f in fields(DriveParams)})
+        drive = DriveParams.from_mapping({name: self.get_parameter(
+            ros_params.DRIVE_PREFIX + name).value for name in PARAM_SPECS})
         own = {k: s for k, s in PARAMS.items() if k not in shared}
         ros_params.declare(self, own, {'target_speed': ros_params.P3_WBAR * drive.omega0})
         ros_params.coerce_on_set(self, PARAMS)

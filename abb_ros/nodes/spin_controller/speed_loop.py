@@ -36,9 +36,10 @@ PI_ZERO_RATIO = 0.25
 def rotor_inertia(drive: DriveParams) -> float:
     """Return J_z + I_r [kg m^2], the inertia the motor accelerates; I_r = M eps^2 + n m R^2.
 
-    The coefficient of theta'' in the theta row (docs/torque_mode.md).
+    The coefficient of theta'' in the theta row (docs/torque_mode.md); a second race adds its
+    race2.n m_2 R_2^2.
     """
-    return drive.J_z + drive.M * drive.eps ** 2 + drive.n * drive.m * drive.R ** 2
+    return drive.J_z + drive.M * drive.eps ** 2 + sum(m * R ** 2 for m, R, _ in drive.per_ball())
 
 
 @dataclass

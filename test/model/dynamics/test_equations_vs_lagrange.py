@@ -39,8 +39,8 @@ def omega_p3(params):
 def scales(params, omega):
     """Natural scale of each equation: [translations x3, rotations x3, balls x n]."""
     f = params.M * params.eps * omega ** 2
-    return np.array([f] * 3 + [f * params.R] * 3 + [params.m * params.R ** 2 * omega ** 2]
-                    * params.n)
+    return np.array([f] * 3 + [f * params.R] * 3
+                    + [m * R ** 2 * omega ** 2 for m, R, _ in params.per_ball()])
 
 
 def random_state(params, rng, theta_dd):
@@ -53,7 +53,7 @@ def random_state(params, rng, theta_dd):
     normal with scale R (translations) or 1 (angles), rates times omega, accelerations times
     omega^2.
     """
-    n = params.n
+    n = params.n_balls
     N = 7 + n
     w = omega_p3(params)
     q = np.zeros(N)

@@ -30,6 +30,11 @@ from abb_ros.model.dynamics.kernels.layout import (
     P_M_P,
     P_PSI_TAU,
     P_R,
+    P_RACE2_D,
+    P_RACE2_M,
+    P_RACE2_N,
+    P_RACE2_R,
+    P_RACE2_Z,
     P_TAU,
     P_Z_B,
     P_Z_G,
@@ -88,7 +93,11 @@ def assemble_rows(y, n, P, thdd, A, W, f, B, fb):
     om = y[N + THETA]
     Xd, Yd, Zd, ald, bed, gad = (y[N + DECK], y[N + DECK + 1], y[N + DECK + 2],
                                  y[N + DECK + 3], y[N + DECK + 4], y[N + DECK + 5])
-    Mt = M + M_P + n * m
+    # balls 0..n1-1 run in race 1 (m, R, D), the rest in race 2 (F7; none in the paper)
+    n2 = int(P[P_RACE2_N])
+    n1 = n - n2
+    m2, R2, D2 = P[P_RACE2_M], P[P_RACE2_R], P[P_RACE2_D]
+    Mt = M + M_P + n1 * m + n2 * m2
 
     # Sums over the rotating point masses j = G (M, eps, theta) and balls (m, R, phi_i + theta),
     # with the known part psi'' = theta'' of their angular accelerations.
@@ -112,6 +121,9 @@ def assemble_rows(y, n, P, thdd, A, W, f, B, fb):
         else:
             mu = m
             r = R
+            if j > n1:
+                mu = m2
+                r = R2
             psi = y[THETA] + y[PHI - 1 + j]
             psid = om + y[N + PHI - 1 + j]
         s = math.sin(psi)
@@ -152,8 +164,8 @@ def assemble_rows(y, n, P, thdd, A, W, f, B, fb):
             B[i, 3] = 0.0
             B[i, 4] = 0.0
             B[i, 5] = mr2
-            fb[i] = -D * y[N + PHI + i] - mr2 * thdd
-    Ir = M * eps * eps + n * m * R * R
+            fb[i] = -(D if i < n1 else D2) * y[N + PHI + i] - mr2 * thdd
+    Ir = M * eps * eps + n1 * m * R * R + n2 * m2 * R2 * R2
     kb = b * b + 4.0 * d * d
     kab = a * a + b * b + 4.0 * d * d
 
@@ -198,7 +210,8 @@ def add_offsets(y, n, P, thdd, A, W, f, B):
 
     :func:`add_heights`, :func:`add_leaning_axis`.
     """
-    if P[P_Z_P] != 0.0 or P[P_Z_G] != 0.0 or P[P_Z_B] != 0.0:
+    if (P[P_Z_P] != 0.0 or P[P_Z_G] != 0.0 or P[P_Z_B] != 0.0
+            or (P[P_RACE2_N] > 0.0 and P[P_RACE2_Z] != 0.0)):
         add_heights(y, n, P, thdd, A, W, f, B)
     if P[P_TAU] != 0.0:
         add_leaning_axis(y, n, P, thdd, A, f)
@@ -229,14 +242,17 @@ def add_heights(y, n, P, thdd, A, W, f, B):
     f[3] += mh * r * c * thdd
     f[4] += mh * r * s * thdd
     f[5] -= mh * r * (be * c - al * s) * thdd
-    # ball i at (R cos psi_i, R sin psi_i, z_B), psi_i = theta + phi_i
-    mh = P[P_m] * P[P_Z_B]
-    r = P[P_R]
+    # ball i at (R cos psi_i, R sin psi_i, z_B), psi_i = theta + phi_i; race 2's at race2.z
+    n1 = n - int(P[P_RACE2_N])
     for i in range(n):
+        mu, r, h = P[P_m], P[P_R], P[P_Z_B]
+        if i >= n1:
+            mu, r, h = P[P_RACE2_M], P[P_RACE2_R], P[P_RACE2_Z]
+        mh = mu * h
         psi = y[THETA] + y[PHI + i]
         s = math.sin(psi)
         c = math.cos(psi)
-        add_point_at_height(P[P_m], r, P[P_Z_B], s, c, om + y[N + PHI + i], (al, be, gad), A, f)
+        add_point_at_height(mu, r, h, s, c, om + y[N + PHI + i], (al, be, gad), A, f)
         # psi_i'' = phi_i'' + theta'': the ball's column, and the known theta'' to the right
         W[3, i] -= mh * r * c
         W[4, i] -= mh * r * s
@@ -401,14 +417,15 @@ def pivot_row(T, col):
 
 
 @kernel
-def eliminate_balls(n, inv, A, W, f, B, fb):
+def eliminate_balls(n, n1, inv, inv2, A, W, f, B, fb):
     """Eliminate the ball rows from the deck rows (Schur complement), in place.
 
-    The balls' block is m R^2 I, ``inv`` its inverse: A -= W B / m R^2, f -= W fb / m R^2.
+    The balls' block is diagonal, m R^2 for race 1's first n1 balls (``inv`` its inverse) and
+    m_2 R_2^2 for race 2's (``inv2``): A -= W B / m R^2, f -= W fb / m R^2.
     """
     for i in range(6):
         for b in range(n):
-            w = W[i, b] * inv
+            w = W[i, b] * (inv if b < n1 else inv2)
             if w != 0.0:
                 # in the plane, Eq. (24) involves X'', Y'', gamma'' only (B[:, 2:5] = 0)
                 A[i, 0] -= w * B[b, 0]

@@ -39,13 +39,16 @@ kernel = KernelSet(nogil=True, error_model='numpy')
 PARAM_ORDER = ('a', 'b', 'd', 'R', 'M_P', 'M', 'm', 'J_Px', 'J_Py', 'J_Pz', 'J_x', 'J_y', 'J_z',
                'k', 'c', 'D', 'eps', 'n',
                'r_ball', 'contact_E', 'contact_nu', 'contact_damping', 'rolling_mu',
-               'rolling_stick_rate', 'ball_rotation', 'z_P', 'z_G', 'z_B', 'tau', 'psi_tau')
+               'rolling_stick_rate', 'ball_rotation', 'z_P', 'z_G', 'z_B', 'tau', 'psi_tau',
+               'race2_n', 'race2_mass', 'race2_radius', 'race2_drag', 'race2_z')
 N_PARAMS = len(PARAM_ORDER)
 (P_A, P_B, P_D, P_R, P_M_P, P_M, P_m, P_J_Px, P_J_Py, P_J_Pz, P_J_x, P_J_y, P_J_z,
  P_K, P_C, P_DRAG, P_EPS, P_N,
  P_R_BALL, P_CONTACT_E, P_CONTACT_NU, P_CONTACT_DAMPING, P_ROLLING_MU,
- P_STICK_RATE, P_BALL_ROTATION, P_Z_P, P_Z_G, P_Z_B, P_TAU, P_PSI_TAU) = range(N_PARAMS)
-"""Index in P of each entry of PARAM_ORDER (P_DRAG: the balls' drag D, P_K, P_C: k, c)."""
+ P_STICK_RATE, P_BALL_ROTATION, P_Z_P, P_Z_G, P_Z_B, P_TAU, P_PSI_TAU,
+ P_RACE2_N, P_RACE2_M, P_RACE2_R, P_RACE2_D, P_RACE2_Z) = range(N_PARAMS)
+"""Index in P of each entry of PARAM_ORDER (P_DRAG: the balls' drag D, P_K, P_C: k, c; the
+second race's m, R, D resolved to race 1's where given as 0)."""
 
 N_SPINDLE = 7
 SPINDLE_CONSTANT, SPINDLE_MOTOR, SPINDLE_RAMP = 0, 1, 2
@@ -121,5 +124,5 @@ def make_work(n: int) -> np.ndarray:
 
 
 def pack_params(params) -> np.ndarray:
-    """Return the P array of a DriveParams, in :data:`PARAM_ORDER`."""
+    """Return the P array of a DriveParams, in :data:`PARAM_ORDER` (fields and properties)."""
     return np.array([float(getattr(params, name)) for name in PARAM_ORDER])

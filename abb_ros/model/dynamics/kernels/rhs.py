@@ -22,6 +22,9 @@ from abb_ros.model.dynamics.kernels.eom import (
 from abb_ros.model.dynamics.kernels.layout import (
     P_BALL_ROTATION,
     P_CONTACT_E,
+    P_RACE2_M,
+    P_RACE2_N,
+    P_RACE2_R,
     P_ROLLING_MU,
     S_MODE,
     SPINDLE_TORQUE,
@@ -47,21 +50,28 @@ def accel(t, y, n, P, S, qdd, solver):
     N = PHI + n
     thdd = spindle_accel(t, y[N + THETA], S)
     assemble(y, n, P, thdd, solver.A, solver.W, solver.f, solver.B, solver.fb)
-    mR2 = ball_inertia(P)
     if P[P_ROLLING_MU] > 0.0 and n > 0:
         mode = np.empty(n)
-        accel_rolling(y, n, P, mR2, qdd, solver, mode, False)
+        accel_rolling(y, n, P, ball_inertia(P), qdd, solver, mode, False)
         qdd[THETA] = thdd
         return
-    solve_rows(n, mR2, thdd, qdd, solver)
+    solve_rows(n, P, thdd, qdd, solver)
 
 
 @kernel(inline=True)
-def solve_rows(n, mR2, thdd, qdd, solver):
-    """Fill qdd from the rows in ``solver`` (balls' block m R^2 = ``mR2``, theta'' = ``thdd``)."""
+def solve_rows(n, P, thdd, qdd, solver):
+    """Fill qdd from the rows in ``solver`` (theta'' = ``thdd``).
+
+    The balls' block is m R^2 (:func:`~.ball_size.ball_inertia`) for race 1's balls and
+    m_2 R_2^2 for race 2's (point balls only, F7).
+    """
     A, W, f, B, fb, u = solver.A, solver.W, solver.f, solver.B, solver.fb, solver.u
-    inv = 1.0 / mR2
-    eliminate_balls(n, inv, A, W, f, B, fb)
+    inv = 1.0 / ball_inertia(P)
+    n1 = n - int(P[P_RACE2_N])
+    inv2 = inv
+    if n1 < n:
+        inv2 = 1.0 / (P[P_RACE2_M] * P[P_RACE2_R] * P[P_RACE2_R])
+    eliminate_balls(n, n1, inv, inv2, A, W, f, B, fb)
     solve_deck(A, f, u)
     qdd[THETA] = thdd
     for i in range(6):
@@ -70,7 +80,7 @@ def solve_rows(n, mR2, thdd, qdd, solver):
         acc = fb[b]
         for j in range(6):
             acc -= B[b, j] * u[j]
-        qdd[PHI + b] = acc * inv
+        qdd[PHI + b] = acc * (inv if b < n1 else inv2)
 
 
 @kernel(inline=True)
@@ -99,7 +109,7 @@ def paper_deriv(t, y, n, P, S, dy, solver):
     thdd = spindle_accel(t, y[N + THETA], S)
     assemble_rows(y, n, P, thdd, solver.A, solver.W, solver.f, solver.B, solver.fb)
     add_offsets(y, n, P, thdd, solver.A, solver.W, solver.f, solver.B)
-    solve_rows(n, ball_inertia(P), thdd, qdd, solver)
+    solve_rows(n, P, thdd, qdd, solver)
     for i in range(N):
         dy[i] = y[N + i]
         dy[N + i] = qdd[i]

@@ -83,7 +83,7 @@ def accel_free_theta(t, y, n, P, S, qdd, solver):  # noqa: ARG001 (every q'' ker
     Q = spindle_torque(y[N + THETA], S)
     mR2 = P[P_m] * P[P_R] * P[P_R]
     inv = 1.0 / mR2
-    eliminate_balls(n, inv, A, W, f, B, fb)
+    eliminate_balls(n, n, inv, inv, A, W, f, B, fb)
     for i in range(6):
         for b in range(n):
             w = W[i, b] * inv
