@@ -18,7 +18,8 @@ from abb_ros.model.parameters.params import ParamError
 
 DEFAULT_RANGES = {'wbar': (0.2, 3.5), 'zeta': (0.0, 0.15), 'Dbar': (0.0, 1.0),
                   'epsbar': (0.0, 0.05), 'mbar': (0.001, 0.12), 'z_P': (-0.01, 0.01),
-                  'z_G': (-0.005, 0.005), 'z_B': (-0.005, 0.005), 'tau': (-0.01, 0.01)}
+                  'z_G': (-0.005, 0.005), 'z_B': (-0.005, 0.005), 'tau': (-0.01, 0.01),
+                  'race2.z': (0.001, 0.01)}
 """Axis ranges when --range-x/--range-y are not given (those of the paper's figures; heights
 [m] and the lean [rad] of docs/equations.md F4, F6 around an optical drive's); its keys are the
 axes a map may vary (floquet.MAP_AXES, not imported here: the parser starts fast)."""

@@ -10,7 +10,8 @@ import re
 
 SYMBOLS = {'wbar': r'$\bar{\omega}$', 'zeta': r'$\zeta$', 'Dbar': r'$\bar{D}$',
            'epsbar': r'$\bar{\varepsilon}$', 'mbar': r'$\bar{m}$', 'z_P': r'$z_P$ [m]',
-           'z_G': r'$z_G$ [m]', 'z_B': r'$z_B$ [m]', 'tau': r'$\tau$ [rad]'}
+           'z_G': r'$z_G$ [m]', 'z_B': r'$z_B$ [m]', 'tau': r'$\tau$ [rad]',
+           'race2.z': r'$z_2$ [m]'}
 WASHERS = {'metal': 0.66, 'rubber': 2.53}
 """Washer damping c [kg/s] of the paper's two suspensions (Table 1)."""
 WASHER_TOLERANCE = 0.05
@@ -44,7 +45,8 @@ def parameter_text(params, wbar: float | None = None, omit=()) -> str:
         return ', '.join(parts + ['n = 0 (without ABB)'])
     if 'mbar' not in omit:
         parts.append(f"{SYMBOLS['mbar']} = {params.mbar:.3g}")
-    return ', '.join(parts + [f'n = {params.n}'])
+    balls = f'n = {params.n}' + (f' + race2.n = {params.race2_n}' if params.race2_n else '')
+    return ', '.join(parts + [balls])
 
 
 _OUTSIDE_MATH = r'(?=(?:[^$]*\$[^$]*\$)*[^$]*$)'

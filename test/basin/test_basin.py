@@ -17,7 +17,8 @@ from abb_ros.cli import main
 from abb_ros.io.files.scenario import load_scenario
 from abb_ros.model.dynamics.state import StateLayout, wrap_degrees
 from abb_ros.model.parameters.params import DriveParams
-from abb_ros.model.stability.outcomes import classify, packed
+from abb_ros.model.stability import two_plane
+from abb_ros.model.stability.outcomes import EQ26_NEAR, classify, packed
 from abb_ros.sweep.proportions import wilson
 
 
@@ -132,8 +133,8 @@ def test_overlapping_starts_are_left_out_of_the_fraction():
 def _rest_run(params, phi_end_deg, rbar, drift_deg=0.0):
     """Synthetic samples: balls at phi_end (drifting by drift_deg over the run), deck at rbar."""
     t = np.linspace(0.0, 1.0, 1001)
-    layout = StateLayout.of(params.n)
-    ys = np.zeros((t.size, 2 * (7 + params.n)))
+    layout = StateLayout.of(params.n_balls)
+    ys = np.zeros((t.size, 2 * (7 + params.n_balls)))
     phi = np.radians(phi_end_deg)[None, :] + np.radians(drift_deg) * (t[:, None] - 1.0)
     ys[:, layout.phi_slice] = phi
     ys[:, 1] = rbar * params.R
@@ -148,12 +149,26 @@ def test_classes_of_synthetic_ends():
              'settling': _rest_run(p, np.array([-star, star]), 5e-3),
              'packed': _rest_run(p, np.array([-10.0, -9.5]), 2e-2),
              'unbalanced_rest': _rest_run(p, np.array([-60.0, 60.0]), 2e-2),
-             'moving': _rest_run(p, np.array([-star, star]), 1e-4, drift_deg=30.0)}
+             'moving': _rest_run(p, np.array([-star, star]), 1e-4, drift_deg=30.0),
+             # two laps of the rotor within the rest window (the last 0.1 s)
+             'drifting': _rest_run(p, np.array([-star, star]), 1e-4, drift_deg=7200.0)}
     for name, (t, ys) in cases.items():
         assert classify(p, t, ys, 1e-3)[0] == name
     rolling = p.replace(rolling_mu=1e-3, r_ball=1e-3)
     t, ys = _rest_run(rolling, np.array([-60.0, 60.0]), 2e-2)
     assert classify(rolling, t, ys, 1e-3)[0] == 'friction_rest'
+
+
+def test_two_races_are_balanced_only_where_they_cancel_the_couple_too():
+    """G 1 mm above race 1 and race 2 at 2 mm: the closed form's angles are balanced; race 1
+    alone cancelling the force (race 2's pair opposite, no resultant) leaves the couple."""
+    p = load_scenario('p3').params.replace(**{'z_G': 1e-3, 'race2.n': 2, 'race2.z': 2e-3})
+    closed = np.degrees(np.concatenate(two_plane.drive_balance(p).phi))
+    star = math.degrees(math.acos(-p.M * p.eps / (2 * p.m * p.R)))
+    force_only = np.array([-star, star, -90.0, 90.0])
+    assert classify(p, *_rest_run(p, closed, 1e-4), 1e-3)[0] == 'balanced'
+    outcome, residual, _ = classify(p, *_rest_run(p, force_only, 1e-4), 1e-3)
+    assert outcome == 'unbalanced_rest' and residual > EQ26_NEAR
 
 
 def test_packed_means_one_chain_of_touching_balls():

@@ -40,3 +40,37 @@ def test_a_sweep_over_z_g_reports_the_coupled_lam_max_of_each_drive(abb_sim, tmp
         assert lam_in == lam_out == pytest.approx(coupled.lam_max_sweep(drive, [omega])[0],
                                                   rel=1e-9)
     assert all(v > 0 for v in table['z_G'])
+
+
+RACE2_SPEC = """name: race2
+description: a second race at heights about G's mirror image, P3 with G 1 mm up
+scenario: p3
+parameters:
+  z_G: {dist: list, values: [0.001]}
+  race2.n: {dist: list, values: [2]}
+  race2.z: {dist: uniform, low: 0.0015, high: 0.003}
+samples: 3
+sampling: {method: sobol, seed: 2}
+partition_size: 3
+compute:
+  stability:
+    range: {wbar: [2.2, 3.2], points: 3}
+  run: {duration: 0.2, rbar_limit: 1.0e-3}
+"""
+
+
+def test_a_sweep_over_the_second_races_height_analyses_and_runs_both_races(abb_sim, tmp_path):
+    """race2.* are sweep names: each drive's lam_max is the coupled analysis' about its own
+    two-plane balance, and its run holds four balls (their final angles in the table)."""
+    spec = tmp_path / 'race2.yaml'
+    spec.write_text(RACE2_SPEC)
+    code, _, err = abb_sim('sweep', str(spec), '--out', str(tmp_path / 'out'), '--serial',
+                           '--no-progress', '--json')
+    assert code == 0, err
+    table = pq.read_table(tmp_path / 'out').to_pydict()
+    p3 = DriveParams(c=0.66, m=0.03 * 0.026)
+    omega = 2.7 * p3.omega0
+    for z2, lam, phi in zip(table['race2.z'], table['lam_in_op'], table['phi_final_deg']):
+        drive = apply_settings(p3, {'z_G': 0.001, 'race2.n': 2, 'race2.z': z2})[0]
+        assert lam == pytest.approx(coupled.lam_max_sweep(drive, [omega])[0], rel=1e-9)
+        assert len(phi) == 4

@@ -94,8 +94,8 @@ def monodromy_reference(system, rtol=1e-12, atol=1e-12, method='DOP853') -> np.n
 
 # ---- one operating point and two-parameter maps ----------------------------------------------
 
-MAP_AXES = ('wbar', 'zeta', 'Dbar', 'epsbar', 'mbar', 'z_P', 'z_G', 'z_B', 'tau')
-"""Parameters a stability map may vary (Eq. 39, and the offsets of docs/equations.md F4, F6,
+MAP_AXES = ('wbar', 'zeta', 'Dbar', 'epsbar', 'mbar', 'z_P', 'z_G', 'z_B', 'tau', 'race2.z')
+"""Parameters a stability map may vary (Eq. 39, and the offsets of docs/equations.md F4, F6, F7,
 whose maps are of the coupled linearisation: plane 'coupled')."""
 
 BALANCED, UNSTABLE, NO_EQUILIBRIUM = 0, 1, 2

@@ -25,7 +25,6 @@ import subprocess
 import sys
 import time
 import uuid
-from dataclasses import fields
 from pathlib import Path
 
 import pytest
@@ -57,7 +56,7 @@ IMU_FIELDS = ('accel_noise_density', 'accel_bias', 'accel_bias_random_walk',
 def node_parameters(scenario) -> list[str]:
     """ROS parameters reproducing the headless run exactly (repr: shortest round-trip text)."""
     p = scenario.params
-    values = {f'drive.{f.name}': repr(getattr(p, f.name)) for f in fields(p)}
+    values = {f'drive.{name}': repr(value) for name, value in p.as_dict().items()}
     values.update({'spindle.initial_speed': repr(scenario.omega), 'real_time_factor': '0.0',
                    'integration_rate_hz': '10000', 'publish_rate_hz': '1000',
                    'seed': str(SEED), 'imu.rate_hz': str(int(TYPICAL_IMU.rate)),

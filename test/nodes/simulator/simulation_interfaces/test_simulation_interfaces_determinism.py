@@ -11,7 +11,6 @@ diagnostics are not
 compared (they report wall-clock rates).
 """
 
-from dataclasses import fields
 
 import pytest
 from test_live_vs_headless import IMU_FIELDS, SEED, stamp_of
@@ -39,7 +38,7 @@ PERIOD_NS = 1_000_000
 
 def parameters(scenario, bag) -> dict:
     p = scenario.params
-    values = {f'drive.{f.name}': getattr(p, f.name) for f in fields(p)}
+    values = {f'drive.{name}': value for name, value in p.as_dict().items()}
     values.update({'spindle.initial_speed': float(scenario.omega), 'real_time_factor': 0.0,
                    'integration_rate_hz': 10000, 'publish_rate_hz': 1000, 'seed': SEED,
                    'imu.rate_hz': int(TYPICAL_IMU.rate), 'imu.gravity': TYPICAL_IMU.gravity,
