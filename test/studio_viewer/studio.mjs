@@ -4,7 +4,11 @@
 // probe's message counts, lags and animation frames over a measuring window (probe.js).
 //
 // node studio.mjs '{"url": "ws://127.0.0.1:PORT", "layout": "config/foxglove_layout.json",
-//   "chromium": "/usr/bin/chromium", "artefacts": "DIR", "measure_s": 8, "timeout_s": 120}'
+//   "chromium": "/usr/bin/chromium", "artefacts": "DIR", "measure_s": 8, "timeout_s": 120,
+//   "parameter": {"name": "/abb_simulator.fault.speed_noise", "value": "40"},
+//   "publish": "Publish speed command"}'
+// parameter: typed into its row of the Parameters panel and set with the row's button; publish:
+// the Publish panel's button clicked (both from the page, as a user does).
 import fs from "node:fs";
 import http from "node:http";
 import path from "node:path";
@@ -80,6 +84,25 @@ const window_of = (from) => {
     counts: Object.fromEntries(Object.entries(p.counts).map(([t, n]) => [t, n - (from.counts[t] || 0)])) };
 };
 
+// Type `value` into the Parameters panel's row of `name` and press that row's button.
+async function setParameter(page, { name, value }) {
+  const rows = await page.$$("tr");
+  for (const row of rows) {
+    const text = await row.evaluate((e) => e.textContent);
+    if (!text.startsWith(name)) continue;
+    const box = await row.$("textarea");
+    await box.click();
+    await box.evaluate((e) => e.select());
+    await box.type(value);
+    const button = await row.$("button");
+    await button.click();
+    await sleep(1);
+    seen.parameter_row = await row.evaluate((e) => e.textContent);
+    return;
+  }
+  seen.parameter_row = null;
+}
+
 try {
   const page = await browser.newPage();
   page.on("console", (m) => { if (m.type() === "warn" || m.type() === "error") seen.console.push(m.text().slice(0, 300)); });
@@ -108,6 +131,20 @@ try {
     seen.problems_text = await page.evaluate(() => document.body.innerText);
     await shot(page, "studio_problems");
   }
+  if (options.parameter) await setParameter(page, options.parameter);
+  if (options.publish) {
+    const [button] = await page.$$(`xpath/.//button[normalize-space()='${options.publish}']`);
+    seen.publish_button = Boolean(button);
+    if (button) {
+      await button.click();
+      await sleep(1);
+    }
+  }
+  seen.sent = await page.evaluate(() => ({ ops: window.__abbProbe.sent.map((m) => m.op),
+    parameters: window.__abbProbe.sent.filter((m) => m.op === "setParameters"),
+    advertised: window.__abbProbe.sent.filter((m) => m.op === "advertise"),
+    published: window.__abbProbe.published }));
+  await shot(page, "studio_after_actions");
   seen.total_s = seconds();
   await finish();
 } catch (error) {

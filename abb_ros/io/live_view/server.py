@@ -81,9 +81,7 @@ MAX_MESSAGE_BYTES = 16 * 1024 * 1024
 START_TIMEOUT_S = 10.0
 ROS_DISTRO = 'jazzy'
 """The ``ROS_DISTRO`` of ``serverInfo``'s metadata, as foxglove_bridge sends it: Foxglove Studio
-then knows ROS 2's common message definitions from the start, so its Publish panel can encode
-``spindle/speed_cmd`` (std_msgs/msg/Float64) before any channel is advertised (without it
-Studio warns ``pub:msgdef:/spindle/speed_cmd``, Unknown message definition)."""
+and Lichtblick then know ROS 2's common message definitions (the Publish panel lists them)."""
 FLUSH_PERIOD_S = 0.005
 """How often the messages queued for the viewers are sent [s]: the writer never waits for
 the server's thread, and a viewer gets them in batches (up to 5 ms late)."""
