@@ -46,6 +46,10 @@ BEYOND_NAMES = ('r_ball', 'contact_E', 'contact_nu', 'contact_damping', 'ball_ro
 
 docs/ball_size_contact_rolling.md states them.
 """
+HEIGHT_NAMES = ('z_P', 'z_G', 'z_B')
+"""Heights of P, G and the race above the washers' plane (docs/equations.md, F4; 0: the paper)."""
+TILT_NAMES = ('tau', 'psi_tau')
+"""The rotor's principal axis leaning by tau toward psi_tau from G (docs/equations.md, F6)."""
 DECK_NAMES = ('X', 'Y', 'Z', 'alpha', 'beta', 'gamma')
 
 _SOURCE_HASH = hashlib.sha1(open(__file__, 'rb').read()).hexdigest()[:12]
@@ -65,6 +69,7 @@ def symbols(n):
     qd = sp.symbols([s + '_d' for s in names], real=True)
     qdd = sp.symbols([s + '_dd' for s in names], real=True)
     par = {p: sp.Symbol(p, positive=True) for p in PARAM_NAMES + BEYOND_NAMES}
+    par.update({p: sp.Symbol(p, real=True) for p in HEIGHT_NAMES + TILT_NAMES})
     return tuple(q), tuple(qd), tuple(qdd), par
 
 
@@ -99,13 +104,31 @@ def corner_offsets(par):
             sp.Matrix([-a / 2, -(b / 2 + d), 0]), sp.Matrix([a / 2, -(b / 2 + d), 0])]
 
 
+def rotor_inertia(par, tilt):
+    """J_G in rotor-fixed axes: diag(J_x, J_y, J_z), or with ``tilt`` R^T diag R exactly.
+
+    R^T = Q, the rotation by tau about (-sin psi_tau, cos psi_tau, 0), which takes the spin
+    axis e_z to n = (sin tau cos psi_tau, sin tau sin psi_tau, cos tau): the principal axis
+    leans by tau toward psi_tau from G's direction (the rotor's x axis).
+    """
+    J = sp.diag(par['J_x'], par['J_y'], par['J_z'])
+    if not tilt:
+        return J
+    tau, psi = par['tau'], par['psi_tau']
+    u = sp.Matrix([-sp.sin(psi), sp.cos(psi), 0])
+    ux = sp.Matrix([[0, -u[2], u[1]], [u[2], 0, -u[0]], [-u[1], u[0], 0]])
+    Q = sp.eye(3) * sp.cos(tau) + ux * sp.sin(tau) + (1 - sp.cos(tau)) * u * u.T
+    return Q * J * Q.T
+
+
 @functools.lru_cache(maxsize=None)
-def energies(n, beyond=False):
+def energies(n, beyond=False, tilt=False):
     """(T, V, F) of Eqs. (11), (13), (16) as sympy expressions in q, q' (exact, no small angles).
 
     Positions are inertial: body vector p -> (T_beta T_alpha T_gamma)^T p, C at (X, Y, Z).
     ``beyond``: add the ball-size, contact and spin terms (:func:`beyond_energies`); 'spin':
-    only the rolling balls' spin energy.
+    only the rolling balls' spin energy. ``tilt``: the rotor's leaning principal axis
+    (:func:`rotor_inertia`).
     """
     q, qd, _, par = symbols(n)
     theta, X, Y, Z, alpha, beta, gamma = q[:7]
@@ -121,19 +144,19 @@ def energies(n, beyond=False):
         return mass * v.dot(v) / 2
 
     eps, R, d = par['eps'], par['R'], par['d']
-    r_G = r_C + A_T * sp.Matrix([eps * sp.cos(theta), eps * sp.sin(theta), 0])
-    r_P = r_C + A_T * sp.Matrix([0, -d, 0])
+    r_G = r_C + A_T * sp.Matrix([eps * sp.cos(theta), eps * sp.sin(theta), par['z_G']])
+    r_P = r_C + A_T * sp.Matrix([0, -d, par['z_P']])
     w_P = deck_angular_velocity(alpha, beta, gamma, *qd[4:7])        # Eq. (10)
     w_G = w_P + sp.Matrix([0, 0, qd[0]])                              # Eq. (9), omega -> theta'
     # J_G is diagonal in the spinning rotor: rotor components = R_z(theta)^T deck components.
     ct, st = sp.cos(theta), sp.sin(theta)
     w_rotor = sp.Matrix([[ct, st, 0], [-st, ct, 0], [0, 0, 1]]) * w_G
     T = (kinetic(par['M'], r_G) + kinetic(par['M_P'], r_P)
-         + (par['J_x'] * w_rotor[0] ** 2 + par['J_y'] * w_rotor[1] ** 2
-            + par['J_z'] * w_rotor[2] ** 2) / 2
+         + (w_rotor.T * rotor_inertia(par, tilt) * w_rotor)[0, 0] / 2
          + (par['J_Px'] * w_P[0] ** 2 + par['J_Py'] * w_P[1] ** 2 + par['J_Pz'] * w_P[2] ** 2) / 2)
     for phi in phis:
-        r_B = r_C + A_T * sp.Matrix([R * sp.cos(phi + theta), R * sp.sin(phi + theta), 0])
+        r_B = r_C + A_T * sp.Matrix([R * sp.cos(phi + theta), R * sp.sin(phi + theta),
+                                     par['z_B']])
         T += kinetic(par['m'], r_B)
     V = 0
     F = 0
@@ -192,14 +215,14 @@ def beyond_energies(n):
 
 
 @functools.lru_cache(maxsize=None)
-def lagrange_expressions(n, beyond=False, theta_row=False):
+def lagrange_expressions(n, beyond=False, theta_row=False, tilt=False):
     """Lagrange's Eq. (17) for X, Y, Z, alpha, beta, gamma, phi_i: list of 6 + n expressions.
 
     ``theta_row``: prepend theta's row, the torque the spindle motor must apply to impose
     theta(t) (its input power is theta' times it).
     """
     q, qd, qdd, _ = symbols(n)
-    T, V, F = energies(n, beyond)
+    T, V, F = energies(n, beyond, tilt)
     out = []
     for k in range(0 if theta_row else 1, len(q)):
         p_k = sp.diff(T, qd[k])
@@ -310,7 +333,8 @@ def _function_source(name, exprs, args):
     lines = [f'def {name}(q, qd, qdd, P):']
     for group, vec in ((q, 'q'), (qd, 'qd'), (qdd, 'qdd')):
         lines.append('    ' + ', '.join(str(v) for v in group) + f', = {vec}')
-    lines.append('    ' + ', '.join(PARAM_NAMES + BEYOND_NAMES) + ', = P')
+    lines.append('    ' + ', '.join(PARAM_NAMES + BEYOND_NAMES + HEIGHT_NAMES + TILT_NAMES)
+                 + ', = P')
     for sym, e in repl:
         lines.append(f'    {sym} = {printer.doprint(e)}')
     lines.append('    return [' + ', '.join(printer.doprint(e) for e in reduced) + ']')
@@ -335,11 +359,12 @@ def _load(name, n, build):
 
 
 @functools.lru_cache(maxsize=None)
-def compiled_lagrange(n, beyond=False):
+def compiled_lagrange(n, beyond=False, tilt=False):
     """(real, complex) numeric versions of :func:`lagrange_expressions` for n balls."""
     name = {False: 'lagrange', True: 'lagrange_beyond', 'spin': 'lagrange_spin'}[beyond]
+    name += '_tilt' if tilt else ''
     src, path = _load(name, n, lambda: _function_source(
-        name, lagrange_expressions(n, beyond), symbols(n)))
+        name, lagrange_expressions(n, beyond, tilt=tilt), symbols(n)))
     return _exec(src, path, name, (math, cmath))
 
 
@@ -372,7 +397,8 @@ def compiled_energy_terms(n):
 
 
 def _pack(params):
-    return tuple(float(getattr(params, p)) for p in PARAM_NAMES + BEYOND_NAMES)
+    return tuple(float(getattr(params, p))
+                 for p in PARAM_NAMES + BEYOND_NAMES + HEIGHT_NAMES + TILT_NAMES)
 
 
 def exact_residual(params, y, qdd, beyond=None):
@@ -384,7 +410,8 @@ def exact_residual(params, y, qdd, beyond=None):
     n = params.n
     N = 7 + n
     y = [float(v) for v in y]
-    f = compiled_lagrange(n, bool(params.beyond_paper) if beyond is None else beyond)[0]
+    f = compiled_lagrange(n, bool(params.beyond_paper) if beyond is None else beyond,
+                          params.tau != 0.0)[0]
     return np.array(f(y[:N], y[N:], [float(v) for v in qdd], _pack(params)))
 
 
@@ -400,7 +427,8 @@ def first_order_residual(params, y, qdd, beyond=None):
     """
     n = params.n
     N = 7 + n
-    f = compiled_lagrange(n, bool(params.beyond_paper) if beyond is None else beyond)[1]
+    f = compiled_lagrange(n, bool(params.beyond_paper) if beyond is None else beyond,
+                          params.tau != 0.0)[1]
     deck = np.zeros(N, dtype=bool)
     deck[1:7] = True
     y = np.asarray(y, dtype=float)

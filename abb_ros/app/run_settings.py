@@ -10,6 +10,9 @@ directly.
 from __future__ import annotations
 
 import dataclasses
+import math
+
+import numpy as np
 
 from abb_ros.model.dynamics.spindle import SpindleMotor, TorqueMotor
 from abb_ros.model.dynamics.state import StateLayout, wrap_degrees
@@ -86,14 +89,47 @@ def spindle_with(spindle, node: dict):
     return dataclasses.replace(spindle, **changes)
 
 
+TILT_FIT_PERIODS = 4
+"""Spindle periods at the end of a run whose samples the residual tilt is fitted to."""
+TILT_FIT_MIN_SAMPLES = 4 * 5
+"""Fewest samples the fit takes: four per coefficient of harmonics 0-2 (five)."""
+
+
+def residual_tilt(t, ys, layout: StateLayout, omega: float) -> float:
+    """Return the final residual tilt amplitude [rad]: max sqrt(alpha^2 + beta^2) over a period.
+
+    What the balls leave of a couple they cannot cancel (P, G or the race off the washers'
+    plane, docs/equations.md F4). The tilt's orbit is an ellipse that a few samples per period
+    (1 kHz against 130 rev/s) cut short by several per cent, so alpha and beta over the last
+    :data:`TILT_FIT_PERIODS` periods are fitted (least squares) with harmonics 0-2 of the
+    rotor angle theta, and the maximum is taken over one period of the fit. With fewer samples
+    than that needs, or the spindle standing, it is the largest sampled value.
+    """
+    last = t >= t[-1] - TILT_FIT_PERIODS * 2.0 * math.pi / omega if omega > 0 else t >= t[-1]
+    deck = ys[last][:, layout.deck_slice]
+    tilt = deck[:, 3:5]
+    if tilt.shape[0] < TILT_FIT_MIN_SAMPLES:
+        return float(np.max(np.hypot(tilt[:, 0], tilt[:, 1])))
+    theta = ys[last][:, layout.theta_index]
+    coef = np.linalg.lstsq(_tilt_basis(theta), tilt, rcond=None)[0]
+    fit = _tilt_basis(np.linspace(0.0, 2.0 * math.pi, 721)) @ coef
+    return float(np.max(np.hypot(fit[:, 0], fit[:, 1])))
+
+
+def _tilt_basis(theta):
+    """Return [1, cos theta, sin theta, cos 2 theta, sin 2 theta], shape (len(theta), 5)."""
+    return np.stack([np.ones_like(theta), np.cos(theta), np.sin(theta), np.cos(2 * theta),
+                     np.sin(2 * theta)], axis=-1)
+
+
 def summary(scenario, result) -> dict:
     """Return the summary of a finished run: where the drive ended, and what it cost.
 
     Returns
     -------
     dict
-        Speed, final rbar and ball angles, times; the terms beyond the paper and the contact
-        and rolling statistics when there are any.
+        Speed, final rbar, residual tilt and ball angles, times; the terms beyond the paper
+        and the contact and rolling statistics when there are any.
     """
     p = scenario.params
     y = result.y[-1]
@@ -106,6 +142,7 @@ def summary(scenario, result) -> dict:
         'omega_rad_s': omega,
         'duration_s': float(result.t[-1] - result.t[0]),
         'final_rbar': float(layout.rbar(y, p.R)),
+        'tilt_rad': residual_tilt(result.t, result.y, layout, omega),
         'ball_angles_deg': [round(float(a), 3) for a in wrap_degrees(layout.phi(y))],
         'wall_time_s': round(result.wall_time, 4),
         'real_time_factor': round(result.real_time_factor, 2),

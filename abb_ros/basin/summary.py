@@ -39,14 +39,19 @@ def operating_omega(scenario, omega_final=None):
 
 
 def floquet_verdict(params, omega) -> dict:
-    """Return the Floquet verdict at ``omega`` [rad/s] as a JSON-able mapping."""
+    """Return the Floquet verdict at ``omega`` [rad/s] as a JSON-able mapping.
+
+    ``lam_max`` is over one spindle period; ``coupled``: a drive with heights or a leaning
+    axis, whose one coupled value fills ``lam_in`` and ``lam_out`` as well.
+    """
     from abb_ros.model.stability.floquet import point_stability
     if omega is None:
         return {'balanced': None}
     st = point_stability(params, omega)
     return {'balanced': bool(st.balanced), 'verdict': st.verdict, 'omega_rad_s': omega,
             'wbar': omega / params.omega0, 'lam_in': _finite(st.lam_in),
-            'lam_out': _finite(st.lam_out), 'neutral_modes_removed': int(st.neutral),
+            'lam_out': _finite(st.lam_out), 'lam_max': _finite(st.lam_max),
+            'coupled': st.coupled, 'neutral_modes_removed': int(st.neutral),
             'phi_star_deg': [round(float(a), 6) for a in np.degrees(st.phi_star)],
             'transverse': params.n >= 3}
 

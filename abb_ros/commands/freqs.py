@@ -1,4 +1,7 @@
-"""`abb-sim freqs`: natural frequencies [rad/s] of Eqs. (27)-(32) with m = omega = 0."""
+"""`abb-sim freqs`: natural frequencies [rad/s] of Eqs. (27)-(32) with m = omega = 0.
+
+With heights (docs/equations.md F4) those of the coupled deck (model/stability/coupled.py).
+"""
 
 from __future__ import annotations
 
@@ -18,10 +21,10 @@ def add_arguments(parser) -> None:
 
 def run(args) -> dict:
     """Return the drive's natural frequencies [rad/s] beside the paper's."""
-    from abb_ros.model.stability.linear import natural_frequencies
+    from abb_ros.model.stability.coupled import deck_natural_frequencies
     base = drive_params(args.config)
     params, _ = apply_settings(base, parse_settings(args.set, 'freqs'))
-    freqs = natural_frequencies(params)
+    freqs = deck_natural_frequencies(params)
     out = {f'omega_{k}_rad_s': v for k, v in freqs.items()}
     out['omega0_rad_s'] = params.omega0
     out['paper_rad_s'] = PAPER

@@ -17,9 +17,11 @@ from abb_ros.commands.shared.outputs import check_output, output_files
 from abb_ros.model.parameters.params import ParamError
 
 DEFAULT_RANGES = {'wbar': (0.2, 3.5), 'zeta': (0.0, 0.15), 'Dbar': (0.0, 1.0),
-                  'epsbar': (0.0, 0.05), 'mbar': (0.001, 0.12)}
-"""Axis ranges when --range-x/--range-y are not given (those of the paper's figures); its keys
-are the axes a map may vary (floquet.MAP_AXES, not imported here: the parser starts fast)."""
+                  'epsbar': (0.0, 0.05), 'mbar': (0.001, 0.12), 'z_P': (-0.01, 0.01),
+                  'z_G': (-0.005, 0.005), 'z_B': (-0.005, 0.005), 'tau': (-0.01, 0.01)}
+"""Axis ranges when --range-x/--range-y are not given (those of the paper's figures; heights
+[m] and the lean [rad] of docs/equations.md F4, F6 around an optical drive's); its keys are the
+axes a map may vary (floquet.MAP_AXES, not imported here: the parser starts fast)."""
 OUT_OF_PLANE_MBAR = (0.01, 2.5)
 """Fig. 8 needs heavy balls to show the parametric-resonance zone."""
 MAX_POINTS = 1_000_000
@@ -39,7 +41,9 @@ def add_arguments(parser) -> None:
                         help='fixed parameter (SI or Eq. 39 name); others are Table 1 values')
     parser.add_argument('--config', help='ROS 2 parameter file with drive.* parameters')
     parser.add_argument('--res', default='120x100', help='grid NxM (x points by y points)')
-    parser.add_argument('--plane', choices=('in', 'out'), default='in')
+    parser.add_argument('--plane', choices=('in', 'out', 'coupled'), default='in',
+                        help='in-plane or out-of-plane group, or the coupled linearisation '
+                        '(lam_max over a spindle period; the plane of any map with heights)')
     parser.add_argument('--range-x', help='lo:hi of the x axis')
     parser.add_argument('--range-y', help='lo:hi of the y axis')
     parser.add_argument('--surface', action='store_true',
@@ -119,7 +123,7 @@ def run(args) -> dict:
     _check_axes(args, settings, base, xs, ys)
     t0 = time.perf_counter()
     with tqdm(total=nx * ny * (2 if args.members else 1), unit='pt', file=sys.stderr,
-              disable=args.no_progress, desc=f'{args.plane}-plane map') as bar:
+              disable=args.no_progress, desc=f'{args.plane} map') as bar:
         try:
             smap = stability_map(base, args.x, xs, args.y, ys, settings, args.plane,
                                  bar.update, args.members)

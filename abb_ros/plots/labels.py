@@ -9,7 +9,8 @@ from __future__ import annotations
 import re
 
 SYMBOLS = {'wbar': r'$\bar{\omega}$', 'zeta': r'$\zeta$', 'Dbar': r'$\bar{D}$',
-           'epsbar': r'$\bar{\varepsilon}$', 'mbar': r'$\bar{m}$'}
+           'epsbar': r'$\bar{\varepsilon}$', 'mbar': r'$\bar{m}$', 'z_P': r'$z_P$ [m]',
+           'z_G': r'$z_G$ [m]', 'z_B': r'$z_B$ [m]', 'tau': r'$\tau$ [rad]'}
 WASHERS = {'metal': 0.66, 'rubber': 2.53}
 """Washer damping c [kg/s] of the paper's two suspensions (Table 1)."""
 WASHER_TOLERANCE = 0.05

@@ -15,7 +15,9 @@ from abb_ros.plots.labels import fit_title, parameter_text
 LIMIT_LABELS = {'mbar_lim': r'$\bar{m}_{lim}$', 'epsbar_lim': r'$\bar{\varepsilon}_{lim}$'}
 REGION_NAMES = {'in': ('balanced and stable', 'unbalanced or no balanced equilibrium'),
                 'out': ('out-of-plane stable',
-                        'out-of-plane unstable or no balanced equilibrium')}
+                        'out-of-plane unstable or no balanced equilibrium'),
+                'coupled': ('balanced and stable (coupled)',
+                            'unbalanced or no balanced equilibrium')}
 """Legend entries (dotted, blank) per plane: an out-of-plane map says nothing of balancing."""
 SURFACE_CLIP = 2.0
 """|lambda|max above this is drawn at this height on the surface plot (unbalanced anyway)."""
@@ -76,7 +78,7 @@ def map_title(smap) -> str:
     from abb_ros.model.parameters.params import DriveParams
     params = DriveParams(**smap.fixed['SI'])
     wbar = smap.fixed['settings'].get('wbar')
-    plane = 'In-plane' if smap.plane == 'in' else 'Out-of-plane'
+    plane = {'in': 'In-plane', 'out': 'Out-of-plane', 'coupled': 'Coupled'}[smap.plane]
     return f'{plane} stability: ' + parameter_text(params, wbar, omit=(smap.x, smap.y))
 
 

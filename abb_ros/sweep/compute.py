@@ -8,7 +8,9 @@ sample. Drives are grouped by ball count n (a kernel batch shares n):
   (symmetric fan, Eq. 26; for n >= 3 the transverse multipliers, ``neutral_modes`` the
   family's neutral ones removed) at every speed of the spec, by
   :func:`abb_ros.model.stability.floquet.multipliers_batch` over all (drive, speed) pairs at once
-  (its one-thread build, ``floquet.SERIAL``: a worker is one process with one thread);
+  (its one-thread build, ``floquet.SERIAL``: a worker is one process with one thread); a drive
+  with heights or a leaning rotor axis has the coupled linearisation's lam_max over a spindle
+  period in both columns (:mod:`abb_ros.model.stability.coupled`, one speed batch per drive);
 - ``run``: the nonlinear equations integrated from the scenario's initial state with its
   speed profile by :class:`abb_ros.model.dynamics.batch.BatchRun`, which reduces each
   trajectory to its metrics inside the kernel (``compute.run.integrator: rk4``), or by
@@ -90,11 +92,11 @@ def compute_partition(spec, index: int, columns: dict) -> dict:
     return out
 
 
-def _multipliers(multipliers_batch, plist, omegas, plane, kern):
-    """Run multipliers_batch; a drive over its step limit is refused naming the spec's field."""
+def _multipliers(compute):
+    """Return compute(), a batch of multipliers; a drive over its step limit names the spec."""
     from abb_ros.model.parameters.params import ParamError
     try:
-        return multipliers_batch(plist, omegas, plane, kern=kern)
+        return compute()
     except ParamError as exc:
         if exc.name != 'omega':
             raise
@@ -104,6 +106,7 @@ def _multipliers(multipliers_batch, plist, omegas, plane, kern):
 
 
 def _stability(spec, params, groups) -> dict:
+    from abb_ros.model.stability.coupled import lam_max_batch
     from abb_ros.model.stability.floquet import SERIAL, multipliers_batch
     speeds = spec.speeds
     count = len(params)
@@ -112,10 +115,20 @@ def _stability(spec, params, groups) -> dict:
     exists = np.empty(count, dtype=bool)
     neutral = np.zeros(count, dtype=np.int64)
     for idx in groups.values():
+        off = idx[np.array([params[i].off_plane for i in idx], dtype=bool)]
+        if off.size:        # heights or a lean: the coupled lam_max in both columns
+            res = _multipliers(lambda: lam_max_batch(
+                [params[i] for i in off for _ in range(S)], np.tile(speeds, off.size)))
+            lam['in'][off] = lam['out'][off] = res.lam.reshape(off.size, S)
+            exists[off] = res.exists.reshape(off.size, S)[:, 0]
+            neutral[off] = res.neutral.reshape(off.size, S)[:, 0]
+        idx = np.setdiff1d(idx, off)
+        if not idx.size:
+            continue
         plist = [params[i] for i in idx for _ in range(S)]
         omegas = np.tile(speeds, idx.size)
         for plane in ('in', 'out'):
-            res = _multipliers(multipliers_batch, plist, omegas, plane, SERIAL)
+            res = _multipliers(lambda: multipliers_batch(plist, omegas, plane, kern=SERIAL))
             lam[plane][idx] = res.lam.reshape(idx.size, S)
             if plane == 'in':
                 neutral[idx] = res.neutral.reshape(idx.size, S)[:, 0]

@@ -26,9 +26,14 @@ KERNELS = ROOT / 'abb_ros' / 'model' / 'dynamics' / 'kernels'
 STEPS = 3000   # 0.3 s of a spin-up at 10 kHz: every term of Eqs. (18)-(24) at work
 
 
+@pytest.mark.parametrize('offsets', [{}, {'z_P': 0.004, 'z_G': 0.001, 'z_B': -0.0005,
+                                          'tau': 0.002, 'psi_tau': 0.5}],
+                         ids=['plane', 'offsets'])
 @pytest.mark.parametrize('kern', [kernels.JIT, kernels.PY], ids=['compiled', 'python'])
-def test_paper_stepping_gives_the_general_stepping_bit_for_bit(kern):
-    params = DriveParams()
+def test_paper_stepping_gives_the_general_stepping_bit_for_bit(kern, offsets):
+    """The paper's stepping, which also carries heights and a leaning axis (F4, F6), takes the
+    general stepping's steps bit for bit."""
+    params = DriveParams(**offsets)
     omega = 2.7 * params.omega0
     steps = STEPS if kern.compiled else 200
     sim = Simulation(params, omega, DEFAULT_DT, spindle=SpindleMotor(2000.0, 0.05))

@@ -62,15 +62,16 @@ def marker_poses(y: np.ndarray, params: DriveParams, exaggeration: float
     def at(point_deck):
         return tuple((c + rotation @ np.asarray(point_deck)).tolist()) + quat
 
+    race = params.z_B + ROTOR_HEIGHT / 2       # the race (and the rotor drawn around it) at z_B
     out = [(Marker.CUBE, at((0.0, -params.d, -DECK_THICKNESS / 2)),
             (params.a, params.b, DECK_THICKNESS)),
-           (Marker.CYLINDER, at((0.0, 0.0, ROTOR_HEIGHT / 2)),
+           (Marker.CYLINDER, at((0.0, 0.0, race)),
             (2 * (params.R + r_ball),) * 2 + (ROTOR_HEIGHT,))]
     theta = float(y[0])
     for phi in y[7:N]:
         psi = theta + float(phi)
         out.append((Marker.SPHERE,
-                    at((params.R * math.cos(psi), params.R * math.sin(psi), ROTOR_HEIGHT / 2)),
+                    at((params.R * math.cos(psi), params.R * math.sin(psi), race)),
                     (2 * r_ball,) * 3))
     return out
 

@@ -34,7 +34,7 @@ from abb_ros.model.dynamics.kernels.layout import (
 )
 from abb_ros.model.dynamics.spindle import SpindleMotor, TorqueMotor
 from abb_ros.model.dynamics.state import StateLayout
-from abb_ros.model.parameters.params import DriveParams, ParamError
+from abb_ros.model.parameters.params import PARAM_SPECS, DriveParams, ParamError
 
 __all__ = ['DEFAULT_DT', 'MAX_RUN_STEPS', 'StateError', 'Simulation', 'INTEGRATORS',
            'ADAPTIVE_RTOL', 'adaptive_atol', 'fixed_step_reason']
@@ -122,12 +122,21 @@ class StateError(RuntimeError):
 
 
 def _check_torque_terms(params: DriveParams, spindle) -> None:
-    """Refuse torque mode with rolling resistance or rolling balls.
+    """Refuse torque mode with rolling resistance, rolling balls or heights off the plane.
 
     The free-theta equation of torque mode (docs/torque_mode.md) has ball contact but not
-    yet rolling resistance or rolling balls (docs/ball_size_contact_rolling.md).
+    yet rolling resistance, rolling balls (docs/ball_size_contact_rolling.md) or the
+    heights z_P, z_G, z_B (docs/equations.md, F4).
     """
-    if isinstance(spindle, TorqueMotor) and (params.rolling_mu > 0 or params.ball_rotation):
+    if not isinstance(spindle, TorqueMotor):
+        return
+    if params.off_plane:
+        name = params.off_plane_name
+        raise ParamError(name, getattr(params, name),
+                         f'0 {PARAM_SPECS[name].unit} in torque mode (spindle.mode torque)',
+                         'the free-theta equation does not have the heights and the leaning '
+                         'axis yet')
+    if params.rolling_mu > 0 or params.ball_rotation:
         name = 'rolling_mu' if params.rolling_mu > 0 else 'ball_rotation'
         raise ParamError(name, getattr(params, name), '0 in torque mode (spindle.mode torque)',
                          'the free-theta equation does not have this term yet')
@@ -281,11 +290,11 @@ class Simulation:
         return self.t0 + self.steps * self.dt
 
     def on_paper(self) -> bool:
-        """Whether only the paper's terms act now (Eqs. 18-24: :func:`~.kernels.rhs.on_paper`).
+        """Whether only rigid point-mass terms act now (:func:`~.kernels.rhs.on_paper`).
 
-        Then :meth:`advance` calls the paper's own compiled stepping (the same numbers, a
-        fraction of the compile time); a torque command, contact or rolling resistance takes
-        the general one.
+        Eqs. 18-24, with heights and a leaning rotor axis where set. Then :meth:`advance`
+        calls the paper's own compiled stepping (the same numbers, a fraction of the compile
+        time); a torque command, contact or rolling resistance takes the general one.
         """
         return bool(kernels.PY.on_paper(self.params.n, self._P, self._S))
 

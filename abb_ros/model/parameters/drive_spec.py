@@ -7,9 +7,11 @@ them with ``--set`` (without ``drive.``).
 
 from __future__ import annotations
 
+import math
+
 from abb_ros.model.parameters.param_spec import DRIVE_PREFIX, INTEGER, ParamSpec
 
-__all__ = ['DRIVE_SPECS', 'MAX_BALLS', 'RUBBER_C', 'METAL_C', 'SPAN',
+__all__ = ['DRIVE_SPECS', 'HEIGHTS', 'OFF_PLANE', 'MAX_BALLS', 'RUBBER_C', 'METAL_C', 'SPAN',
            'SPEED_SPEC', 'MAX_OMEGA', 'CLAMPED_DECK']
 
 RUBBER_C = 2.53
@@ -102,6 +104,30 @@ DRIVE_SPECS = (
     ParamSpec('drive.ball_rotation', 0, '', '1 = the balls roll on the race (their spin '
               'inertia 2/5 m r_ball^2 adds 2/5 m R^2 to the ball mass term), 0 = the paper',
               INTEGER, 0, 1, applies='at the next step'),
+    # ---- mass centres off the deck's plane (docs/equations.md, F4); zero = the paper ----
+    _drive('z_P', 0.0, 'm', "height of the deck's mass centre P above the plane of the four "
+           'washer attachment points (which contains C); 0 = the paper', ref=0.01, low=-1.0,
+           high=1.0),
+    _drive('z_G', 0.0, 'm', "height of the rotor's mass centre G above that plane; z_G != z_B "
+           'makes a couple the balls cannot cancel; 0 = the paper', ref=0.01, low=-1.0,
+           high=1.0),
+    _drive('z_B', 0.0, 'm', "height of the balls' race above that plane; 0 = the paper",
+           ref=0.01, low=-1.0, high=1.0),
+    # ---- couple (dynamic) imbalance: the rotor's principal axis leans (F6); 0 = the paper ----
+    _drive('tau', 0.0, 'rad', "lean of the rotor's principal axis from the spin axis (couple "
+           'imbalance, the rotating moment (J_z - J_x) sin tau cos tau omega^2); 0 = the paper',
+           ref=0.01, low=-0.5, high=0.5),
+    _drive('psi_tau', 0.0, 'rad', "rotor-fixed direction, from G's, toward which the +z end of "
+           'the leaning axis points (no effect while tau = 0)', ref=1.0, low=-2 * math.pi,
+           high=2 * math.pi),
 )
 """The physical parameters of Table 1 (rubber washers, eps = 0.25 mm, n = 2), SI, and the
 optional terms beyond the paper (zero = the paper's model)."""
+
+HEIGHTS = ('z_P', 'z_G', 'z_B')
+"""The heights of P, G and the race above the washers' plane (all zero: the paper's plane)."""
+
+OFF_PLANE = HEIGHTS + ('tau',)
+"""What takes a drive out of the paper's plane model: the heights and the leaning rotor axis;
+nonzero, the groups of Eqs. (27)-(33) couple."""
+

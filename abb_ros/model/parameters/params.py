@@ -25,6 +25,7 @@ from abb_ros.model.parameters.drive_spec import (
     DRIVE_SPECS,
     MAX_BALLS,
     METAL_C,
+    OFF_PLANE,
     RUBBER_C,
     SPEED_SPEC,
 )
@@ -80,6 +81,12 @@ class DriveParams:
     rolling_mu: float = _default('rolling_mu')
     rolling_stick_rate: float = _default('rolling_stick_rate')
     ball_rotation: int = _default('ball_rotation')
+    # ---- mass centres off the plane, leaning rotor axis (equations.md F4, F6); 0 = paper ----
+    z_P: float = _default('z_P')
+    z_G: float = _default('z_G')
+    z_B: float = _default('z_B')
+    tau: float = _default('tau')
+    psi_tau: float = _default('psi_tau')
 
     def __post_init__(self):
         for f in dataclasses.fields(self):
@@ -93,6 +100,30 @@ class DriveParams:
                 raise ParamError('n', self.n, PARAM_SPECS['n'].valid_text(), 'not an integer')
             object.__setattr__(self, 'n', int(self.n))
         self._check_beyond_paper()
+        self._check_heights()
+
+    def _check_heights(self):
+        """Refuse heights or a leaning axis beside the ball terms that assume the plane."""
+        if not self.off_plane:
+            return
+        for name in ('contact_E', 'rolling_mu', 'ball_rotation'):
+            if getattr(self, name):
+                height = self.off_plane_name
+                raise ParamError(height, getattr(self, height),
+                                 f'0 {PARAM_SPECS[height].unit} while {name} > 0',
+                                 'mass centres off the deck plane and a leaning rotor axis '
+                                 'combine with point balls only (contact_E, rolling_mu and '
+                                 'ball_rotation 0)')
+
+    @property
+    def off_plane(self) -> bool:
+        """Whether P, G or the race lies off the washers' plane or the rotor's axis leans."""
+        return any(getattr(self, h) != 0.0 for h in OFF_PLANE)
+
+    @property
+    def off_plane_name(self) -> str:
+        """The first nonzero of :data:`OFF_PLANE` ('' in the paper's plane), for messages."""
+        return next((h for h in OFF_PLANE if getattr(self, h) != 0.0), '')
 
     def _check_beyond_paper(self):
         """Check the terms beyond the paper: what needs a ball size, and whether balls fit."""

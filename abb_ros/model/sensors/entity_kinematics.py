@@ -141,7 +141,7 @@ def kinematics(y: np.ndarray, qdd: np.ndarray, params: DriveParams) -> dict[str,
     for i in range(params.n):
         psi = theta + float(phi[i])
         psi_d, psi_dd = omega + float(phi_d[i]), theta_dd + float(phi_dd[i])
-        r = params.R * np.array([math.cos(psi), math.sin(psi), 0.0])
+        r = np.array([params.R * math.cos(psi), params.R * math.sin(psi), params.z_B])
         r_rel_v = psi_d * np.cross(ez, r)
         v = Xd + rotation @ (np.cross(w_deck, r) + r_rel_v)
         a = Xdd + rotation @ (np.cross(wd_deck, r) + np.cross(w_deck, np.cross(w_deck, r))
@@ -187,7 +187,7 @@ def with_ball(y: np.ndarray, params: DriveParams, i: int, position, velocity,
     field and what is valid.
     """
     unit_quaternion(orientation)
-    reach = MAX_TRANSLATION + params.R + ON_RACE_TOL
+    reach = MAX_TRANSLATION + params.R + abs(params.z_B) + ON_RACE_TOL
     _within('pose.position', position, reach, 'm', 'the deck envelope plus the race radius')
     _within('twist.linear', velocity, MAX_SPEED, 'm/s', 'far beyond any ball speed')
     s = StateLayout.of(params.n)
@@ -195,11 +195,11 @@ def with_ball(y: np.ndarray, params: DriveParams, i: int, position, velocity,
     rotation = euler_rotation(*s.deck(y)[3:])
     r = rotation.T @ (np.asarray(position, dtype=float) - s.translation(y))
     radius = math.hypot(r[0], r[1])
-    if abs(radius - params.R) > ON_RACE_TOL or abs(r[2]) > ON_RACE_TOL:
+    if abs(radius - params.R) > ON_RACE_TOL or abs(r[2] - params.z_B) > ON_RACE_TOL:
         raise EntityError(
             f'{ball_name(i)} must lie on its race: {radius:.9g} m from the spin axis '
-            f'(R = {params.R:.9g} m) and {r[2]:.3g} m off the race plane (tolerance '
-            f'{ON_RACE_TOL:g} m)')
+            f'(R = {params.R:.9g} m) and {r[2] - params.z_B:.3g} m off the race plane at '
+            f'z_B = {params.z_B:g} m (tolerance {ON_RACE_TOL:g} m)')
     psi = math.atan2(r[1], r[0])
     _, w_deck = deck_velocity(q, qd)
     v_rel = (rotation.T @ (np.asarray(velocity, dtype=float) - s.deck_rates(y)[:3])

@@ -53,7 +53,7 @@ from abb_ros.model.stability.family import min_spacing
 __all__ = ['BalancedEquilibrium', 'balanced_equilibrium', 'phi_star_two_balls', 'fan_phi_star',
            'eq26_residual', 'epsbar_lim', 'mbar_lim', 'EQ26_TOL', 'ball_capacity',
            'balls_touch', 'SPACING_TOL', 'no_equilibrium_reason', 'least_spacing',
-           'balls_apart']
+           'balls_apart', 'balanced_phi_star']
 
 EQ26_TOL = 1e-9
 """Largest |Eq. (26) residual| (dimensionless, relative to n) accepted for a given phi_star."""
@@ -179,6 +179,15 @@ def balanced_equilibrium(params: DriveParams, phi_star=None) -> BalancedEquilibr
     if ratio > capacity:
         return BalancedEquilibrium(False, np.zeros(0), no_equilibrium_reason(params))
     return BalancedEquilibrium(True, fan_phi_star(n, ratio))
+
+
+def balanced_phi_star(params: DriveParams, phi_star=None) -> np.ndarray:
+    """Return the balanced equilibrium's angles [rad]; ParamError naming eps where none exists."""
+    eq = balanced_equilibrium(params, phi_star)
+    if not eq.exists:
+        raise ParamError('eps', params.eps, f'M eps <= n m R = {params.n * params.m * params.R:g} '
+                         'kg m for a balanced equilibrium', eq.reason)
+    return eq.phi_star
 
 
 def no_equilibrium_reason(params: DriveParams) -> str:

@@ -94,8 +94,9 @@ def monodromy_reference(system, rtol=1e-12, atol=1e-12, method='DOP853') -> np.n
 
 # ---- one operating point and two-parameter maps ----------------------------------------------
 
-MAP_AXES = ('wbar', 'zeta', 'Dbar', 'epsbar', 'mbar')
-"""Parameters a stability map may vary (Eq. 39)."""
+MAP_AXES = ('wbar', 'zeta', 'Dbar', 'epsbar', 'mbar', 'z_P', 'z_G', 'z_B', 'tau')
+"""Parameters a stability map may vary (Eq. 39, and the offsets of docs/equations.md F4, F6,
+whose maps are of the coupled linearisation: plane 'coupled')."""
 
 BALANCED, UNSTABLE, NO_EQUILIBRIUM = 0, 1, 2
 """Map status codes: balanced and stable (|lambda|max < 1); balanced equilibrium unstable;
@@ -108,7 +109,10 @@ class PointStability:
 
     ``lam_in``/``lam_out``: largest |transverse multiplier| per plane; ``neutral``: the
     family's neutral in-plane multipliers removed; ``invariance``: their self-check
-    ||Phi V - V||; ``member``: which equilibrium of the family was evaluated.
+    ||Phi V - V||; ``member``: which equilibrium of the family was evaluated. A drive with
+    heights (docs/equations.md F4) has one coupled value in both ``lam_in`` and ``lam_out``
+    (``coupled`` True, :mod:`abb_ros.model.stability.coupled`) and its predicted
+    ``residual_tilt`` [rad].
     """
 
     omega: float
@@ -120,6 +124,13 @@ class PointStability:
     neutral: int = 0
     invariance: float = 0.0
     member: str = 'symmetric fan'
+    coupled: bool = False
+    residual_tilt: float = math.nan
+
+    @property
+    def lam_max(self) -> float:
+        """Largest |multiplier| over a spindle period T (out-of-plane group: over T/2, squared)."""
+        return self.lam_in if self.coupled else max(self.lam_in, self.lam_out ** 2)
 
     @property
     def balanced(self) -> bool:
@@ -133,6 +144,8 @@ class PointStability:
             return 'unbalanced (no balanced equilibrium)'
         if self.balanced:
             return 'balanced'
+        if self.coupled:
+            return 'unbalanced (coupled linearisation unstable)'
         planes = [name for name, lam in (('in-plane', self.lam_in), ('out-of-plane', self.lam_out))
                   if lam >= 1.0]
         return 'unbalanced (' + ' and '.join(planes) + ' unstable)'
@@ -143,17 +156,30 @@ def point_stability(params, omega, phi_star=None, member=None) -> PointStability
 
     ``phi_star`` : a member of the family [rad] (checked against Eq. 26), default the
     symmetric fan; ``member`` names it in the result (default 'symmetric fan' or 'given').
+    With heights (F4) the coupled linearisation's lam_max and the predicted residual tilt.
     """
     eq = balanced_equilibrium(params, phi_star)
     name = member or ('symmetric fan' if phi_star is None else 'given')
     if not eq.exists:
         return PointStability(float(omega), False, eq.phi_star, math.inf, math.inf, eq.reason,
-                              member=name)
+                              member=name, coupled=params.off_plane)
+    if params.off_plane:
+        return _coupled_point(params, omega, eq.phi_star, name)
     res = {plane: multipliers_batch([params], [omega], plane, eq.phi_star)
            for plane in ('in', 'out')}
     return PointStability(float(omega), True, eq.phi_star, float(res['in'].lam[0]),
                           float(res['out'].lam[0]), neutral=int(res['in'].neutral[0]),
                           invariance=float(res['in'].invariance[0]), member=name)
+
+
+def _coupled_point(params, omega, phi, name) -> PointStability:
+    """Return the coupled system's PointStability (both planes' fields hold lam_max)."""
+    from abb_ros.model.stability import coupled
+    cs = coupled.coupled_system(params, omega, phi)
+    st = coupled.stability_of(cs)
+    return PointStability(float(omega), True, phi, st.lam_max, st.lam_max, neutral=st.neutral,
+                          invariance=st.invariance, member=name, coupled=True,
+                          residual_tilt=coupled.tilt_of(cs))
 
 
 @dataclass
@@ -214,8 +240,16 @@ def stability_map(base, x, x_values, y, y_values,
     xs = np.asarray(x_values, dtype=float)
     ys = np.asarray(y_values, dtype=float)
     plist, omegas = _grid_drives(base, x, xs, y, ys, settings)
-    lam, exists = max_multiplier_batch(plist, np.maximum(omegas, 1e-9), plane,
-                                       progress=progress)
+    if plane == 'coupled' or any(p.off_plane for p in plist):
+        if members:
+            raise ParamError('members', members, '0 for a map of the coupled linearisation')
+        from abb_ros.model.stability.coupled import lam_max_batch
+        plane = 'coupled'
+        res = lam_max_batch(plist, np.maximum(omegas, 1e-9), progress)
+        lam, exists = res.lam, res.exists
+    else:
+        lam, exists = max_multiplier_batch(plist, np.maximum(omegas, 1e-9), plane,
+                                           progress=progress)
     status = np.where(~exists, NO_EQUILIBRIUM, np.where(lam < 1.0, BALANCED, UNSTABLE))
     first = plist[0]
     fixed = {'settings': settings, 'n': first.n, 'omega0': first.omega0,

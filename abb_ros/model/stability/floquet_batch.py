@@ -40,7 +40,8 @@ from abb_ros.model.stability.monodromy import (
 
 __all__ = ['multipliers', 'max_multiplier', 'PLANES', 'equilibria', 'max_multiplier_batch',
            'sweep_speed', 'INVARIANCE_TOL', 'FamilyInvarianceError', 'MultiplierBatch',
-           'multipliers_batch', 'transverse_max_multiplier', 'member_extremes', 'MAX_MEMBERS']
+           'multipliers_batch', 'transverse_max_multiplier', 'member_extremes', 'MAX_MEMBERS',
+           'rate_estimate', 'refuse_over_step_limit']
 
 def multipliers(Phi) -> np.ndarray:
     """Return the Floquet multipliers, the eigenvalues of Phi, shape (..., 2 nq) complex."""
@@ -63,7 +64,7 @@ class FamilyInvarianceError(RuntimeError):
     """The family's tangent directions are not invariant under the monodromy (self-check)."""
 
 
-def transverse_max_multiplier(Phi, U, k: int):
+def transverse_max_multiplier(Phi, U, k: int, first_ball: int = 3):
     """Return the largest |transverse multiplier| and invariance residual of each monodromy.
 
     Phi : (B, 2 nq, 2 nq) in-plane monodromies (state [X, Y, gamma, phi_1..phi_n, rates]);
@@ -74,8 +75,9 @@ def transverse_max_multiplier(Phi, U, k: int):
     B, m = Phi.shape[0], Phi.shape[-1]
     n = U.shape[-1]
     T = np.broadcast_to(np.eye(m), (B, m, m)).copy()
-    T[:, 3:3 + n, 3:3 + n] = U
-    tangent = np.arange(3 + n - k, 3 + n)
+    b = first_ball
+    T[:, b:b + n, b:b + n] = U
+    tangent = np.arange(b + n - k, b + n)
     keep = np.setdiff1d(np.arange(m), tangent)
     V = T[:, :, tangent]
     invariance = np.linalg.norm(Phi @ V - V, axis=-2).max(axis=-1)
@@ -90,7 +92,7 @@ CHUNK = 2000
 """Points per kernel call (progress is reported per chunk)."""
 
 
-def _rate_estimate(Mh, Ch, Kh, omega, decay_floor=0.0):
+def rate_estimate(Mh, Ch, Kh, omega, decay_floor=0.0):
     """Estimate the fastest rate [1/rad of tau] of each point, from the constant harmonic, plus 1.
 
     sqrt of the largest eigenvalue of M0^-1 K0 / omega^2 (oscillation) plus the largest one of
@@ -134,11 +136,11 @@ def _built(p, builder, omegas, phi, sel, reduce=True):
     sub = type(p)(**{f: v[sel] if isinstance(v, np.ndarray) else v for f, v in vars(p).items()})
     Mh, Ch, Kh = builder(sub, omegas[sel], phi[sel])
     if not (reduce and builder is in_plane_harmonics and reduction.reduces(phi.shape[1])):
-        return _Chunk(Mh, Ch, Kh, _rate_estimate(Mh, Ch, Kh, omegas[sel]))
+        return _Chunk(Mh, Ch, Kh, rate_estimate(Mh, Ch, Kh, omegas[sel]))
     Q = reduction.ball_basis(phi[sel])
     Mh, Ch, Kh = reduction.project(Mh, Ch, Kh, Q)
     decay = reduction.complement_decay(sub, omegas[sel])
-    return _Chunk(Mh, Ch, Kh, _rate_estimate(Mh, Ch, Kh, omegas[sel], decay), Q, decay)
+    return _Chunk(Mh, Ch, Kh, rate_estimate(Mh, Ch, Kh, omegas[sel], decay), Q, decay)
 
 
 def _check_steps(p, builder, omegas, phi, tau_end, chunks, reduce=True):
@@ -155,6 +157,15 @@ def _check_steps(p, builder, omegas, phi, tau_end, chunks, reduce=True):
         i = int(np.argmax(rate))
         if STEPS_PER_RADIAN * rate[i] * tau_end > worst:
             worst, where = STEPS_PER_RADIAN * float(rate[i]) * tau_end, float(omegas[sel][i])
+    refuse_over_step_limit(worst, where)
+    return kept
+
+
+def refuse_over_step_limit(worst: float, where: float) -> None:
+    """Refuse a speed whose period needs more than MAX_STEPS RK4 steps (ParamError: omega).
+
+    ``worst`` steps per period at ``where`` rad/s; the message names the slowest speed that fits.
+    """
     if worst > MAX_STEPS:
         slowest = where * worst / MAX_STEPS
         valid = f'at least about {slowest:.3g} rad/s for this drive' if math.isfinite(
@@ -162,7 +173,6 @@ def _check_steps(p, builder, omegas, phi, tau_end, chunks, reduce=True):
         raise ParamError('omega', where, valid,
                          f'{worst:.3g} RK4 steps per period, over the limit of {MAX_STEPS}: '
                          'the drive\'s fastest rate (stiffness, damping) is far above the speed')
-    return kept
 
 
 def equilibria(params_list):

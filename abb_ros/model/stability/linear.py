@@ -24,8 +24,9 @@ from types import SimpleNamespace
 import numpy as np
 import scipy.linalg
 
-from abb_ros.model.parameters.params import DriveParams, ParamError
-from abb_ros.model.stability.equilibrium import balanced_equilibrium
+from abb_ros.model.parameters.drive_spec import OFF_PLANE
+from abb_ros.model.parameters.params import PARAM_SPECS, DriveParams, ParamError
+from abb_ros.model.stability.equilibrium import balanced_phi_star
 
 __all__ = ['PeriodicSystem', 'in_plane', 'out_of_plane', 'in_plane_harmonics',
            'out_of_plane_harmonics', 'natural_frequencies', 'stack_params', 'harmonic_basis']
@@ -73,8 +74,26 @@ class PeriodicSystem:
         return A
 
 
+def check_in_plane(params: DriveParams) -> None:
+    """Refuse P, G or the race off the washers' plane: Eqs. (27)-(33) linearise the plane's model.
+
+    With heights the in-plane and out-of-plane groups no longer decouple (docs/equations.md,
+    F4); :mod:`abb_ros.model.stability.coupled` linearises such a drive as one system, and a
+    verdict of the decoupled groups would be wrong, so none is given here.
+    """
+    for name in OFF_PLANE:
+        value = getattr(params, name)
+        if value != 0.0:
+            raise ParamError(name, value, f'0 {PARAM_SPECS[name].unit} for the Floquet analysis '
+                             'of Eqs. (27)-(33)',
+                             'with mass centres off the plane the groups couple: '
+                             'abb_ros.model.stability.coupled analyses such a drive')
+
+
 def stack_params(plist) -> SimpleNamespace:
     """Stack a list of DriveParams (same n) into a namespace of arrays, shape (B,)."""
+    for params in plist:
+        check_in_plane(params)
     ns = {f: np.array([getattr(p, f) for p in plist], dtype=float) for f in _FIELDS}
     ns['n'] = plist[0].n
     return SimpleNamespace(**ns)
@@ -189,11 +208,8 @@ def out_of_plane_harmonics(p, omega, phi_star):
 
 
 def _phi_star(params: DriveParams, phi_star):
-    eq = balanced_equilibrium(params, phi_star)
-    if not eq.exists:
-        raise ParamError('eps', params.eps, f'M eps <= n m R = {params.n * params.m * params.R:g} '
-                         'kg m for a balanced equilibrium', eq.reason)
-    return eq.phi_star
+    check_in_plane(params)
+    return balanced_phi_star(params, phi_star)
 
 
 def in_plane(params: DriveParams, omega: float, phi_star=None) -> PeriodicSystem:
@@ -224,17 +240,28 @@ def natural_frequencies(params: DriveParams) -> dict:
     512 and 472 rad/s. Table 1 lists rounded values; the omega0 of Eq. (39) is
     sqrt(4k/(M+M_P)) = 300.5 rad/s (the paper's 298 implies ~1 % more mass or less stiffness).
     """
+    check_in_plane(params)
     zero = SimpleNamespace(**{f: getattr(params, f) for f in _FIELDS})
     zero.m = 0.0
     out = {}
     for builder, names in ((in_plane_harmonics, ('X', 'Y', 'gamma')),
                            (out_of_plane_harmonics, ('Z', 'alpha', 'beta'))):
         Mh, _, Kh = builder(zero, 0.0, np.zeros(0))
-        M, K = _at_zero(Mh), _at_zero(Kh)
-        vals, vecs = scipy.linalg.eigh(K, M)
-        for lam, v in zip(vals, vecs.T):
-            share = v * (M @ v)  # kinetic-energy share of each coordinate
-            out[names[int(np.argmax(np.abs(share)))]] = math.sqrt(max(lam, 0.0))
+        out.update(named_modes(_at_zero(Mh), _at_zero(Kh), names))
+    return out
+
+
+def named_modes(M, K, names) -> dict:
+    """Return {name: undamped natural frequency [rad/s]} of M x'' + K x = 0.
+
+    Each mode is named after the coordinate (of ``names``) with the largest share of its
+    kinetic energy.
+    """
+    out = {}
+    vals, vecs = scipy.linalg.eigh(K, M)
+    for lam, v in zip(vals, vecs.T):
+        share = v * (M @ v)  # kinetic-energy share of each coordinate
+        out[names[int(np.argmax(np.abs(share)))]] = math.sqrt(max(lam, 0.0))
     return out
 
 

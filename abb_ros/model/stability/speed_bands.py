@@ -30,10 +30,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from abb_ros.model.parameters.params import DriveParams, ParamError
+from abb_ros.model.stability import coupled, two_plane
 from abb_ros.model.stability.equilibrium import balanced_equilibrium
 from abb_ros.model.stability.family import neutral_count
 from abb_ros.model.stability.floquet import point_stability, sweep_speed
-from abb_ros.model.stability.linear import natural_frequencies
 
 __all__ = ['OK', 'WARN', 'ERROR', 'STALE', 'TABLE_POINTS', 'MARGIN_WARN', 'BAND_GUARD_WBAR',
            'TRANSLATIONAL', 'ROTATIONAL', 'Band', 'SpeedTable', 'Assessment', 'speed_table',
@@ -96,6 +96,9 @@ class SpeedTable:
     ``lam_in``/``lam_out`` are +inf everywhere when no balanced equilibrium exists
     (``exists`` False, ``reason`` says why). ``compute_s`` is the wall time it took;
     ``neutral`` the family's neutral in-plane multipliers removed (floquet_batch.py).
+    ``coupled``: a drive with heights (docs/equations.md F4), whose one lam_max over the
+    spindle period (:mod:`abb_ros.model.stability.coupled`) both ``lam_in`` and ``lam_out``
+    hold.
     """
 
     params: DriveParams
@@ -110,6 +113,7 @@ class SpeedTable:
     bands: tuple
     compute_s: float = 0.0
     neutral: int = 0
+    coupled: bool = False
 
     def at(self, omega: float) -> tuple[float, float]:
         """Return (lam_in, lam_out) at omega [rad/s], interpolated (clamped to the table)."""
@@ -130,8 +134,11 @@ def speed_table(params: DriveParams, omega_max: float, points: int = TABLE_POINT
     start = time.perf_counter()
     eq = balanced_equilibrium(params)
     omegas = np.linspace(omega_max / points, omega_max, points)
-    natural = natural_frequencies(params)
-    if eq.exists:
+    natural = coupled.deck_natural_frequencies(params)
+    if eq.exists and params.off_plane:
+        lam_in = lam_out = coupled.lam_max_sweep(params, omegas, eq.phi_star)
+        bands = unbalanced_bands(omegas, lam_in, natural)
+    elif eq.exists:
         lam_in = sweep_speed(params, omegas, 'in', eq.phi_star)
         lam_out = sweep_speed(params, omegas, 'out', eq.phi_star)
         bands = unbalanced_bands(omegas, np.maximum(lam_in, lam_out), natural)
@@ -141,7 +148,7 @@ def speed_table(params: DriveParams, omega_max: float, points: int = TABLE_POINT
     neutral = int(neutral_count(eq.phi_star)) if eq.exists and params.n > 1 else 0
     return SpeedTable(params, float(omega_max), omegas, lam_in, lam_out, eq.exists,
                       eq.phi_star, eq.reason, natural, bands, time.perf_counter() - start,
-                      neutral)
+                      neutral, params.off_plane)
 
 
 def unbalanced_bands(omegas, lam, natural: dict) -> tuple:
@@ -210,20 +217,23 @@ def assess(table: SpeedTable, omega: float, exact=None) -> Assessment:
                           -math.inf, values)
     if not table.exists:
         return Assessment(ERROR, table.reason + '; no balanced equilibrium', -math.inf, values)
+    tilt = ''
     if exact is not None:
         lam_in, lam_out, source = exact.lam_in, exact.lam_out, f'exact at {exact.omega:.2f} rad/s'
         values.update(family_member=exact.member, neutral_modes_removed=exact.neutral,
                       family_invariance=exact.invariance,
                       phi_star_deg=', '.join(f'{math.degrees(x):.2f}' for x in exact.phi_star))
+        tilt = _tilt_text(p, exact.residual_tilt, values)
     else:
         lam_in, lam_out = table.at(omega)
         source = 'table (interpolated)'
     lam = max(lam_in, lam_out)
     margin = 1.0 - lam
-    values.update(lambda_in=lam_in, lambda_out=lam_out, margin=margin, source=source)
+    values.update(lambda_in=lam_in, lambda_out=lam_out, margin=margin, source=source,
+                  lambda_max=lam if table.coupled else max(lam_in, lam_out ** 2))
     wbar = p.wbar(omega)
-    lam_text = (f'|lambda|max {lam:.4f} ('
-                + ('in-plane' if lam_in >= lam_out else 'out-of-plane') + ')')
+    group = 'coupled' if table.coupled else 'in-plane' if lam_in >= lam_out else 'out-of-plane'
+    lam_text = f'|lambda|max {lam:.4f} ({group})'
     if lam >= 1.0 or omega < table.omegas[0] and omega < p.omega0:
         if omega < p.omega0:
             return Assessment(ERROR, f'unbalanced: below translational natural frequency '
@@ -237,7 +247,7 @@ def assess(table: SpeedTable, omega: float, exact=None) -> Assessment:
         return Assessment(ERROR, f'unbalanced: inside an unbalanced band {where} at wbar '
                           f'{wbar:.2f}{span}; {lam_text}', margin, values)
     near = min(table.bands, key=lambda b: b.distance(omega), default=None)
-    text = f'balanced and stable, margin {margin:.3f} at wbar {wbar:.2f}'
+    text = f'balanced and stable, margin {margin:.3f} at wbar {wbar:.2f}{tilt}'
     if near is not None and p.wbar(near.distance(omega)) < BAND_GUARD_WBAR:
         edge = near.lo if near.lo > omega else near.hi
         return Assessment(WARN, f'{text}, but an unbalanced band near the {near.kind} natural '
@@ -247,6 +257,32 @@ def assess(table: SpeedTable, omega: float, exact=None) -> Assessment:
         return Assessment(WARN, f'{text}: small margin (below {MARGIN_WARN:g}), '
                           f'{lam_text}', margin, values)
     return Assessment(OK, text, margin, values)
+
+
+def _tilt_text(p: DriveParams, tilt: float, values: dict) -> str:
+    """Put the predicted residual tilt in ``values``; return its clause for the message."""
+    if not math.isfinite(tilt):
+        return ''
+    values['residual_tilt_rad'] = tilt
+    if two_plane.residual_couple(p) == 0.0:     # one race cancels it all (tilt at round-off)
+        return ''
+    text = f'; residual tilt {tilt * 1e3:.3g} mrad (one race cannot cancel the couple)'
+    if 'second_race_z_m' in values:
+        text += (f', a second race at z = {values["second_race_z_m"] * 1e3:.3g} mm with '
+                 f'|B_2| = {values["second_race_B_kg_m"]:.3g} kg m would remove it')
+    return text
+
+
+def _two_plane_values(p: DriveParams, values: dict) -> None:
+    """Add the couple one race leaves and the mirrored second race that removes it."""
+    values['residual_couple_kg_m2'] = abs(two_plane.residual_couple(p))
+    race = two_plane.second_race(p)
+    if 'why' in race:
+        values['second_race'] = race['why']
+    elif race:
+        values['second_race_z_m'] = race['z_m']
+        values['second_race_B_kg_m'] = race['B_kg_m']
+        values['second_race_phi_deg'] = ', '.join(f'{x:.2f}' for x in race['phi_deg'])
 
 
 def _band_at(table: SpeedTable, omega: float):
@@ -279,6 +315,8 @@ def _base_values(table: SpeedTable, omega) -> dict:
     values['eps'] = p.eps
     values['table_compute_s'] = table.compute_s
     values['source'] = 'table (interpolated)'
+    if p.off_plane:
+        _two_plane_values(p, values)
     return values
 
 

@@ -29,10 +29,12 @@ from abb_ros.model.parameters.params import DriveParams
 
 @functools.lru_cache(maxsize=None)
 def energy_functions(n):
-    """Numeric (T, V, F)(q, qd, P) of lagrange_sympy.energies(n)."""
+    """Numeric (T, V, F)(q, qd, P) of lagrange_sympy.energies(n), in the washers' plane."""
     q, qd, _, par = L.symbols(n)
     args = [list(q), list(qd), [par[p] for p in L.PARAM_NAMES]]
-    return tuple(sp.lambdify(args, e, 'math', cse=True) for e in L.energies(n))
+    plane = {par[h]: 0 for h in L.HEIGHT_NAMES}      # torque mode refuses heights
+    return tuple(sp.lambdify(args, e.xreplace(plane), 'math', cse=True)
+                 for e in L.energies(n))
 
 
 def bookkeeping(params, motor, current, y0, duration):

@@ -24,9 +24,9 @@ H = 1e-5
 OMEGA = 600.0
 
 
-def _trajectory():
+def _trajectory(params=TABLE1):
     """Kinematics at five consecutive steps h apart, after some settling."""
-    sim = Simulation(TABLE1, OMEGA, H)
+    sim = Simulation(params, OMEGA, H)
     sim.advance(2000)
     out = []
     for _ in range(5):
@@ -92,8 +92,12 @@ def test_balls_sit_on_their_race_at_theta_plus_phi():
         assert math.isclose(np.linalg.norm(offset), TABLE1.R, rel_tol=1e-12)
 
 
-def test_setting_a_ball_from_its_own_state_restores_its_angle_and_rate():
-    sim = Simulation(TABLE1, OMEGA, H)
+RACE_ABOVE = DriveParams(z_B=0.005)
+
+
+@pytest.mark.parametrize('params', [TABLE1, RACE_ABOVE], ids=['z_B=0', 'z_B=5mm'])
+def test_setting_a_ball_from_its_own_state_restores_its_angle_and_rate(params):
+    sim = Simulation(params, OMEGA, H)
     sim.advance(300)
     y = sim.y.copy()
     k = ek.kinematics(y, sim.accelerations(), sim.params)[ek.ball_name(1)]
@@ -101,7 +105,7 @@ def test_setting_a_ball_from_its_own_state_restores_its_angle_and_rate():
     layout = sim.layout
     layout.phi(moved)[1] += 0.7
     layout.phi_rates(moved)[1] -= 3.0
-    back = ek.with_ball(moved, TABLE1, 1, k.position, k.linear_velocity)
+    back = ek.with_ball(moved, params, 1, k.position, k.linear_velocity)
     assert np.allclose(back, y, rtol=0, atol=1e-9)
 
 
@@ -131,3 +135,34 @@ def test_a_ball_off_its_race_or_moving_across_it_is_refused_with_the_reason():
         ek.with_ball(sim.y, TABLE1, 0, p, np.array(k.linear_velocity) + (0, 0, 0.1))
     with pytest.raises(ek.EntityError, match='unit quaternion'):
         ek.with_deck(sim.y, TABLE1, (0, 0, 0), (0, 0, 0, 2.0), (0, 0, 0), (0, 0, 0))
+
+
+def test_balls_of_a_race_above_the_washers_plane_sit_at_z_b_in_the_deck_frame():
+    sim = Simulation(RACE_ABOVE, OMEGA, H)
+    sim.advance(300)
+    y = sim.y.copy()
+    k = ek.kinematics(y, sim.accelerations(), sim.params)
+    rotation = ek.euler_rotation(*sim.layout.deck(y)[3:])
+    for i in range(RACE_ABOVE.n):
+        r = rotation.T @ (np.array(k[ek.ball_name(i)].position) - k[ek.DECK].position)
+        assert math.isclose(r[2], RACE_ABOVE.z_B, rel_tol=1e-12)
+        assert math.isclose(math.hypot(r[0], r[1]), RACE_ABOVE.R, rel_tol=1e-12)
+
+
+def test_a_ball_velocity_off_the_washers_plane_is_the_derivative_of_its_position():
+    steps = _trajectory(RACE_ABOVE)
+    name = ek.ball_name(0)
+    velocity = np.array(steps[2][name].linear_velocity)
+    derivative = _d([s[name].position for s in steps])
+    assert np.allclose(derivative, velocity, rtol=0, atol=1e-6 * np.linalg.norm(velocity))
+
+
+def test_a_ball_of_a_race_above_the_plane_is_refused_in_the_washers_plane():
+    sim = Simulation(RACE_ABOVE, OMEGA, H)
+    sim.advance(300)
+    y = sim.y.copy()
+    k = ek.kinematics(y, sim.accelerations(), sim.params)[ek.ball_name(1)]
+    rotation = ek.euler_rotation(*sim.layout.deck(y)[3:])
+    in_washers_plane = np.array(k.position) - rotation @ (0.0, 0.0, RACE_ABOVE.z_B)
+    with pytest.raises(ek.EntityError, match='off the race plane at z_B = 0.005 m'):
+        ek.with_ball(y, RACE_ABOVE, 1, in_washers_plane, k.linear_velocity)

@@ -143,10 +143,10 @@ def test_neutral_count_is_n_minus_the_rank_of_the_eq26_jacobian():
 def test_two_balls_with_eccentricity_are_unchanged_bit_for_bit():
     params, omega = _drive(2, 2.7)
     exists, phi = F.equilibria([params])
-    from abb_ros.model.stability.floquet_batch import _rate_estimate
+    from abb_ros.model.stability.floquet_batch import rate_estimate
     from abb_ros.model.stability.linear import in_plane_harmonics, stack_params
     Mh, Ch, Kh = in_plane_harmonics(stack_params([params]), np.array([omega]), phi)
-    steps = F.steps_for(_rate_estimate(Mh, Ch, Kh, np.array([omega])), 2 * math.pi)
+    steps = F.steps_for(rate_estimate(Mh, Ch, Kh, np.array([omega])), 2 * math.pi)
     old = F.max_multiplier(F.monodromy_batch(Mh, Ch, Kh, np.array([omega]), 2 * math.pi, steps))
     res = F.multipliers_batch([params], [omega])
     assert res.lam[0] == old[0] and res.neutral[0] == 0 and res.invariance[0] == 0.0

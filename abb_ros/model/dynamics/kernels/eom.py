@@ -3,7 +3,9 @@
 :func:`assemble` builds the deck rows (X, Y, Z, alpha, beta, gamma; Eqs. 18-23) A u + W phi''
 = f and the ball rows (Eq. 24) B u + m R^2 phi'' = fb for a known theta''; the solvers
 eliminate the balls (:func:`eliminate_balls`) and solve the deck (:func:`solve_deck`, block
-triangular to the paper's order: two 3 x 3 solves, :func:`solve3`).
+triangular to the paper's order: two 3 x 3 solves, :func:`solve3`; one coupled 6 x 6 solve,
+:func:`solve6`, where mass centres off the washers' plane or a leaning rotor axis couple the
+groups, docs/equations.md F4, F6).
 """
 
 from __future__ import annotations
@@ -26,7 +28,12 @@ from abb_ros.model.dynamics.kernels.layout import (
     P_K,
     P_M,
     P_M_P,
+    P_PSI_TAU,
     P_R,
+    P_TAU,
+    P_Z_B,
+    P_Z_G,
+    P_Z_P,
     P_J_Px,
     P_J_Py,
     P_J_Pz,
@@ -48,6 +55,7 @@ def assemble(y, n, P, thdd, A, W, f, B, fb):
     rolling balls, their spin (:func:`abb_ros.model.dynamics.kernels.ball_size.add_ball_rotation`).
     """
     assemble_rows(y, n, P, thdd, A, W, f, B, fb)
+    add_offsets(y, n, P, thdd, A, W, f, B)
     if P[P_CONTACT_E] > 0.0 and n > 1:
         Qc = np.empty(n)
         contact_forces(y, n, P, Qc)
@@ -184,6 +192,123 @@ def assemble_rows(y, n, P, thdd, A, W, f, B, fb):
             - (Ir + J_z) * thdd)
 
 
+@kernel(inline=True)
+def add_offsets(y, n, P, thdd, A, W, f, B):
+    """Add the heights' and the leaning axis' terms where they are set (none: the paper's rows).
+
+    :func:`add_heights`, :func:`add_leaning_axis`.
+    """
+    if P[P_Z_P] != 0.0 or P[P_Z_G] != 0.0 or P[P_Z_B] != 0.0:
+        add_heights(y, n, P, thdd, A, W, f, B)
+    if P[P_TAU] != 0.0:
+        add_leaning_axis(y, n, P, thdd, A, f)
+
+
+@kernel
+def add_heights(y, n, P, thdd, A, W, f, B):
+    """Add the terms of mass centres off the washers' plane to the rows (docs/equations.md, F4).
+
+    P at height z_P, G at z_G and the balls at z_B above the plane of the washer attachment
+    points (which holds C): Lagrange's equations of the energies of Eqs. (11), (13), (16) with
+    these heights, to first order in the deck coordinates, less those of the paper's plane
+    (test/model/dynamics/test_heights_vs_lagrange.py derives both). Each point mass
+    couples tilt and translation (the X, Y rows gain beta'', alpha''), and a ball's row gains
+    alpha'' and beta'', so the deck's rows no longer split in-plane and out-of-plane.
+    """
+    N = PHI + n
+    al, be, gad = y[DECK + 3], y[DECK + 4], y[N + DECK + 5]
+    om = y[N + THETA]
+    # P at (0, -d, z_P): sin = -1, cos = 0, fixed in the deck
+    add_point_at_height(P[P_M_P], P[P_D], P[P_Z_P], -1.0, 0.0, 0.0, (al, be, gad), A, f)
+    # G at (eps cos theta, eps sin theta, z_G): its angle's acceleration theta'' is known
+    mh = P[P_M] * P[P_Z_G]
+    r = P[P_EPS]
+    s = math.sin(y[THETA])
+    c = math.cos(y[THETA])
+    add_point_at_height(P[P_M], r, P[P_Z_G], s, c, om, (al, be, gad), A, f)
+    f[3] += mh * r * c * thdd
+    f[4] += mh * r * s * thdd
+    f[5] -= mh * r * (be * c - al * s) * thdd
+    # ball i at (R cos psi_i, R sin psi_i, z_B), psi_i = theta + phi_i
+    mh = P[P_m] * P[P_Z_B]
+    r = P[P_R]
+    for i in range(n):
+        psi = y[THETA] + y[PHI + i]
+        s = math.sin(psi)
+        c = math.cos(psi)
+        add_point_at_height(P[P_m], r, P[P_Z_B], s, c, om + y[N + PHI + i], (al, be, gad), A, f)
+        # psi_i'' = phi_i'' + theta'': the ball's column, and the known theta'' to the right
+        W[3, i] -= mh * r * c
+        W[4, i] -= mh * r * s
+        W[5, i] += mh * r * (be * c - al * s)
+        f[3] += mh * r * c * thdd
+        f[4] += mh * r * s * thdd
+        f[5] -= mh * r * (be * c - al * s) * thdd
+        B[i, 3] -= mh * r * c
+        B[i, 4] -= mh * r * s
+
+
+@kernel
+def add_leaning_axis(y, n, P, thdd, A, f):
+    """Add the terms of the rotor's leaning principal axis (couple imbalance; equations.md F6).
+
+    The axis leans by tau toward the rotor-fixed direction psi_tau from G: J_G = J_x I +
+    (J_z - J_x) n n^T with n = (sin tau cos phi, sin tau sin phi, cos tau), phi = theta +
+    psi_tau (exact in tau, J_x = J_y). Lagrange's equations of the added energy
+    1/2 (J_z - J_x) [(n . w)^2 - w_z^2], w the rotor's angular velocity, to first order in the
+    deck coordinates (sympy, test/lagrange_sympy.py): k = (J_z - J_x) sin tau cos tau is the
+    couple (the rotating moment k omega^2), q = (J_z - J_x) sin^2 tau lowers the spin inertia.
+    """
+    N = PHI + n
+    al, be = y[DECK + 3], y[DECK + 4]
+    ald, bed, gad = y[N + DECK + 3], y[N + DECK + 4], y[N + DECK + 5]
+    w = y[N + THETA]
+    dJ = P[P_J_z] - P[P_J_x]
+    st, ct = math.sin(P[P_TAU]), math.cos(P[P_TAU])
+    k, q = dJ * st * ct, dJ * st * st
+    phi = y[THETA] + P[P_PSI_TAU]
+    s, c = math.sin(phi), math.cos(phi)
+    A[3, 3] += q * c * c
+    A[3, 4] += q * s * c
+    A[3, 5] += k * c
+    f[3] -= (k * (thdd * c - w * w * s) - q * thdd * be - 2.0 * q * w * (s * s * bed + s * c * ald)
+             - 2.0 * k * w * s * gad)
+    A[4, 3] += q * s * c
+    A[4, 4] += q * s * s
+    A[4, 5] += k * s
+    f[4] -= (k * (w * w * c + thdd * s) + 2.0 * q * w * (c * c * ald + s * c * bed)
+             + 2.0 * k * w * c * gad)
+    A[5, 3] += k * c
+    A[5, 4] += k * s
+    A[5, 5] -= q
+    f[5] -= -q * thdd + k * (al * (w * w * c + thdd * s) + be * (w * w * s - thdd * c))
+
+
+@kernel(inline=True)
+def add_point_at_height(mu, r, h, s, c, w, tilt, A, f):
+    """Add one point mass mu at (r cos psi, r sin psi, h) in the deck's axes: terms of h only.
+
+    ``s, c`` = sin, cos psi, ``w`` = psi', ``tilt`` = (alpha, beta, gamma'); the terms in
+    psi'' are the caller's (its column, or known). First order in the deck coordinates, as
+    :func:`add_heights`.
+    """
+    al, be, gad = tilt
+    mh = mu * h
+    A[0, 4] += mh
+    A[1, 3] -= mh
+    A[3, 1] -= mh
+    A[3, 3] += mh * h
+    A[3, 5] -= mh * r * c
+    A[4, 0] += mh
+    A[4, 4] += mh * h
+    A[4, 5] -= mh * r * s
+    A[5, 3] -= mh * r * c
+    A[5, 4] -= mh * r * s
+    f[3] -= mh * r * s * w * (2.0 * gad + w)
+    f[4] += mh * r * c * w * (2.0 * gad + w)
+    f[5] += mh * r * w * w * (al * c + be * s)
+
+
 @kernel
 def solve3(A, f, i0, i1, i2, u):
     """Solve rows and columns (i0, i1, i2) of A u = f for u[i0], u[i1], u[i2].
@@ -229,12 +354,50 @@ def solve_deck(A, f, u):
     To the paper's order the in-plane rows (X, Y,
     gamma: Eqs. 18, 19, 23 with the balls eliminated) hold no out-of-plane acceleration,
     so the system is block triangular: a 3 x 3 in-plane solve, then a 3 x 3 out-of-plane
-    solve (Z, alpha, beta) with the in-plane accelerations moved to the right.
+    solve (Z, alpha, beta) with the in-plane accelerations moved to the right. Heights off
+    the plane (F4) put tilt accelerations in the in-plane rows: then one 6 x 6 solve.
     """
+    for r in (0, 1, 5):
+        if A[r, 2] != 0.0 or A[r, 3] != 0.0 or A[r, 4] != 0.0:
+            solve6(A, f, u)          # mass centres off the plane couple the two groups
+            return
     solve3(A, f, 0, 1, 5, u)
     for r in range(2, 5):
         f[r] -= A[r, 0] * u[0] + A[r, 1] * u[1] + A[r, 5] * u[5]
     solve3(A, f, 2, 3, 4, u)
+
+
+@kernel
+def solve6(A, f, u):
+    """Solve the whole 6 x 6 system A u = f (partial pivoting; A and f are not modified)."""
+    T = np.empty((6, 7))
+    for i in range(6):
+        for j in range(6):
+            T[i, j] = A[i, j]
+        T[i, 6] = f[i]
+    for col in range(6):
+        pivot_row(T, col)
+        for r in range(col + 1, 6):
+            lr = T[r, col] / T[col, col]
+            for j in range(col, 7):
+                T[r, j] -= lr * T[col, j]
+    for i in range(5, -1, -1):
+        acc = T[i, 6]
+        for j in range(i + 1, 6):
+            acc -= T[i, j] * u[j]
+        u[i] = acc / T[i, i]
+
+
+@kernel(inline=True)
+def pivot_row(T, col):
+    """Swap into row ``col`` of T the row at or below it with the largest entry in ``col``."""
+    piv = col
+    for r in range(col + 1, 6):
+        if abs(T[r, col]) > abs(T[piv, col]):
+            piv = r
+    if piv != col:
+        for j in range(col, 7):
+            T[col, j], T[piv, j] = T[piv, j], T[col, j]
 
 
 @kernel
@@ -247,8 +410,11 @@ def eliminate_balls(n, inv, A, W, f, B, fb):
         for b in range(n):
             w = W[i, b] * inv
             if w != 0.0:
-                # Eq. (24) involves X'', Y'' and gamma'' only (B[:, 2:5] = 0)
+                # in the plane, Eq. (24) involves X'', Y'', gamma'' only (B[:, 2:5] = 0)
                 A[i, 0] -= w * B[b, 0]
                 A[i, 1] -= w * B[b, 1]
                 A[i, 5] -= w * B[b, 5]
                 f[i] -= w * fb[b]
+                if B[b, 3] != 0.0 or B[b, 4] != 0.0:    # a race off the plane (F4)
+                    A[i, 3] -= w * B[b, 3]
+                    A[i, 4] -= w * B[b, 4]

@@ -39,12 +39,12 @@ kernel = KernelSet(nogil=True, error_model='numpy')
 PARAM_ORDER = ('a', 'b', 'd', 'R', 'M_P', 'M', 'm', 'J_Px', 'J_Py', 'J_Pz', 'J_x', 'J_y', 'J_z',
                'k', 'c', 'D', 'eps', 'n',
                'r_ball', 'contact_E', 'contact_nu', 'contact_damping', 'rolling_mu',
-               'rolling_stick_rate', 'ball_rotation')
+               'rolling_stick_rate', 'ball_rotation', 'z_P', 'z_G', 'z_B', 'tau', 'psi_tau')
 N_PARAMS = len(PARAM_ORDER)
 (P_A, P_B, P_D, P_R, P_M_P, P_M, P_m, P_J_Px, P_J_Py, P_J_Pz, P_J_x, P_J_y, P_J_z,
  P_K, P_C, P_DRAG, P_EPS, P_N,
  P_R_BALL, P_CONTACT_E, P_CONTACT_NU, P_CONTACT_DAMPING, P_ROLLING_MU,
- P_STICK_RATE, P_BALL_ROTATION) = range(N_PARAMS)
+ P_STICK_RATE, P_BALL_ROTATION, P_Z_P, P_Z_G, P_Z_B, P_TAU, P_PSI_TAU) = range(N_PARAMS)
 """Index in P of each entry of PARAM_ORDER (P_DRAG: the balls' drag D, P_K, P_C: k, c)."""
 
 N_SPINDLE = 7

@@ -13,6 +13,7 @@ import numpy as np
 from abb_ros.model.dynamics.kernels.ball_size import ball_inertia
 from abb_ros.model.dynamics.kernels.contact import contact_forces
 from abb_ros.model.dynamics.kernels.eom import (
+    add_offsets,
     assemble,
     assemble_rows,
     eliminate_balls,
@@ -74,9 +75,11 @@ def solve_rows(n, mR2, thdd, qdd, solver):
 
 @kernel(inline=True)
 def on_paper(n, P, S):
-    """Return whether only the terms of Eqs. (18)-(24) act (:func:`paper_deriv` applies).
+    """Return whether only rigid point-mass terms act (:func:`paper_deriv` applies).
 
-    A speed profile, and point-mass balls without rolling resistance or contact.
+    A speed profile and point-mass balls without rolling resistance or contact: the terms of
+    Eqs. (18)-(24), with the heights and the leaning rotor axis where they are set
+    (docs/equations.md F4, F6; zero, exactly the paper's rows).
     """
     return (S[S_MODE] != SPINDLE_TORQUE and P[P_BALL_ROTATION] == 0.0
             and not (P[P_ROLLING_MU] > 0.0 and n > 0) and not (P[P_CONTACT_E] > 0.0 and n > 1))
@@ -95,6 +98,7 @@ def paper_deriv(t, y, n, P, S, dy, solver):
     qdd = solver.qdd
     thdd = spindle_accel(t, y[N + THETA], S)
     assemble_rows(y, n, P, thdd, solver.A, solver.W, solver.f, solver.B, solver.fb)
+    add_offsets(y, n, P, thdd, solver.A, solver.W, solver.f, solver.B)
     solve_rows(n, ball_inertia(P), thdd, qdd, solver)
     for i in range(N):
         dy[i] = y[N + i]
