@@ -13,9 +13,10 @@ NOT_SHOWN = frozenset()
 
 
 def markdown_files():
-    """README.md and every Markdown file of the repository outside hidden and build dirs."""
+    """README.md and every Markdown file of the repository outside hidden, build and npm dirs."""
     return sorted(p for p in REPO.rglob('*.md')
-                  if not any(part.startswith('.') or part in ('build', 'install', 'log')
+                  if not any(part.startswith('.') or part in ('build', 'install', 'log',
+                                                                     'node_modules')
                              for part in p.relative_to(REPO).parts))
 
 

@@ -118,6 +118,7 @@ def _citing_files():
         files = sorted(path.rglob('*')) if path.is_dir() else [path]
         for file in files:
             if (file.is_file() and file.suffix in _TEXT and '__pycache__' not in file.parts
+                    and 'node_modules' not in file.parts   # npm's packages: not ours
                     and file != Path(__file__).resolve()):
                 yield file
 

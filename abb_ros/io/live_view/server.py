@@ -79,6 +79,9 @@ SERVER_NAME = 'abb_ros'
 MAX_MESSAGE_BYTES = 16 * 1024 * 1024
 """The largest frame a client may send [bytes]."""
 START_TIMEOUT_S = 10.0
+ROS_DISTRO = 'jazzy'
+"""The ``ROS_DISTRO`` of ``serverInfo``'s metadata, as foxglove_bridge sends it: Foxglove Studio
+and Lichtblick then know ROS 2's common message definitions (the Publish panel lists them)."""
 FLUSH_PERIOD_S = 0.005
 """How often the messages queued for the viewers are sent [s]: the writer never waits for
 the server's thread, and a viewer gets them in batches (up to 5 ms late)."""
@@ -210,7 +213,8 @@ class LiveView:
             capabilities.append('services')
         self.server_info = wire.text(
             'serverInfo', name=SERVER_NAME, capabilities=capabilities,
-            supportedEncodings=[ENCODING], metadata={}, sessionId=str(time.time_ns()))
+            supportedEncodings=[ENCODING], metadata={'ROS_DISTRO': ROS_DISTRO},
+            sessionId=str(time.time_ns()))
         self.dropped = 0
         self.connections: set = set()
         self._flushing = False   # whether _flush is scheduled (server thread only)

@@ -186,6 +186,7 @@ def test_foxglove_client_sees_the_channels_messages_time_and_services(served, su
     assert seen['serverInfo']['name'] == 'abb_ros'
     assert set(seen['serverInfo']['capabilities']) == {'time', 'clientPublish', 'services'}
     assert seen['serverInfo']['supportedEncodings'] == ['cdr']
+    assert seen['serverInfo']['metadata'] == {'ROS_DISTRO': 'jazzy'}   # Studio's ROS 2 types
     expected = {'/spindle/speed': 'std_msgs/msg/Float64', '/clock': 'rosgraph_msgs/msg/Clock'}
     check_channels(seen, expected)
     assert check_messages(seen, expected, sent) == 6

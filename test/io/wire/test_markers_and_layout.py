@@ -114,7 +114,10 @@ def test_the_foxglove_layout_is_json_whose_panels_name_topics_the_bench_publishe
     assert {'/visualization/markers', '/joint_states', '/spindle/speed', '/deck/pose',
             '/stability/margin'} <= topics
     kinds = {panel_id.split('!')[0] for panel_id in layout['configById']}
-    assert kinds == {'3D', 'Plot'}
+    assert kinds == {'3D', 'Plot', 'Parameters', 'Publish'}
+    [publish] = [c for k, c in layout['configById'].items() if k.startswith('Publish!')]
+    assert (publish['topicName'], publish['datatype']) == ('/spindle/speed_cmd',
+                                                           'std_msgs/msg/Float64')
 
 
 def test_the_foxglove_layout_tree_names_every_panel_once():

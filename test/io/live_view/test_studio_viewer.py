@@ -1,0 +1,145 @@
+"""The live view in a real viewer: Foxglove Studio 1.48 in a headless chromium.
+
+test/studio_viewer/studio.mjs serves Studio's web bundle (npm ``@foxglove/studio-base``,
+pinned by test/studio_viewer/package-lock.json) on a loopback page, opens it with the
+repository's config/foxglove_layout.json on the simulator node's live view, and prints what the
+page showed: the topic list, the Plot legends at two moments, the player problems, and the
+counts, lags and animation frames a probe in the page measured (test/studio_viewer/probe.js).
+Pass or fail comes from that text and those counts, never from how a panel looks; the
+screenshots go to $ABB_ROS_ARTEFACTS (else pytest's tmp_path). Skips, saying why, without
+node, the npm packages (``npm ci --prefix test/studio_viewer``; scripts/test runs it) or a
+chromium (``ABB_ROS_CHROMIUM``, else ``chromium`` on PATH; .ci/run installs Debian's).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import threading
+from pathlib import Path
+
+import pytest
+from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64
+
+ROOT = Path(__file__).resolve().parents[3]
+VIEWER_DIR = ROOT / 'test' / 'studio_viewer'
+LAYOUT = ROOT / 'config' / 'foxglove_layout.json'
+TIMEOUT_S = 150
+PUBLISH_BUTTON = 'Publish speed command'
+"""The button of the layout's Publish panel (``/spindle/speed_cmd``, ``{"data": 500.0}``)."""
+TOPICS = ('/joint_states', '/deck/pose', '/spindle/speed', '/visualization/markers',
+          '/deck/imu', '/deck/twist', '/diagnostics')
+
+
+def studio_command(options: dict) -> list[str]:
+    """The command that runs Studio in chromium (skip, saying why, where a part is missing)."""
+    node = shutil.which('node')
+    chromium = os.environ.get('ABB_ROS_CHROMIUM') or shutil.which('chromium')
+    if node is None:
+        pytest.skip('node is not installed: Foxglove Studio (npm) cannot be served')
+    if not (VIEWER_DIR / 'node_modules' / '@foxglove' / 'studio-base').is_dir():
+        pytest.skip('the npm packages of test/studio_viewer are not installed: '
+                    'npm ci --prefix test/studio_viewer')
+    if chromium is None:
+        pytest.skip('no chromium (apt-get install chromium, or set ABB_ROS_CHROMIUM)')
+    options['chromium'] = chromium
+    return [node, str(VIEWER_DIR / 'studio.mjs'), json.dumps(options)]
+
+
+@pytest.fixture(scope='module')
+def studio(tmp_path_factory):
+    """What Studio showed of the simulator node's live view (the JSON of studio.mjs)."""
+    from test_simulator_node import Plant
+    artefacts = Path(os.environ.get('ABB_ROS_ARTEFACTS') or tmp_path_factory.mktemp('studio'))
+    artefacts.mkdir(parents=True, exist_ok=True)
+    options = dict(layout=str(LAYOUT), artefacts=str(artefacts), measure_s=6,
+                   timeout_s=TIMEOUT_S - 20, publish=PUBLISH_BUTTON,
+                   parameter=dict(name='/abb_simulator.fault.speed_noise', value='40'))
+    command = studio_command(options)
+    plant = Plant(**{'live_view.enabled': True, 'live_view.port': 0})
+    margin = plant.node.create_publisher(Float64, 'stability/margin', 10)   # as analysis does
+    stop = threading.Event()
+
+    def publish_margin():
+        while not stop.wait(0.05):
+            margin.publish(Float64(data=0.25))
+
+    threading.Thread(target=publish_margin, daemon=True).start()
+    try:
+        options['url'] = plant.sim.live.view.url
+        speeds = []
+        plant.node.create_subscription(JointState, '/joint_states',
+                                       lambda m: speeds.append(m.velocity[0]), 10)
+        plant.spin_for(0.5)
+        before = speeds[-1]
+        out = subprocess.run([*command[:-1], json.dumps(options)], capture_output=True,
+                             text=True, timeout=TIMEOUT_S)
+        plant.spin_for(2.0)   # the command's ramp
+        node = dict(speed_noise=plant.sim.get_parameter('fault.speed_noise').value,
+                    speed_cmd=plant.sim.speed_cmd, speed_before=before, speed_after=speeds[-1])
+    finally:
+        stop.set()
+        plant.close()
+    assert out.returncode == 0, out.stderr[-2000:]
+    seen = json.loads(out.stdout)
+    seen['node'] = node
+    (artefacts / 'studio.json').write_text(json.dumps(seen, indent=1))
+    assert 'failure' not in seen, seen['failure']
+    return seen
+
+
+pytestmark = [pytest.mark.ros, pytest.mark.slow]
+
+
+def test_studio_lists_every_topic(studio):
+    text = studio['topics_text']
+    for topic in TOPICS:
+        assert f'{topic}\n' in text, topic
+    assert 'sensor_msgs/msg/JointState' in text
+
+
+def test_studio_receives_markers_for_the_3d_panel_at_their_rate(studio):
+    window = studio['window']
+    rate = window['counts']['/visualization/markers'] / window['seconds']
+    assert rate > 5   # 20 Hz, the 3D panel's only topic
+    assert not studio['errors']
+
+
+def test_plot_legends_advance(studio):
+    """The Plot panels show each series' newest value: they change while the drive runs."""
+    before, after = studio['legend_before'], studio['legend_after']
+    assert len(after) >= 7
+    assert before != after
+
+
+def test_studio_reports_no_player_problem_once_connected(studio):
+    """pub:msgdef:/spindle/speed_cmd comes only in Studio's first state, before the channels
+    (its Publish panel advertises as soon as the server can take messages): gone after."""
+    assert studio['server_info']['metadata'] == {'ROS_DISTRO': 'jazzy'}
+    assert 'No problems found' in studio['problems_text']
+
+
+def test_a_parameter_set_in_the_parameters_panel_reaches_the_node(studio):
+    [request] = studio['sent']['parameters']
+    assert request['parameters'] == [{'name': '/abb_simulator.fault.speed_noise', 'value': 40}]
+    assert studio['node']['speed_noise'] == 40.0
+
+
+def test_the_publish_panels_speed_command_moves_the_plant(studio):
+    assert studio['publish_button'] and studio['sent']['published'] == 1
+    node = studio['node']
+    assert node['speed_cmd'] == 500.0
+    assert abs(node['speed_after'] - 500.0) < abs(node['speed_before'] - 500.0) - 10
+
+
+def test_joint_states_reach_the_page_at_most_seconds_late(studio):
+    """The page's lag (its clock minus the wall-clock stamp): reported; bounded loosely,
+    since software WebGL on 2 cores keeps the page's thread busy (docs/ros_api.md)."""
+    lag = studio['window']['lags']['/joint_states']
+    print(f"studio: /joint_states lag median {lag['median']:.0f} ms, p95 {lag['p95']:.0f} ms, "
+          f"{studio['window']['frames'] / studio['window']['seconds']:.1f} frames/s")
+    assert lag['n'] > 1000
+    assert lag['median'] < 10_000
