@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from abb_ros.io.files.scenario import list_scenarios, load_scenario
-from abb_ros.model.parameters.params import METAL_C, RUBBER_C
+from abb_ros.model.parameters.params import METAL_C, RUBBER_C, ParamError
 
 POINTS = {  # Section 5: (mbar, wbar, washer damping c)
     'p1': (0.03, 0.8, METAL_C), 'p2': (0.03, 2.18, METAL_C), 'p3': (0.03, 2.7, METAL_C),
@@ -50,3 +50,24 @@ def test_settings_on_top_of_a_scenario_and_ball_count_change():
     s = load_scenario('p3').with_settings({'wbar': 2.0, 'n': 4})
     assert s.omega / s.params.omega0 == pytest.approx(2.0)
     assert s.params.n == 4 and s.phi0 is None            # explicit +-60 deg dropped for n = 4
+
+
+TWO_RACES = """name: two_races
+description: P3 with G 1 mm up and a second race mirrored about it
+set: {mbar: 0.03, c: 0.66, wbar: 2.7, z_G: 0.001, race2.n: 2, race2.z: 0.002}
+initial:
+  phi_deg: [60.0, -60.0, 150.0, -150.0]
+duration: 1.0
+"""
+
+
+def test_a_scenario_sets_a_second_race_and_lists_race_1s_angles_then_race_2s(tmp_path):
+    path = tmp_path / 'two_races.yaml'
+    path.write_text(TWO_RACES)
+    s = load_scenario(str(path))
+    assert (s.params.n, s.params.race2_n, s.params.race2_z) == (2, 2, 0.002)
+    assert np.degrees(s.phi0) == pytest.approx([60.0, -60.0, 150.0, -150.0])
+    path.write_text(TWO_RACES.replace(', 150.0, -150.0', ''))
+    with pytest.raises(ParamError, match="initial.phi_deg.*race 1's n = 2 then race 2's "
+                                         'race2.n = 2'):
+        load_scenario(str(path))
