@@ -1,7 +1,8 @@
 // Open Foxglove Studio 1.48 (npm @foxglove/studio-base's web bundle) in a headless chromium on a
 // live view, with a layout, and print as one JSON object what the page showed: the topic list's
 // text, the Plot legends' text at two moments, the player problems and console warnings, the
-// probe's message counts, lags and animation frames over a measuring window (probe.js).
+// probe's message counts, lags and animation frames over a measuring window (probe.js), and
+// when each phase was reached (seconds from the start: a time-out names where it stopped).
 //
 // node studio.mjs '{"url": "ws://127.0.0.1:PORT", "layout": "config/foxglove_layout.json",
 //   "chromium": "/usr/bin/chromium", "artefacts": "DIR", "measure_s": 8, "timeout_s": 120,
@@ -40,9 +41,11 @@ const server = http.createServer((request, response) => {
 });
 await new Promise((resolve) => server.listen(0, "127.0.0.1", resolve));
 
-const seen = { console: [], errors: [] };
+const seen = { console: [], errors: [], phases: {} };
 const started = Date.now();
 const seconds = () => (Date.now() - started) / 1000;
+const reached = (phase) => { seen.phases[phase] = seconds(); };
+let finished = false;
 const sleep = (s) => new Promise((resolve) => setTimeout(resolve, s * 1000));
 const browser = await puppeteer.launch({
   executablePath: options.chromium, headless: true, defaultViewport: { width: 1600, height: 1000 },
@@ -51,7 +54,11 @@ const browser = await puppeteer.launch({
 });
 const timer = setTimeout(() => finish("timed out"), options.timeout_s * 1000);
 
+// Print what was seen, once: the first failure (a time-out) stops the page, and what was
+// waiting on it then fails too, which is not news.
 async function finish(failure) {
+  if (finished) return;
+  finished = true;
   if (failure) seen.failure = failure;
   clearTimeout(timer);
   process.stdout.write(JSON.stringify(seen) + "\n");
@@ -110,10 +117,13 @@ try {
   await page.evaluateOnNewDocument(fs.readFileSync(path.join(here, "probe.js"), "utf8"));
   const port = server.address().port;
   await page.goto(`http://127.0.0.1:${port}/?layoutId=abb_ros&ds=foxglove-websocket&ds.url=${encodeURIComponent(options.url)}`);
+  reached("page loaded");
   await waitFor(page, "the topic list", () => document.body.innerText.includes("/joint_states\n"));
   seen.connected_s = seconds();
+  reached("topics listed");
   await waitFor(page, "markers and joint states in the page",
     () => (window.__abbProbe.counts["/visualization/markers"] || 0) > 20 && (window.__abbProbe.counts["/joint_states"] || 0) > 1000);
+  reached("messages flowing");
   const from = await page.evaluate(() => { const p = window.__abbProbe; return { at: Date.now() - p.start, frames: p.frames, counts: { ...p.counts } }; });
   const legends = () => [...document.querySelectorAll("*")].filter((e) => e.childElementCount === 0)
     .map((e) => e.textContent.trim()).filter((t) => /^-?[0-9.]+(e[-+][0-9]+)?$/.test(t));
@@ -121,6 +131,7 @@ try {
   await sleep(options.measure_s);
   seen.legend_after = await page.evaluate(legends);
   seen.window = await page.evaluate(window_of, from);
+  reached("measured");
   seen.topics_text = await page.evaluate(() => document.body.innerText);
   seen.server_info = await page.evaluate(() => window.__abbProbe.serverInfo);
   await shot(page, "studio_layout");
@@ -131,7 +142,9 @@ try {
     seen.problems_text = await page.evaluate(() => document.body.innerText);
     await shot(page, "studio_problems");
   }
+  reached("problems shown");
   if (options.parameter) await setParameter(page, options.parameter);
+  reached("parameter set");
   if (options.publish) {
     const [button] = await page.$$(`xpath/.//button[normalize-space()='${options.publish}']`);
     seen.publish_button = Boolean(button);
@@ -145,6 +158,7 @@ try {
     advertised: window.__abbProbe.sent.filter((m) => m.op === "advertise"),
     published: window.__abbProbe.published }));
   await shot(page, "studio_after_actions");
+  reached("published");
   seen.total_s = seconds();
   await finish();
 } catch (error) {

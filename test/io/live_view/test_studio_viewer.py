@@ -84,10 +84,11 @@ def studio(tmp_path_factory):
         stop.set()
         plant.close()
     assert out.returncode == 0, out.stderr[-2000:]
+    (artefacts / 'studio.stdout').write_text(out.stdout)   # kept as printed, if it fails
     seen = json.loads(out.stdout)
     seen['node'] = node
     (artefacts / 'studio.json').write_text(json.dumps(seen, indent=1))
-    assert 'failure' not in seen, seen['failure']
+    assert 'failure' not in seen, (seen['failure'], seen['phases'])
     return seen
 
 
