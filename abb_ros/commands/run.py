@@ -62,10 +62,12 @@ def _live_view(address: str | None):
     if address is None:
         return None
     from abb_ros.commands.shared.errors import UsageError
+    from abb_ros.io.live_view.rate_cap import DEFAULT_MAX_RATE_HZ
     from abb_ros.io.live_view.server import LiveView, LiveViewError, parse_address
     try:
         live = LiveView(*parse_address(address), server_time=True,
-                        log=lambda line: print(line, file=sys.stderr, flush=True))
+                        log=lambda line: print(line, file=sys.stderr, flush=True),
+                        max_rate_hz=DEFAULT_MAX_RATE_HZ)
     except (ValueError, LiveViewError) as exc:
         raise UsageError(f'--live-view {address}: {exc}') from None
     print(f'live view on {live.url} (Foxglove app: Open connection, Foxglove WebSocket)',

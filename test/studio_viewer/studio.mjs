@@ -122,7 +122,7 @@ try {
   seen.connected_s = seconds();
   reached("topics listed");
   await waitFor(page, "markers and joint states in the page",
-    () => (window.__abbProbe.counts["/visualization/markers"] || 0) > 20 && (window.__abbProbe.counts["/joint_states"] || 0) > 1000);
+    () => (window.__abbProbe.counts["/visualization/markers"] || 0) > 20 && (window.__abbProbe.counts["/joint_states"] || 0) > 100);
   reached("messages flowing");
   const from = await page.evaluate(() => { const p = window.__abbProbe; return { at: Date.now() - p.start, frames: p.frames, counts: { ...p.counts } }; });
   const legends = () => [...document.querySelectorAll("*")].filter((e) => e.childElementCount === 0)

@@ -10,8 +10,9 @@ topic, CDR bytes, stamp): each topic is a channel with message encoding ``cdr`` 
 ``ros2msg`` schema text rosbag2 stores (:mod:`abb_ros.io.wire.msgdefs`), so a viewer decodes the
 messages as it decodes a bag's. Relative topic names are served absolute (``joint_states`` as
 ``/joint_states``), as in the root namespace of ROS. A message is sent only to the clients
-subscribed to its channel; a client that reads more slowly than the messages come loses the
-oldest ones beyond :data:`~abb_ros.io.live_view.protocol.BACKLOG` (counted,
+subscribed to its channel, at most ``max_rate_hz`` a second of its stamps
+(:mod:`abb_ros.io.live_view.rate_cap`); a client that reads more slowly than the messages come
+loses the oldest ones beyond :data:`~abb_ros.io.live_view.protocol.BACKLOG` (counted,
 :attr:`LiveView.dropped`).
 
 What a viewer may send back, where the protocol has it:
@@ -71,6 +72,7 @@ from abb_ros.io.live_view.admission import (
     is_loopback,
 )
 from abb_ros.io.live_view.protocol import ENCODING, SCHEMA_ENCODING
+from abb_ros.io.live_view.rate_cap import RateCap, slot_ns
 from abb_ros.io.live_view.services import service_info
 from abb_ros.io.wire import msgdefs
 from abb_ros.io.wire.topics import CLOCK_TOPIC
@@ -154,6 +156,7 @@ class _Channel:
         self.info = dict(id=channel_id, topic=topic, encoding=ENCODING, schemaName=type_name,
                          schema=msgdefs.full_text(type_name), schemaEncoding=SCHEMA_ENCODING)
         self.subscribers: tuple = ()   # ((connection, subscription id), ...)
+        self.cap = RateCap()
 
 
 class LiveView:
@@ -183,12 +186,16 @@ class LiveView:
         Browser origins admitted (shell patterns); handshakes without Origin always are.
     log : callable or None
         Called with a line for each kind of refused handshake (from the server's thread).
+    max_rate_hz : float
+        The most messages of one channel sent per second of their stamps (0: every one;
+        ValueError if negative or not finite).
     """
 
     def __init__(self, host: str = DEFAULT_HOST, port: int = DEFAULT_PORT,
                  server_time: bool = False, services=None, on_client_message=None,
                  parameters=None, check_client_message=None,
-                 allowed_origins=DEFAULT_ALLOWED_ORIGINS, log=None):
+                 allowed_origins=DEFAULT_ALLOWED_ORIGINS, log=None, max_rate_hz=0.0):
+        self._slot_ns = slot_ns(max_rate_hz)
         self._channels: dict[str, _Channel] = {}
         self._by_id: dict[int, _Channel] = {}
         self._clock = None
@@ -398,8 +405,10 @@ class LiveView:
         self._on_loop(self._broadcast_text, wire.text('unadvertise', channelIds=[channel.id]))
 
     def write(self, topic: str, data: bytes, stamp_ns: int) -> None:
-        """Send one message (CDR bytes) of ``topic`` to the viewers subscribed to it."""
+        """Send one message (CDR bytes) of ``topic`` to its viewers, unless over the cap."""
         channel = self._channels.get(topic) or self._channels[_absolute(topic)]
+        if not channel.cap.keeps(stamp_ns, self._slot_ns):
+            return
         subscribers = channel.subscribers
         if subscribers:
             for connection, subscription_id in subscribers:

@@ -80,10 +80,12 @@ class SimulatorLiveView:
         Other nodes' topics served too.
     allowed_origins : sequence of str
         Browser origins that may connect (``live_view.allowed_origins``).
+    max_rate_hz : float
+        The most messages of one topic sent a second (``live_view.max_rate_hz``).
     """
 
     def __init__(self, node, host: str, port: int, services: dict, served: dict, others=(),
-                 allowed_origins=DEFAULT_ALLOWED_ORIGINS):
+                 allowed_origins=DEFAULT_ALLOWED_ORIGINS, max_rate_hz=0.0):
         self.node = node
         self._calls = queue.SimpleQueue()
         self._command_topics = {node.resolve_topic_name(t.name): t.name
@@ -98,7 +100,7 @@ class SimulatorLiveView:
                              services=handlers, on_client_message=self._client_message,
                              parameters=self, check_client_message=self.check_client_message,
                              allowed_origins=allowed_origins,
-                             log=node.get_logger().warning)
+                             log=node.get_logger().warning, max_rate_hz=max_rate_hz)
         clock = node.resolve_topic_name(topics.CLOCK_TOPIC)
         self._unadvertised = ({} if node.pacer.publishes_clock or clock not in served
                               else {clock: served[clock]})
@@ -321,8 +323,10 @@ def start(node, services: dict, served: dict) -> SimulatorLiveView | None:
     port = node.get_parameter('live_view.port').value
     others = node.get_parameter('live_view.topics').value
     origins = node.get_parameter('live_view.allowed_origins').value
+    max_rate = node.get_parameter('live_view.max_rate_hz').value
     try:
-        live = SimulatorLiveView(node, host, port, services, served, others, origins)
+        live = SimulatorLiveView(node, host, port, services, served, others, origins,
+                                 max_rate)
     except LiveViewError as exc:
         if exc.part == 'host':
             raise ParamError('live_view.host', host, HOST_VALID, exc.reason) from None

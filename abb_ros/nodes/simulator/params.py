@@ -12,6 +12,7 @@ from __future__ import annotations
 import math
 
 from abb_ros.io.live_view.admission import DEFAULT_ALLOWED_ORIGINS, DEFAULT_HOST, DEFAULT_PORT
+from abb_ros.io.live_view.rate_cap import DEFAULT_MAX_RATE_HZ
 from abb_ros.io.wire.topics import CURRENT_CMD, DIAGNOSTICS, SPEED_CMD, STABILITY_MARGIN
 from abb_ros.model.parameters.drive_spec import MAX_OMEGA
 from abb_ros.model.parameters.param_spec import (
@@ -153,6 +154,11 @@ _LIVE_VIEW = (
               'another Origin gets HTTP 403, one without Origin, from a client that is not a '
               'browser, is taken): the Foxglove web app, desktop apps (file://) and pages '
               'served from this machine', STRING_ARRAY, read_only=True, applies='at start-up'),
+    ParamSpec('live_view.max_rate_hz', DEFAULT_MAX_RATE_HZ, 'Hz', 'most messages of one topic '
+              'the live view sends a second (simulated time: the first of each slot of '
+              '1 / rate), so that a browser viewer keeps up; the ROS topics and bags keep '
+              'every one; 0 = every message', low=0.0, high=1.0e6, read_only=True,
+              applies='at start-up'),
 )
 
 _ROS2_CONTROL = (

@@ -24,6 +24,8 @@ import pytest
 from sensor_msgs.msg import JointState
 from std_msgs.msg import Float64
 
+from abb_ros.io.live_view.rate_cap import DEFAULT_MAX_RATE_HZ
+
 ROOT = Path(__file__).resolve().parents[3]
 VIEWER_DIR = ROOT / 'test' / 'studio_viewer'
 LAYOUT = ROOT / 'config' / 'foxglove_layout.json'
@@ -136,11 +138,14 @@ def test_the_publish_panels_speed_command_moves_the_plant(studio):
     assert abs(node['speed_after'] - 500.0) < abs(node['speed_before'] - 500.0) - 10
 
 
-def test_joint_states_reach_the_page_at_most_seconds_late(studio):
-    """The page's lag (its clock minus the wall-clock stamp): reported; bounded loosely,
-    since software WebGL on 2 cores keeps the page's thread busy (docs/ros_api.md)."""
-    lag = studio['window']['lags']['/joint_states']
-    print(f"studio: /joint_states lag median {lag['median']:.0f} ms, p95 {lag['p95']:.0f} ms, "
-          f"{studio['window']['frames'] / studio['window']['seconds']:.1f} frames/s")
-    assert lag['n'] > 1000
-    assert lag['median'] < 10_000
+def test_joint_states_reach_the_page_at_the_cap_and_promptly(studio):
+    """The page's lag (its clock minus the wall-clock stamp) at the live view's cap of
+    100 messages/s a topic: uncapped (3,000/s) it was 1-2 s (median) on 2 cores, and the
+    page stalled past the time-out under load (docs/ros_api.md); the goal is 100 ms."""
+    window = studio['window']
+    lag = window['lags']['/joint_states']
+    rate = window['counts']['/joint_states'] / window['seconds']
+    print(f"studio: /joint_states {rate:.0f} Hz, lag median {lag['median']:.0f} ms, "
+          f"p95 {lag['p95']:.0f} ms, {window['frames'] / window['seconds']:.1f} frames/s")
+    assert 30 < rate <= DEFAULT_MAX_RATE_HZ * 1.05
+    assert lag['median'] < 500
