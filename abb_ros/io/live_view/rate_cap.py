@@ -3,8 +3,9 @@
 A browser viewer parses every message on its page's one thread: Foxglove Studio 1.48 in
 chromium on 2 cores, fed 3,000 messages/s (``joint_states``, ``deck/pose`` and
 ``spindle/speed`` at 1 kHz), showed them 1-2 s late (median) and stalled for tens of seconds.
-Capped at 100 messages/s a topic, the same page showed them 50-210 ms late
-(test/io/live_view/test_studio_viewer.py, docs/ros_api.md). So a channel sends the first
+Capped at 100 messages/s a topic, the same page showed them 24-211 ms late (median of
+three runs under load 3-8; p95 220-950 ms, the page drawing 1-2 frames/s with software WebGL;
+test/io/live_view/test_studio_viewer.py). So a channel sends the first
 message of each slot of ``1 / max_rate_hz`` seconds of its stamps (simulated time, as the
 markers' ``visualization.rate_hz``), and the other messages of that same stamp (the
 simulator's two ``/diagnostics`` statuses); the rest are not sent to viewers (the ROS topics
