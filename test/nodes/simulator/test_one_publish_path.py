@@ -46,7 +46,8 @@ def published_counters(plant) -> dict[str, int]:
 def test_dds_live_view_bag_and_diagnostics_count_the_same_messages(plant_factory, tmp_path):
     command = client_command()   # skips, saying why, without node or npm
     plant = plant_factory(**{'start_paused': True, 'live_view.enabled': True,
-                             'live_view.port': 0, 'live_view.topics': ['stability/margin'],
+                             'live_view.port': 0, 'live_view.max_rate_hz': 0.0,
+                             'live_view.topics': ['stability/margin'],
                              'max_stamp_lag': 5.0})
     sim = plant.sim
     names = {topic: sim.resolve_topic_name(topic) for topic in TOPIC_TYPES}
