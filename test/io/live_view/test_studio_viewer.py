@@ -147,5 +147,7 @@ def test_joint_states_reach_the_page_at_the_cap_and_promptly(studio):
     rate = window['counts']['/joint_states'] / window['seconds']
     print(f"studio: /joint_states {rate:.0f} Hz, lag median {lag['median']:.0f} ms, "
           f"p95 {lag['p95']:.0f} ms, {window['frames'] / window['seconds']:.1f} frames/s")
-    assert 30 < rate <= DEFAULT_MAX_RATE_HZ * 1.05
+    # measured per wall second in the page: late bursts can put a little more than the cap in
+    # a window (106 Hz seen once); uncapped it is 1000
+    assert 30 < rate <= DEFAULT_MAX_RATE_HZ * 1.25
     assert lag['median'] < 500
