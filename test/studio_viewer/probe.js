@@ -3,10 +3,10 @@
 // to the page; a wrapped Worker sees each frame as Studio's player gets it, and what the page
 // sends (subscribe, advertise, setParameters, published messages). window.__abbProbe holds:
 // counts by topic, the lag of each message (the page's clock minus the server's stamp, ms),
-// the page's animation frames, and what the page sent.
+// the stamps themselves (ms), the page's animation frames, and what the page sent.
 (() => {
   const probe = { frames: 0, channels: {}, subscriptions: {}, counts: {}, lags: {}, arrivals: {},
-    sent: [], published: 0, serverInfo: null, start: Date.now() };
+    stamps: {}, sent: [], published: 0, serverInfo: null, start: Date.now() };
   window.__abbProbe = probe;
   const KEEP = 20000;
   const tick = () => { probe.frames += 1; requestAnimationFrame(tick); };
@@ -27,9 +27,12 @@
     probe.counts[topic] = (probe.counts[topic] || 0) + 1;
     const lags = (probe.lags[topic] = probe.lags[topic] || []);
     const arrivals = (probe.arrivals[topic] = probe.arrivals[topic] || []);
+    const stamps = (probe.stamps[topic] = probe.stamps[topic] || []);
     if (lags.length < KEEP) {
-      lags.push(now - Number(view.getBigUint64(5, true)) / 1e6);
+      const stamp = Number(view.getBigUint64(5, true)) / 1e6;
+      lags.push(now - stamp);
       arrivals.push(now - probe.start);
+      stamps.push(stamp);
     }
   };
   const fromPage = (data) => {

@@ -76,18 +76,23 @@ async function waitFor(page, what, predicate, ...args) {
     .catch(() => finish(`timed out waiting for ${what}`));
 }
 
-// What the page's probe measured since `from` (a snapshot of it): counts, lags, frames.
+// What the page's probe measured since `from` (a snapshot of it): counts, lags, frames, and
+// each topic's messages per second of their stamps (what the live view's cap bounds).
 const window_of = (from) => {
   const p = window.__abbProbe;
   const now = Date.now() - p.start;
   const lags = {};
+  const stampRates = {};
   for (const [topic, arrivals] of Object.entries(p.arrivals)) {
     const recent = p.lags[topic].filter((_, k) => arrivals[k] >= from.at);
+    const stamps = p.stamps[topic].filter((_, k) => arrivals[k] >= from.at);
     recent.sort((a, b) => a - b);
     lags[topic] = recent.length ? { n: recent.length, median: recent[recent.length >> 1],
       p95: recent[Math.floor(recent.length * 0.95)], max: recent[recent.length - 1] } : null;
+    const span = (Math.max(...stamps) - Math.min(...stamps)) / 1000;
+    stampRates[topic] = stamps.length > 1 && span > 0 ? (stamps.length - 1) / span : null;
   }
-  return { seconds: (now - from.at) / 1000, frames: p.frames - from.frames, lags,
+  return { seconds: (now - from.at) / 1000, frames: p.frames - from.frames, lags, stampRates,
     counts: Object.fromEntries(Object.entries(p.counts).map(([t, n]) => [t, n - (from.counts[t] || 0)])) };
 };
 

@@ -145,9 +145,11 @@ def test_joint_states_reach_the_page_at_the_cap_and_promptly(studio):
     window = studio['window']
     lag = window['lags']['/joint_states']
     rate = window['counts']['/joint_states'] / window['seconds']
-    print(f"studio: /joint_states {rate:.0f} Hz, lag median {lag['median']:.0f} ms, "
-          f"p95 {lag['p95']:.0f} ms, {window['frames'] / window['seconds']:.1f} frames/s")
-    # measured per wall second in the page: late bursts can put a little more than the cap in
-    # a window (106 Hz seen once); uncapped it is 1000
-    assert 30 < rate <= DEFAULT_MAX_RATE_HZ * 1.25
+    stamped = window['stampRates']['/joint_states']
+    print(f"studio: /joint_states {rate:.0f} Hz ({stamped:.1f} per second of stamps), lag "
+          f"median {lag['median']:.0f} ms, p95 {lag['p95']:.0f} ms, "
+          f"{window['frames'] / window['seconds']:.1f} frames/s")
+    # the cap bounds messages per second of their stamps (uncapped: 1000); per wall second of
+    # the page a late burst can put more in a window, so that rate is only bounded below
+    assert 30 < rate and stamped <= DEFAULT_MAX_RATE_HZ * 1.01
     assert lag['median'] < 500
