@@ -110,16 +110,11 @@ def residual_tilt(t, ys, layout: StateLayout, omega: float) -> float:
     tilt = deck[:, 3:5]
     if tilt.shape[0] < TILT_FIT_MIN_SAMPLES:
         return float(np.max(np.hypot(tilt[:, 0], tilt[:, 1])))
+    from abb_ros.model.stability.linear import harmonic_basis  # scipy: only when fitting
     theta = ys[last][:, layout.theta_index]
-    coef = np.linalg.lstsq(_tilt_basis(theta), tilt, rcond=None)[0]
-    fit = _tilt_basis(np.linspace(0.0, 2.0 * math.pi, 721)) @ coef
+    coef = np.linalg.lstsq(harmonic_basis(theta, 2), tilt, rcond=None)[0]
+    fit = harmonic_basis(np.linspace(0.0, 2.0 * math.pi, 721), 2) @ coef
     return float(np.max(np.hypot(fit[:, 0], fit[:, 1])))
-
-
-def _tilt_basis(theta):
-    """Return [1, cos theta, sin theta, cos 2 theta, sin 2 theta], shape (len(theta), 5)."""
-    return np.stack([np.ones_like(theta), np.cos(theta), np.sin(theta), np.cos(2 * theta),
-                     np.sin(2 * theta)], axis=-1)
 
 
 def summary(scenario, result) -> dict:

@@ -81,7 +81,7 @@ def _two_plane(params, res) -> dict:
     from abb_ros.model.stability import two_plane
     out = {'linearisation': 'coupled (mass centres off the washers\' plane, a leaning '
                             'rotor axis or a second race, docs/equations.md F4-F7)',
-           'residual_couple_kg_m2': abs(two_plane.residual_couple(params))}
+           'residual_couple_kg_m2': abs(two_plane.couple_left(params))}
     if res.exists:
         out['residual_tilt_rad'] = res.residual_tilt
     race = two_plane.second_race(params)

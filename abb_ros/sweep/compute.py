@@ -75,7 +75,7 @@ def compute_partition(spec, index: int, columns: dict) -> dict:
         out[name] = np.asarray(values)
     for name in DERIVED:
         if name not in out:
-            values = [p.value(name) if name == 'n' else getattr(p, name) for p in params]
+            values = [getattr(p, name) for p in params]
             out[name] = np.asarray(values, dtype=np.int64 if name == 'n' else float)
     groups = {}
     for i, p in enumerate(params):

@@ -34,7 +34,7 @@ from abb_ros.model.dynamics.kernels.layout import (
 )
 from abb_ros.model.dynamics.spindle import SpindleMotor, TorqueMotor
 from abb_ros.model.dynamics.state import StateLayout
-from abb_ros.model.parameters.params import PARAM_SPECS, DriveParams, ParamError
+from abb_ros.model.parameters.params import DriveParams, ParamError, zero_text
 
 __all__ = ['DEFAULT_DT', 'MAX_RUN_STEPS', 'StateError', 'Simulation', 'INTEGRATORS',
            'ADAPTIVE_RTOL', 'adaptive_atol', 'fixed_step_reason']
@@ -133,8 +133,7 @@ def _check_torque_terms(params: DriveParams, spindle) -> None:
     if params.off_plane:
         name = params.off_plane_name
         raise ParamError(name, params.value(name),
-                         f'0 {PARAM_SPECS[name].unit} in torque mode (spindle.mode '
-                         'torque)'.replace('  ', ' '),
+                         f'{zero_text(name)} in torque mode (spindle.mode torque)',
                          'the free-theta equation does not have the heights, the leaning '
                          'axis and a second race yet')
     if params.rolling_mu > 0 or params.ball_rotation:

@@ -12,7 +12,7 @@ import math
 from abb_ros.model.parameters.param_spec import DRIVE_PREFIX, INTEGER, ParamSpec
 
 __all__ = ['DRIVE_SPECS', 'HEIGHTS', 'OFF_PLANE', 'MAX_BALLS', 'RUBBER_C', 'METAL_C', 'SPAN',
-           'SPEED_SPEC', 'MAX_OMEGA', 'CLAMPED_DECK', 'RACE2']
+           'SPEED_SPEC', 'MAX_OMEGA', 'CLAMPED_DECK']
 
 RUBBER_C = 2.53
 """Washer damping c of rubber suspension washers [kg/s] (Table 1)."""
@@ -124,10 +124,10 @@ DRIVE_SPECS = (
     ParamSpec('drive.race2.n', 0, '', 'number of balls in a second race (0 = none, the paper); '
               "their angles follow race 1's in every output", INTEGER, 0, MAX_BALLS,
               applies='on ~/reset (simulator)'),
-    _drive('race2.m', 0.0, 'kg', "mass of one ball of the second race (0 = race 1's m)",
-           ref=0.43e-3, **_NONNEG),
-    _drive('race2.R', 0.0, 'm', "pitch radius of the second race (0 = race 1's R)",
-           ref=0.015, **_NONNEG),
+    _drive('race2.m', 0.0, 'kg', "mass of one ball of the second race (0 = race 1's m; "
+           "otherwise within m's range)", ref=0.43e-3, **_NONNEG),
+    _drive('race2.R', 0.0, 'm', "pitch radius of the second race (0 = race 1's R; otherwise "
+           "within R's range)", ref=0.015, **_NONNEG),
     _drive('race2.D', 0.0, 'kg m^2/s', "viscous drag of one ball of the second race (0 = race "
            "1's D)", ref=5e-6, **_NONNEG),
     _drive('race2.z', 0.0, 'm', "height of the second race above the washers' plane (two-plane "
@@ -142,7 +142,3 @@ HEIGHTS = ('z_P', 'z_G', 'z_B')
 OFF_PLANE = HEIGHTS + ('tau', 'race2.n')
 """What takes a drive out of the paper's plane model: the heights, the leaning rotor axis and a
 second race; nonzero, the groups of Eqs. (27)-(33) couple."""
-
-RACE2 = ('race2.n', 'race2.m', 'race2.R', 'race2.D', 'race2.z')
-"""The second race's parameters (race2.n 0: no second race)."""
-

@@ -33,7 +33,7 @@ from abb_ros.model.parameters.param_spec import ParamError, ParamSpec
 
 __all__ = [
     'ParamError', 'DriveParams', 'PARAM_SPECS', 'DIMENSIONLESS_NAMES', 'METAL_C', 'RUBBER_C',
-    'apply_settings', 'parse_value', 'MAX_BALLS',
+    'apply_settings', 'parse_value', 'MAX_BALLS', 'zero_text',
 ]
 
 PARAM_SPECS: dict[str, ParamSpec] = {s.short: s for s in DRIVE_SPECS}
@@ -47,6 +47,12 @@ NAME_OF = {field: name for name, field in FIELD_OF.items()}
 
 def _default(name):
     return PARAM_SPECS[name].default
+
+
+def zero_text(name: str) -> str:
+    """Return '0' with the unit of parameter ``name`` ('0 m', '0' for a count), for messages."""
+    unit = PARAM_SPECS[name].unit
+    return f'0 {unit}' if unit else '0'
 
 
 DIMENSIONLESS_NAMES = ('mbar', 'epsbar', 'zeta', 'Dbar', 'wbar')
@@ -118,6 +124,19 @@ class DriveParams:
                              f'race2.n <= {MAX_BALLS})', 'more balls than the model takes')
         self._check_beyond_paper()
         self._check_heights()
+        self._check_race2()
+
+    def _check_race2(self):
+        """Refuse a second race's m or R that is neither 0 (race 1's) nor within race 1's range.
+
+        race2.m and race2.R take 0 for race 1's value, so their specs start at 0; a value
+        between would make the race's m R^2 vanish and the step non-finite.
+        """
+        for name, own in (('race2.m', 'm'), ('race2.R', 'R')):
+            value, spec = self.value(name), PARAM_SPECS[own]
+            if value != 0.0 and value < spec.low:
+                raise ParamError(name, value, f"0 (race 1's {own}) or [{spec.low:g}, "
+                                 f'{spec.high:g}] {spec.unit}', f'as {own} itself')
 
     def _check_heights(self):
         """Refuse heights or a leaning axis beside the ball terms that assume the plane."""
@@ -126,12 +145,11 @@ class DriveParams:
         for name in ('contact_E', 'rolling_mu', 'ball_rotation'):
             if getattr(self, name):
                 height = self.off_plane_name
-                unit = PARAM_SPECS[height].unit
                 raise ParamError(height, self.value(height),
-                                 f'0 {unit} while {name} > 0'.replace('  ', ' '),
-                                 'mass centres off the deck plane and a leaning rotor axis '
-                                 'combine with point balls only (contact_E, rolling_mu and '
-                                 'ball_rotation 0)')
+                                 f'{zero_text(height)} while {name} > 0',
+                                 'mass centres off the deck plane, a leaning rotor axis and a '
+                                 'second race combine with point balls only (contact_E, '
+                                 'rolling_mu and ball_rotation 0)')
 
     @property
     def off_plane(self) -> bool:

@@ -25,7 +25,7 @@ import numpy as np
 import scipy.linalg
 
 from abb_ros.model.parameters.drive_spec import OFF_PLANE
-from abb_ros.model.parameters.params import PARAM_SPECS, DriveParams, ParamError
+from abb_ros.model.parameters.params import DriveParams, ParamError, zero_text
 from abb_ros.model.stability.equilibrium import balanced_phi_star
 
 __all__ = ['PeriodicSystem', 'in_plane', 'out_of_plane', 'in_plane_harmonics',
@@ -36,11 +36,16 @@ _FIELDS = ('a', 'b', 'd', 'R', 'M_P', 'M', 'm', 'J_Px', 'J_Py', 'J_Pz', 'J_x', '
 
 
 def harmonic_basis(tau, order: int) -> np.ndarray:
-    """Return [1, cos tau, sin tau, cos 2tau, ...] up to ``order``, shape (2 order + 1,)."""
-    out = [1.0]
+    """Return [1, cos tau, sin tau, cos 2tau, ...] up to ``order``, shape (..., 2 order + 1).
+
+    A scalar tau gives one row (the coefficients' basis at that angle), an array of angles a
+    row each (a design matrix, e.g. the fit of a run's residual tilt).
+    """
+    tau = np.asarray(tau, dtype=float)
+    parts = [np.ones_like(tau)]
     for j in range(1, order + 1):
-        out += [math.cos(j * tau), math.sin(j * tau)]
-    return np.array(out)
+        parts += [np.cos(j * tau), np.sin(j * tau)]
+    return np.stack(parts, axis=-1)
 
 
 @dataclass(frozen=True)
@@ -84,8 +89,8 @@ def check_in_plane(params: DriveParams) -> None:
     for name in OFF_PLANE:
         value = params.value(name)
         if value != 0.0:
-            unit = f' {PARAM_SPECS[name].unit}'.rstrip()
-            raise ParamError(name, value, f'0{unit} for the Floquet analysis of Eqs. (27)-(33)',
+            raise ParamError(name, value, f'{zero_text(name)} for the Floquet analysis of '
+                             'Eqs. (27)-(33)',
                              'with mass centres off the plane or a second race the groups '
                              'couple: abb_ros.model.stability.coupled analyses such a drive')
 

@@ -264,7 +264,7 @@ def _tilt_text(p: DriveParams, tilt: float, values: dict) -> str:
     if not math.isfinite(tilt):
         return ''
     values['residual_tilt_rad'] = tilt
-    if two_plane.residual_couple(p) == 0.0:     # one race cancels it all (tilt at round-off)
+    if two_plane.couple_left(p) == 0.0:     # the balls cancel it all (tilt at round-off)
         return ''
     text = f'; residual tilt {tilt * 1e3:.3g} mrad (one race cannot cancel the couple)'
     if 'second_race_z_m' in values:
@@ -275,7 +275,7 @@ def _tilt_text(p: DriveParams, tilt: float, values: dict) -> str:
 
 def _two_plane_values(p: DriveParams, values: dict) -> None:
     """Add the couple one race leaves and the mirrored second race that removes it."""
-    values['residual_couple_kg_m2'] = abs(two_plane.residual_couple(p))
+    values['residual_couple_kg_m2'] = abs(two_plane.couple_left(p))
     race = two_plane.second_race(p)
     if 'why' in race:
         values['second_race'] = race['why']

@@ -35,7 +35,8 @@ from abb_ros.model.dynamics.state import wrap_angle
 from abb_ros.model.parameters.params import DriveParams, ParamError
 from abb_ros.model.stability.equilibrium import fan_phi_star
 
-__all__ = ['Race', 'TwoPlaneBalance', 'residual_couple', 'imbalance_couple', 'second_race',
+__all__ = ['Race', 'TwoPlaneBalance', 'residual_couple', 'couple_left', 'imbalance_couple',
+           'second_race',
            'two_plane_balance', 'mirror_race', 'race_angles', 'MIRROR_FALLBACK']
 
 
@@ -75,15 +76,21 @@ def imbalance_couple(params: DriveParams) -> complex:
 
 
 def residual_couple(params: DriveParams) -> complex:
+    """Return the couple race 1 alone leaves, U_c - z_B M eps [kg m^2].
+
+    Exactly 0 where the race lies in G's plane and the axis is upright (the lever z_G - z_B is
+    formed first, so no rounding leaves a couple that is not there).
+    """
+    return params.M * params.eps * (params.z_G - params.z_B) + _lean_couple(params)
+
+
+def couple_left(params: DriveParams) -> complex:
     """Return the couple the drive's balls leave at their balance [kg m^2].
 
-    One race: U_c - z_B M eps, exactly 0 where the race lies in G's plane and the axis is
-    upright (the lever z_G - z_B is formed first, so no rounding leaves a couple that is not
-    there). Two races (race2.n > 0) balance the couple too: 0.
+    :func:`residual_couple` for one race; 0 with a second race (its balance cancels the
+    couple too, :func:`drive_balance`).
     """
-    if params.race2_n:
-        return 0j
-    return params.M * params.eps * (params.z_G - params.z_B) + _lean_couple(params)
+    return 0j if params.race2_n else residual_couple(params)
 
 
 def second_race(params: DriveParams) -> dict:
@@ -133,7 +140,7 @@ def two_plane_balance(params: DriveParams, second: Race) -> TwoPlaneBalance:
     ParamError naming ``race2.z`` where the races share a plane, ``race2.n`` or ``n`` where a
     plane's capacity is exceeded.
     """
-    first = Race(params.n, params.m, params.R, params.z_B)
+    first = race1_of(params)
     dz = second.z - first.z
     if dz == 0.0:
         raise ParamError('race2.z', second.z, f'a height other than race 1\'s z_B = {first.z:g} m',
@@ -146,6 +153,11 @@ def two_plane_balance(params: DriveParams, second: Race) -> TwoPlaneBalance:
     return TwoPlaneBalance((first, second), (B1, B2), phi)
 
 
+def race1_of(params: DriveParams, z: float | None = None) -> Race:
+    """Return race 1 of the drive (n balls of m at R), at z_B or at the height ``z``."""
+    return Race(params.n, params.m, params.R, params.z_B if z is None else z)
+
+
 def race2_of(params: DriveParams) -> Race:
     """Return the drive's own second race (race2.n balls; m, R and z as resolved, F7)."""
     return Race(params.race2_n, params.race2_mass, params.race2_radius, params.race2_z)
@@ -156,7 +168,7 @@ def drive_balance(params: DriveParams) -> TwoPlaneBalance:
     if not params.race2_n:
         raise ParamError('race2.n', params.race2_n, 'at least 1 for the two-plane balance')
     second = race2_of(params)
-    if second.z == params.z_B and residual_couple(params.replace(**{'race2.n': 0})) == 0.0:
+    if second.z == params.z_B and residual_couple(params) == 0.0:
         return _one_plane_balance(params, second)
     return two_plane_balance(params, second)
 
@@ -167,7 +179,7 @@ def _one_plane_balance(params: DriveParams, second: Race) -> TwoPlaneBalance:
     Such races balance any split of -U_s between them (a family); this member gives each race
     the share of its capacity, so both fans are alike.
     """
-    first = Race(params.n, params.m, params.R, params.z_B)
+    first = race1_of(params)
     U_s = params.M * params.eps
     share = first.capacity / (first.capacity + second.capacity)
     B1, B2 = complex(-U_s * share), complex(-U_s * (1.0 - share))
@@ -223,7 +235,7 @@ def mirror_race(params: DriveParams) -> TwoPlaneBalance | None:
     z2 = 2.0 * params.z_G - params.z_B
     if z2 == params.z_B:
         z2 = params.z_B + MIRROR_FALLBACK
-    return two_plane_balance(params, Race(params.n, params.m, params.R, z2))
+    return two_plane_balance(params, race1_of(params, z2))
 
 
 MIRROR_FALLBACK = 0.01

@@ -91,6 +91,9 @@ def test_bad_second_races_are_refused_naming_the_parameter():
     for bad, text in ((dict(race2_n=-1), "'race2.n'"), (dict(race2_n=1.5), "'race2.n'.*integer"),
                       (dict(n=40, race2_n=30), "'race2.n'.*at most 24"),
                       (dict(race2_n=2, race2_m=float('nan')), "'race2.m'"),
+                      # m R^2 of 1e-300 would make the step non-finite
+                      (dict(race2_n=2, race2_m=1e-300), "'race2.m'.*race 1's m"),
+                      (dict(race2_n=2, race2_R=1e-200), "'race2.R'.*race 1's R"),
                       (dict(race2_n=2, race2_z=2.0), "'race2.z'"),
                       (dict(race2_n=2, r_ball=1e-3, contact_E=2e11), "'race2.n'.*contact_E")):
         with pytest.raises(ParamError, match=text):
