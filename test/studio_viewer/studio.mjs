@@ -7,9 +7,10 @@
 // node studio.mjs '{"url": "ws://127.0.0.1:PORT", "layout": "config/foxglove_layout.json",
 //   "chromium": "/usr/bin/chromium", "artefacts": "DIR", "measure_s": 8, "timeout_s": 120,
 //   "parameter": {"name": "/abb_simulator.fault.speed_noise", "value": "40"},
-//   "publish": "Publish speed command"}'
+//   "publish": "Publish speed command", "profile": "DIR"}'
 // parameter: typed into its row of the Parameters panel and set with the row's button; publish:
-// the Publish panel's button clicked (both from the page, as a user does).
+// the Publish panel's button clicked (both from the page, as a user does). profile: chromium's
+// user data directory (its processes name it: the caller stops them should this one be killed).
 import fs from "node:fs";
 import http from "node:http";
 import path from "node:path";
@@ -48,7 +49,7 @@ const reached = (phase) => { seen.phases[phase] = seconds(); };
 let finished = false;
 const sleep = (s) => new Promise((resolve) => setTimeout(resolve, s * 1000));
 const browser = await puppeteer.launch({
-  executablePath: options.chromium, headless: true, defaultViewport: { width: 1600, height: 1000 },
+  executablePath: options.chromium, headless: true, userDataDir: options.profile, defaultViewport: { width: 1600, height: 1000 },
   args: ["--no-sandbox", "--disable-dev-shm-usage", "--use-angle=swiftshader",
     "--enable-unsafe-swiftshader", "--window-size=1600,1000"],
 });

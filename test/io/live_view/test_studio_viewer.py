@@ -16,8 +16,10 @@ from __future__ import annotations
 import json
 import os
 import shutil
+import signal
 import subprocess
 import threading
+import time
 from pathlib import Path
 
 import pytest
@@ -51,6 +53,36 @@ def studio_command(options: dict) -> list[str]:
     return [node, str(VIEWER_DIR / 'studio.mjs'), json.dumps(options)]
 
 
+def browser_processes(profile: Path) -> list[int]:
+    """The pids of the processes (but this one) whose command line names chromium's
+    ``profile`` directory."""
+    pids, name, me = [], str(profile).encode(), str(os.getpid())
+    for proc in Path('/proc').iterdir():
+        try:
+            named = proc.name.isdigit() and proc.name != me \
+                and name in (proc / 'cmdline').read_bytes()
+        except OSError:   # gone meanwhile, or not ours to read
+            continue
+        if named:
+            pids.append(int(proc.name))
+    return pids
+
+
+def stop_browser(profile: Path, grace_s: float = 10.0) -> list[int]:
+    """Wait up to ``grace_s`` for the browser of ``profile`` to exit, kill what is left (a node
+    killed at the time-out leaves its chromium running, which would load the tests after it)
+    and return the pids that were left."""
+    end = time.monotonic() + grace_s
+    while (left := browser_processes(profile)) and time.monotonic() < end:
+        time.sleep(0.2)
+    for pid in left:
+        try:
+            os.kill(pid, signal.SIGKILL)
+        except ProcessLookupError:
+            pass
+    return left
+
+
 @pytest.fixture(scope='module')
 def studio(tmp_path_factory):
     """What Studio showed of the simulator node's live view (the JSON of studio.mjs)."""
@@ -59,7 +91,8 @@ def studio(tmp_path_factory):
     artefacts.mkdir(parents=True, exist_ok=True)
     options = dict(layout=str(LAYOUT), artefacts=str(artefacts), measure_s=6,
                    timeout_s=TIMEOUT_S - 20, publish=PUBLISH_BUTTON,
-                   parameter=dict(name='/abb_simulator.fault.speed_noise', value='40'))
+                   parameter=dict(name='/abb_simulator.fault.speed_noise', value='40'),
+                   profile=str(tmp_path_factory.mktemp('chromium_profile')))
     command = studio_command(options)
     plant = Plant(**{'live_view.enabled': True, 'live_view.port': 0})
     margin = plant.node.create_publisher(Float64, 'stability/margin', 10)   # as analysis does
@@ -85,10 +118,12 @@ def studio(tmp_path_factory):
     finally:
         stop.set()
         plant.close()
+        left = stop_browser(Path(options['profile']))
     assert out.returncode == 0, out.stderr[-2000:]
     (artefacts / 'studio.stdout').write_text(out.stdout)   # kept as printed, if it fails
     seen = json.loads(out.stdout)
     seen['node'] = node
+    seen['browser_left'] = left
     (artefacts / 'studio.json').write_text(json.dumps(seen, indent=1))
     assert 'failure' not in seen, (seen['failure'], seen['phases'])
     return seen
@@ -109,6 +144,11 @@ def test_studio_receives_markers_for_the_3d_panel_at_their_rate(studio):
     rate = window['counts']['/visualization/markers'] / window['seconds']
     assert rate > 5   # 20 Hz, the 3D panel's only topic
     assert not studio['errors']
+
+
+def test_the_browser_exits_with_studio(studio):
+    """Closing Studio ends every chromium process it started (none left to load what follows)."""
+    assert studio['browser_left'] == []
 
 
 def test_plot_legends_advance(studio):

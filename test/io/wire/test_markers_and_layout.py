@@ -129,3 +129,19 @@ def test_the_foxglove_layout_tree_names_every_panel_once():
         return leaves(node['first']) + leaves(node['second'])
 
     assert sorted(leaves(layout['layout'])) == sorted(layout['configById'])
+
+
+STUDIO_AXIS_LENGTH = 0.2
+"""[m] Foxglove Studio 1.48's frame axes at axis scale 1 (its Axis: shaft 0.154 + head 0.046)."""
+
+
+def test_the_3d_panels_frame_axes_stay_inside_the_race_so_the_balls_show():
+    """At Studio's default scale the axes of frame ``base`` (through the spin axis, in the
+    balls' plane) are 0.2 m long and hide the 15 mm race; the layout scales them to the drive."""
+    layout = json.loads(LAYOUT.read_text())
+    [three_d] = [c for k, c in layout['configById'].items() if k.startswith('3D!')]
+    transforms = three_d['scene']['transforms']
+    p = DriveParams()
+    inner_edge = p.R - ball_radius(p.m)
+    assert STUDIO_AXIS_LENGTH * transforms['axisScale'] < inner_edge
+    assert transforms['labelSize'] < ROTOR_HEIGHT
