@@ -34,8 +34,8 @@ os.environ.setdefault('ROS_AUTOMATIC_DISCOVERY_RANGE', 'LOCALHOST')
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 from bench_simulator_node import N_BALLS, Probe, start_node, stop_node  # noqa: E402
 
-from abb_ros.io import cdr  # noqa: E402
 from abb_ros.io.live_view.server import LiveView  # noqa: E402
+from abb_ros.io.wire import cdr  # noqa: E402
 from abb_ros.model.dynamics.integrate import DEFAULT_DT, Simulation
 from abb_ros.model.dynamics.spindle import SpindleMotor  # noqa: E402
 from abb_ros.model.parameters.params import DriveParams  # noqa: E402
