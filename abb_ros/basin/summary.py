@@ -42,7 +42,9 @@ def floquet_verdict(params, omega) -> dict:
     """Return the Floquet verdict at ``omega`` [rad/s] as a JSON-able mapping.
 
     ``lam_max`` is over one spindle period; ``coupled``: a drive with heights or a leaning
-    axis, whose one coupled value fills ``lam_in`` and ``lam_out`` as well.
+    axis, whose one coupled value fills ``lam_in`` and ``lam_out`` as well; ``transverse``:
+    the multipliers are taken transverse to a family of balanced states (n >= 3 in one race;
+    two races where the balls outnumber both planes' four conditions).
     """
     from abb_ros.model.stability.floquet import point_stability
     if omega is None:
@@ -53,7 +55,7 @@ def floquet_verdict(params, omega) -> dict:
             'lam_out': _finite(st.lam_out), 'lam_max': _finite(st.lam_max),
             'coupled': st.coupled, 'neutral_modes_removed': int(st.neutral),
             'phi_star_deg': [round(float(a), 6) for a in np.degrees(st.phi_star)],
-            'transverse': params.n >= 3}
+            'transverse': int(st.neutral) > 0}
 
 
 def _finite(x: float):

@@ -12,7 +12,7 @@ from scipy.stats import binomtest
 
 from abb_ros.app.headless import run_scenario
 from abb_ros.basin.study import read_table
-from abb_ros.basin.summary import fraction_summary
+from abb_ros.basin.summary import floquet_verdict, fraction_summary
 from abb_ros.cli import main
 from abb_ros.io.files.scenario import load_scenario
 from abb_ros.model.dynamics.state import StateLayout, wrap_degrees
@@ -169,6 +169,21 @@ def test_two_races_are_balanced_only_where_they_cancel_the_couple_too():
     assert classify(p, *_rest_run(p, closed, 1e-4), 1e-3)[0] == 'balanced'
     outcome, residual, _ = classify(p, *_rest_run(p, force_only, 1e-4), 1e-3)
     assert outcome == 'unbalanced_rest' and residual > EQ26_NEAR
+
+
+@pytest.mark.parametrize('n, n2, removed, balanced', [(3, 3, 2, True), (2, 2, 0, True),
+                                                      (3, 1, 0, False)])
+def test_the_verdict_is_transverse_only_where_a_family_of_balanced_states_was_removed(
+        n, n2, removed, balanced):
+    """Two races: 3 + 3 balls leave a 2-parameter family beyond both planes' four conditions;
+    2 + 2 balance at one point; 3 + 1 cannot (race 2's one ball is a fixed m R, not the
+    correction its plane needs): no balanced state, nothing removed."""
+    scenario = load_scenario('p3')
+    p = scenario.params.replace(**{'n': n, 'z_G': 1e-3, 'race2.n': n2, 'race2.z': 2e-3})
+    verdict = floquet_verdict(p, scenario.omega)
+    assert verdict['neutral_modes_removed'] == removed
+    assert verdict['transverse'] is (removed > 0)
+    assert verdict['balanced'] is balanced
 
 
 def test_packed_means_one_chain_of_touching_balls():
