@@ -75,6 +75,7 @@ BENCHMARKS: dict[str, Benchmark] = {
     'bench_live_view': Benchmark('bench_live_view', ('--messages', '50000', '--duration', '30'),
                                  ('--messages', '20000', '--duration', '10')),
     'bench_viewer_calls': Benchmark('bench_viewer_calls', ('--calls', '200')),
+    'bench_studio_lag': Benchmark('bench_studio_lag', ('--repeat', '3'), ('--repeat', '1')),
     'bench_simulation_interfaces': Benchmark('bench_simulation_interfaces',
                                              ('--steps', '5000', '--calls', '200')),
 }
