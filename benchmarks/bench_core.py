@@ -12,6 +12,10 @@ Prints, for n = 2 and n = 10 at P3 (metal washers, wbar = 2.7):
   1 kHz stamps by its dense output) beside RK4: on the same run with its error and
   right-hand-side count, and on 10 s of P3 (the target: 2.5x RK4's speed for n = 2, 2x for
   n = 10);
+- a long run of the Table 1 drive at P3 (scenario p3): 20 s of steps after 130 s, where the
+  out-of-plane velocities have decayed below the smallest normal double, with those
+  subnormals kept through one kernel call and with them set to 0 as Simulation does after
+  each call (integrate.SMALLEST_NORMAL);
 - sweep runs per core: 1 s P3 runs of drives with eps, k, c spread, by the batched RK4 kernel
   (``batch.BatchRun``) and by the adaptive integrator (``batch.AdaptiveRuns``), one thread.
 solve_ivp costs ~10 us of Python per right-hand-side call whatever the model, and DOP853 needs
@@ -147,6 +151,38 @@ def sweep_runs(count=24, seconds=1.0):
           f'{t_rk4 / t_ad:5.1f}x per core   load {os.getloadavg()[0]:.2f}')
 
 
+def subnormal_cost(seconds=20.0, settle_s=130.0, repeats=3):
+    """Time ``seconds`` of P3 from the state after ``settle_s``: subnormals kept vs flushed."""
+    from abb_ros.io.files.scenario import load_scenario
+    from abb_ros.model.dynamics.integrate import SMALLEST_NORMAL
+    scenario = load_scenario('p3')
+
+    def simulation(y0=None):
+        return Simulation(scenario.params, scenario.omega, DEFAULT_DT,
+                          spindle=scenario.spindle, y0=y0)
+
+    per_s = int(round(1.0 / DEFAULT_DT))
+    flushed = simulation()
+    flushed.advance(per_s * int(settle_s))   # flushed at the end of the call
+    # the same settling in one call of the compiled stepping, which leaves the decayed
+    # coordinates where they stall, among the subnormals
+    kept = simulation()
+    advance = kept.kern.paper_advance if kept.on_paper() else kept.kern.advance
+    advance(kept.y, kept.t0, kept.dt, 0, per_s * int(settle_s), kept._P, kept._S, kept._work)
+    stalled = int(((kept.y != 0) & (np.abs(kept.y) < SMALLEST_NORMAL)).sum())
+
+    def run(y0):
+        simulation(y0.copy()).advance(int(seconds * per_s))   # one call: flushed at its end
+
+    t_kept, _ = _best_of(lambda: run(kept.y), repeats)
+    t_flushed, _ = _best_of(lambda: run(flushed.y), repeats)
+    print(f'long run (Table 1, P3): {seconds:g} s after {settle_s:g} s; {stalled} coordinates '
+          f'stalled among the subnormals without the flush')
+    print(f'  subnormals kept   : {t_kept:8.4f} s wall   real-time factor {seconds / t_kept:7.1f}')
+    print(f'  flushed to 0      : {t_flushed:8.4f} s wall   real-time factor '
+          f'{seconds / t_flushed:7.1f}   kept / flushed cost = {t_kept / t_flushed:.2f}')
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split('\n')[0])
     parser.add_argument('--seconds', type=float, default=2.0)
@@ -154,6 +190,7 @@ def main():
     print(f'{os.cpu_count()} cores, load {os.getloadavg()[0]:.2f} at start')
     for n in (2, 10):
         bench(n, args.seconds)
+    subnormal_cost()
     sweep_runs()
 
 

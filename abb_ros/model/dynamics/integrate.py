@@ -47,6 +47,13 @@ MAX_RUN_STEPS = 100_000_000
 """Most fixed steps of one run (duration / dt): 10^4 simulated seconds at 10 kHz, hours of
 work and a bag of gigabytes; a longer run is refused before it starts."""
 
+SMALLEST_NORMAL = float(np.finfo(float).tiny)
+"""[-] 2.2e-308: a state coordinate below it in magnitude is set to 0 after each kernel call.
+A mode that decays to nothing (the out-of-plane Z', alpha', beta' at P3, from round-off)
+otherwise stalls among the subnormal doubles (x (1 - eps) rounds back to x) and every
+operation on them takes the processor's slow path: 1.44 times the cost of a step of the
+Table 1 drive at P3 after 130 s (2.11 on a loaded machine; benchmarks/bench_core.py)."""
+
 CONTACT_DT_VERIFIED = (1e-5, 2e-4)
 """Steps [s] over which the contact step's rebound accuracy (1e-5 m/s or 7.8e-5 of the speed,
 approach speeds 0.001-0.5 m/s, both spindle modes) is tested: test_contact_step_sizes.py.
@@ -318,8 +325,13 @@ class Simulation:
         INTEGRATORS[self.integrator_used].advance_accelerations(self, int(nsteps), qdd)
 
     def _check(self, done, status) -> None:
-        """Count the steps done; raise :class:`StateError` when the kernel's status is bad."""
+        """Count the steps done, flush subnormals, raise on a bad status.
+
+        Coordinates below :data:`SMALLEST_NORMAL` become 0; :class:`StateError` when the
+        kernel's status is bad.
+        """
         self.steps += int(done)
+        np.copyto(self.y, 0.0, where=np.abs(self.y) < SMALLEST_NORMAL)
         if status != kernels.OK:
             raise StateError(int(status), self.t)
 
