@@ -145,3 +145,15 @@ def test_the_3d_panels_frame_axes_stay_inside_the_race_so_the_balls_show():
     inner_edge = p.R - ball_radius(p.m)
     assert STUDIO_AXIS_LENGTH * transforms['axisScale'] < inner_edge
     assert transforms['labelSize'] < ROTOR_HEIGHT
+
+
+def test_every_titled_panel_keeps_its_title_in_lichtblick_too():
+    """Studio 1.48 shows a panel's ``title``/``foxglovePanelTitle``; Lichtblick 1.28 reads
+    ``lichtblickPanelTitle`` only (its toolbar said "Plot" for each plot without it)."""
+    layout = json.loads(LAYOUT.read_text())
+    titled = {k: c for k, c in layout['configById'].items()
+              if 'title' in c or 'foxglovePanelTitle' in c}
+    assert len(titled) >= 5
+    for panel_id, config in titled.items():
+        title = config.get('foxglovePanelTitle', config.get('title'))
+        assert config.get('lichtblickPanelTitle') == title, panel_id
