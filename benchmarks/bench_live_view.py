@@ -10,9 +10,9 @@
    writer and the server's threads; the writer sleeps between periods), what the client
    received.
 2. The simulator node at real time (real_time_factor 1, n = 10, 10 kHz / 1 kHz) in its own
-   process for DURATION s, without and with ``live_view.enabled`` and that client subscribed
-   to everything: achieved real-time factor, overruns and slips (from /diagnostics; target 0
-   slips), CPU of the node process.
+   process for DURATION s, without and with ``live_view.enabled`` (``live_view.max_rate_hz``
+   0: every message) and that client subscribed to everything: achieved real-time factor,
+   overruns and slips (from /diagnostics; target 0 slips), CPU of the node process.
 
     .venv/bin/python benchmarks/bench_live_view.py [--messages 50000] [--duration 30]
 """
@@ -190,7 +190,10 @@ def measure_node(ns: str, seconds: float, live: bool, why_not: str) -> dict:
     port = free_port()
     params = ['real_time_factor:=1.0']
     if live:
-        params += ['live_view.enabled:=true', f'live_view.port:={port}']
+        # every message, as the first part writes them (the viewers' default cap would send
+        # 100 a second of each topic)
+        params += ['live_view.enabled:=true', f'live_view.port:={port}',
+                   'live_view.max_rate_hz:=0']
     proc = start_node(ns, *params)
     probe = Probe(ns, False)
     client = None

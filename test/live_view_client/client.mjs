@@ -11,6 +11,7 @@
 //   subprotocol: the one offered (default: the client's own, FoxgloveClient.SUPPORTED_SUBPROTOCOL,
 //     "foxglove.websocket.v1"); origin: an Origin header to send, as a browser does
 //   statuses: how many status messages to wait for (they are kept in "statuses")
+// SIGUSR1 prints {"counts": ...} so far on a line of its own; SIGTERM ends it, printing all.
 // A handshake the server refuses ends the client at once with "handshake": the HTTP status.
 import protocol from "@foxglove/ws-protocol";
 import WebSocket from "ws";
@@ -56,6 +57,8 @@ function done() {
 
 setTimeout(() => finish(0), options.timeout_s * 1000);
 process.on("SIGTERM", () => finish(0));   // ended from outside: print what was seen
+// asked from outside how far it got: one line of the counts so far, and go on
+process.on("SIGUSR1", () => process.stdout.write(JSON.stringify({ counts: seen.counts }) + "\n"));
 client.on("error", (error) => { seen.error = String(error); finish(1); });
 client.on("serverInfo", (info) => { seen.serverInfo = info; });
 client.on("time", (event) => { if (seen.time.length < 10) seen.time.push(String(event.timestamp)); });

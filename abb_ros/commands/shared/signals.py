@@ -14,17 +14,26 @@ _DEFERRED = {'depth': 0, 'pending': None}
 _CALLBACK_FILES = ('weakref.py', '_weakrefset.py')
 
 
-def _in_finalizer(frame) -> bool:
-    """Whether ``frame`` is a weakref callback or a ``__del__`` (or called from one).
+def _gc_callback_codes() -> set:
+    """Return the code objects of the ``gc.callbacks`` functions (distributed has one)."""
+    import gc
+    return {getattr(getattr(cb, '__func__', cb), '__code__', None) for cb in gc.callbacks}
 
-    An exception raised there is printed as "Exception ignored in ..." with a traceback and
-    then dropped: the signal would be lost.
+
+def _in_finalizer(frame) -> bool:
+    """Whether ``frame`` is a finalizer, or called from one.
+
+    A weakref callback, a ``__del__`` or a function of ``gc.callbacks``. An exception raised
+    there is printed as "Exception ignored in ..." with a traceback and then dropped: the
+    signal would be lost.
     """
+    gc_codes = _gc_callback_codes()
     for _ in range(3):
         if frame is None:
             return False
         code = frame.f_code
-        if code.co_name == '__del__' or code.co_filename.endswith(_CALLBACK_FILES):
+        if code.co_name == '__del__' or code.co_filename.endswith(_CALLBACK_FILES) \
+                or code in gc_codes:
             return True
         frame = frame.f_back
     return False

@@ -417,7 +417,7 @@ class LiveView:
         if channel is self._clock and self.connections:
             frame = wire.time_frame(stamp_ns)
             for connection in list(self.connections):
-                connection.queue(frame)
+                self.dropped += connection.queue(frame)
 
     def write_many(self, messages, stamp_ns: int) -> None:
         """Send several messages of one stamp, (topic, CDR bytes) pairs: :meth:`write` each."""

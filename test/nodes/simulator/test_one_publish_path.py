@@ -71,17 +71,29 @@ def test_dds_live_view_bag_and_diagnostics_count_the_same_messages(plant_factory
         sim.set_parameters([Parameter('record.path', value=str(bag))])
         assert plant.call(Trigger, '/abb_simulator/start_recording', Trigger.Request()).success
         before = published_counters(plant)
-        dds_before = dict(dds)
+        dds_before, dropped_before = dict(dds), sim.live.view.dropped
         plant.pause(False)
         plant.spin_for(RUN_S)
         plant.pause(True)
         after = published_counters(plant)
         plant.drain(_Growing(dds))
         assert plant.call(Trigger, '/abb_simulator/stop_recording', Trigger.Request()).success
-        time.sleep(1.0)   # the client reads what was sent
+        # the client reads what was sent: on a loaded machine it can trail by seconds (832 of
+        # 3760 joint_states still on their way after 1 s, once); SIGUSR1 asks how far it got
+        wanted = {names[t]: after[t] - before[t] for t in names if t != DIAGNOSTICS}
+        deadline, polls = time.monotonic() + DEADLINE_S, []
+        while time.monotonic() < deadline:
+            client.send_signal(signal.SIGUSR1)
+            polls.append(json.loads(client.stdout.readline())['counts'])
+            if all(polls[-1].get(n, 0) >= k for n, k in wanted.items()) \
+                    or polls[-5:] == [polls[-1]] * 5:   # all there, or 1 s without more
+                break
+            time.sleep(0.2)
+        time.sleep(0.5)   # and nothing more comes (the counts are compared below)
+        dropped = sim.live.view.dropped - dropped_before
     finally:
         client.send_signal(signal.SIGTERM)
-        out = client.stdout.read()
+        out = client.stdout.read().splitlines()[-1]
         client.wait(timeout=DEADLINE_S)
     live = json.loads(out)['counts']
     assert is_finished(bag)
@@ -91,16 +103,25 @@ def test_dds_live_view_bag_and_diagnostics_count_the_same_messages(plant_factory
         if topic == names[DIAGNOSTICS]:
             statuses.update(s.name for s in deserialize_message(data, DiagnosticArray).status)
 
+    # A viewer that reads more slowly than 1 kHz of every topic for a moment loses the oldest
+    # frames beyond the server's backlog, which the server counts (LiveView.dropped; seen
+    # once in a few runs here, 400-800 of 5,000-11,000 joint_states): those are allowed for,
+    # and nothing else.
+    lost = 0
     for topic, name in names.items():
         counted = after[topic] - before[topic]
         seen_dds = dds[name] - dds_before[name]
         if topic == DIAGNOSTICS:
             assert in_bag[name] >= 2 and counted >= 2
-            assert seen_dds >= in_bag[name] and live.get(name, 0) >= in_bag[name]
+            assert seen_dds >= in_bag[name]
             continue
-        assert seen_dds == in_bag[name] == counted == live.get(name, 0), (
+        assert seen_dds == in_bag[name] == counted >= live.get(name, 0), (
             f'{name}: DDS {seen_dds}, bag {in_bag[name]}, /diagnostics {counted}, '
             f'live view {live.get(name, 0)}')
+        lost += counted - live.get(name, 0)
+    assert lost <= dropped, f'the live view lost {lost} messages and counted {dropped} dropped'
+    if dropped == 0:
+        assert live.get(names[DIAGNOSTICS], 0) >= in_bag[names[DIAGNOSTICS]]
     assert in_bag[names[MARKERS]] >= RUN_S * 20 * 0.5   # visualization.rate_hz 20, sim time
     assert '/abb_simulator: faults and disturbances' in statuses   # the HIL I/O's status
 
